@@ -1,0 +1,126 @@
+"""Benchmarks: numbers and ratios measured side by side in one run (never asserted in tests).
+
+``excavsim bench`` runs them all and prints one table. Each benchmark returns rows of
+(name, value, unit, note); later issues add their own to :data:`BENCHMARKS`.
+"""
+
+from __future__ import annotations
+
+import time
+from collections.abc import Callable
+
+import numpy as np
+
+from excavsim import constants
+
+Row = tuple[str, float, str, str]
+
+
+def _best_of(fn: Callable[[], object], repeats: int) -> float:
+    """Fastest of ``repeats`` wall-clock runs of ``fn`` [s]."""
+    best = np.inf
+    for _ in range(repeats):
+        t0 = time.perf_counter()
+        fn()
+        best = min(best, time.perf_counter() - t0)
+    return best
+
+
+def bench_step_rate(*, seconds: float = 5.0) -> list[Row]:
+    """MuJoCo step rate of the full scene with the servos tracking a sinusoidal target."""
+    from excavsim.config import load_robot_config
+    from excavsim.robot.servo import setpoint_rates
+    from excavsim.world.scene import build_physics
+
+    robot = load_robot_config()
+    physics = build_physics(robot)
+    dt = physics.model.opt.timestep
+    substeps = max(1, int(round(1.0 / robot.control_rate_hz / dt)))
+    q0 = physics.data.qpos.copy()
+    rate_limit = physics.model.actuator_ctrlrange[:, 1]
+    n_ctrl = int(seconds / (substeps * dt))
+    raw = _best_of(lambda: physics.step(n_ctrl * substeps), 1)  # holding still, no Python per step
+    physics.reset(keyframe_id=constants.KEYFRAMES.index("home"))
+    t0 = time.perf_counter()
+    for k in range(n_ctrl):
+        t = k * substeps * dt
+        target = q0 + 0.2 * np.sin(0.5 * t) * np.array([1, 1, 0.5, 1, 0.5, 0.5])
+        physics.data.ctrl[:] = setpoint_rates(target, physics.data.qpos, gain_per_s=robot.setpoint_gain_per_s,
+                                              rate_limit=rate_limit)
+        physics.step(substeps)
+    moving = time.perf_counter() - t0
+    n = n_ctrl * substeps
+    return [
+        ("scene step rate, holding (bulk physics.step)", n / raw, "steps/s", f"dt {dt * 1e3:.1f} ms"),
+        ("scene step rate, tracking at control rate", n / moving, "steps/s",
+         f"{robot.control_rate_hz:.0f} Hz control, {substeps} steps each"),
+        ("scene real-time factor, tracking", n * dt / moving, "x", "simulated s per wall s"),
+    ]
+
+
+def bench_kinematics(*, n: int = 100_000) -> list[Row]:
+    """Vectorized FK, IK and Jacobian throughput, and the ratio to a per-pose Python loop."""
+    import mujoco
+
+    from excavsim.robot.kinematics import PlanarArm
+
+    arm = PlanarArm.from_model(mujoco.MjModel.from_xml_path(str(constants.SCENE_XML)))
+    rng = np.random.default_rng(0)
+    q = rng.uniform(arm.lower, arm.upper, (n, 3))
+    poses = arm.forward(q)
+    t_fk = _best_of(lambda: arm.forward(q), 3)
+    t_ik = _best_of(lambda: arm.inverse(poses), 3)
+    t_jac = _best_of(lambda: arm.jacobian(q), 3)
+    m = 2000
+    t_ik_loop = _best_of(lambda: [arm.inverse(p) for p in poses[:m]], 1) * n / m
+    return [
+        ("FK, vectorized", n / t_fk, "poses/s", f"batch of {n}"),
+        ("IK, vectorized", n / t_ik, "poses/s", f"batch of {n}"),
+        ("Jacobian, vectorized", n / t_jac, "poses/s", f"batch of {n}"),
+        ("IK vectorized / per-pose loop", t_ik_loop / t_ik, "x speed-up", f"loop timed on {m} poses"),
+    ]
+
+
+def bench_reachability(*, n: int = 1_000_000) -> list[Row]:
+    """Reachability table: build time, lookups per second, and the speed-up over exact IK."""
+    import mujoco
+
+    from excavsim.robot.kinematics import PlanarArm
+    from excavsim.robot.reachability import ReachabilityTable
+
+    arm = PlanarArm.from_model(mujoco.MjModel.from_xml_path(str(constants.SCENE_XML)))
+    t0 = time.perf_counter()
+    table = ReachabilityTable.build(arm)
+    t_build = time.perf_counter() - t0
+    rng = np.random.default_rng(1)
+    poses = np.stack([rng.uniform(0.5, 3.0, n), rng.uniform(0.0, 1.5, n),
+                      np.radians(rng.uniform(-90, 90, n))], axis=-1)
+    t_lookup = _best_of(lambda: table.contains(poses), 3)
+    t_exact = _best_of(lambda: arm.reachable(poses), 3)
+    cells = table.x_lo.shape[0] * table.x_lo.shape[1]
+    return [
+        ("reachability table build", t_build, "s", f"{cells} cells (1 cm x 1 deg), {table.n_gapped} split"),
+        ("reachability lookup", n / t_lookup, "poses/s", f"batch of {n}"),
+        ("lookup / exact IK", t_exact / t_lookup, "x speed-up", "same poses"),
+    ]
+
+
+BENCHMARKS: dict[str, Callable[[], list[Row]]] = {
+    "step": bench_step_rate,
+    "kinematics": bench_kinematics,
+    "reachability": bench_reachability,
+}
+
+
+def run_benchmarks(names: list[str] | None = None, *, echo: Callable[[str], None] = print) -> list[Row]:
+    """Run the named benchmarks (all when None) and print one table; returns its rows."""
+    rows: list[Row] = []
+    for name in names or list(BENCHMARKS):
+        echo(f"running {name} ...")
+        rows += BENCHMARKS[name]()
+    width = max(len(r[0]) for r in rows)
+    echo("")
+    echo(f"{'benchmark':<{width}}  {'value':>12}  {'unit':<11} note")
+    for label, value, unit, note in rows:
+        echo(f"{label:<{width}}  {value:12.4g}  {unit:<11} {note}")
+    return rows

@@ -1,0 +1,186 @@
+"""YAML configuration, validated on load.
+
+Every configuration is a frozen pydantic model. :func:`load_config` reads a YAML file and returns
+the model or raises :class:`~excavsim.errors.ConfigError` whose message names the file, the field,
+what was given and what is allowed, one line per problem. Angles are in degrees in the files (the
+configuration edge) and in radians in the code.
+"""
+
+from __future__ import annotations
+
+import math
+import pathlib
+import re
+from typing import Any, TypeVar
+
+import yaml
+from pydantic import BaseModel, ConfigDict, Field, ValidationError, model_validator
+
+from excavsim import constants
+from excavsim.errors import ConfigError
+
+M = TypeVar("M", bound=BaseModel)
+
+
+class _Strict(BaseModel):
+    """Base for config sections: no unknown fields, no type coercion, no NaN or infinity, frozen."""
+
+    model_config = ConfigDict(extra="forbid", strict=True, allow_inf_nan=False, frozen=True)
+
+
+class JointServo(_Strict):
+    """One hydraulic joint servo (an ``intvelocity`` actuator in t3.xml).
+
+    The set-point moves at most at ``velocity_limit_deg_s`` (pump flow); the torque
+    ``kp (setpoint - q) - kv qdot`` is clipped at ``torque_limit_nm`` (relief pressure).
+    """
+
+    torque_limit_nm: float = Field(gt=0, le=1e6, description="relief-pressure torque limit [N m]")
+    velocity_limit_deg_s: float = Field(gt=0, le=720, description="flow-limited set-point speed [deg/s]")
+    kp_nm_per_rad: float = Field(gt=0, le=1e9, description="servo stiffness [N m / rad]")
+    kv_nm_s_per_rad: float = Field(ge=0, le=1e9, description="servo damping [N m s / rad]")
+
+    @property
+    def velocity_limit_rad_s(self) -> float:
+        """Set-point speed limit [rad/s]."""
+        return math.radians(self.velocity_limit_deg_s)
+
+
+class JointServos(_Strict):
+    """The six servos of the T3, by actuator name."""
+
+    waist: JointServo
+    shoulder: JointServo
+    elbow: JointServo
+    wrist_pitch: JointServo
+    wrist_yaw: JointServo
+    wrist_roll: JointServo
+
+    def by_actuator(self) -> dict[str, JointServo]:
+        """Servos keyed by actuator name, in qpos order."""
+        return {name: getattr(self, name) for name in constants.ACTUATORS}
+
+
+class RobotConfig(_Strict):
+    """``configs/robot.yaml``: servo limits and gains of the T3 and the control rate."""
+
+    control_rate_hz: float = Field(gt=0, le=2000, description="rate at which set-point rates are commanded [Hz]")
+    setpoint_gain_per_s: float = Field(
+        gt=0, le=1000, description="gain from joint error (target - q) to set-point rate, before the flow limit [1/s]"
+    )
+    joints: JointServos
+
+
+class SceneConfig(_Strict):
+    """``configs/scene.yaml``: how the scene is composed."""
+
+    soil_cell_size_m: float = Field(
+        ge=0.005, le=0.25, description="heightfield cell size; must divide the 3 m box evenly [m]"
+    )
+
+    @model_validator(mode="after")
+    def _divides_box(self) -> SceneConfig:
+        n = 3.0 / self.soil_cell_size_m
+        if abs(n - round(n)) > 1e-6:
+            raise ValueError(
+                f"soil_cell_size_m={self.soil_cell_size_m} does not divide the 3 m box into whole cells; "
+                "allowed: 3 / n for a whole number n, e.g. 0.025, 0.05, 0.1"
+            )
+        return self
+
+    @property
+    def soil_grid_samples(self) -> int:
+        """Heightfield samples per side (cells + 1)."""
+        return int(round(3.0 / self.soil_cell_size_m)) + 1
+
+
+class _Loader(yaml.SafeLoader):
+    """SafeLoader that also reads YAML 1.2 floats such as ``5.0e5`` (PyYAML's 1.1 rules read a string)."""
+
+
+_Loader.add_implicit_resolver(
+    "tag:yaml.org,2002:float",
+    re.compile(
+        r"""^(?:[-+]?(?:[0-9][0-9_]*)\.[0-9_]*(?:[eE][-+]?[0-9]+)?
+        |[-+]?(?:[0-9][0-9_]*)(?:[eE][-+]?[0-9]+)
+        |\.[0-9_]+(?:[eE][-+]?[0-9]+)?
+        |[-+]?\.(?:inf|Inf|INF)
+        |\.(?:nan|NaN|NAN))$""",
+        re.X,
+    ),
+    list("-+0123456789."),
+)
+
+
+def _describe_error(err: dict[str, Any]) -> str:
+    loc = ".".join(str(p) for p in err["loc"]) or "(top level)"
+    kind = err["type"]
+    given = err.get("input")
+    if kind == "missing":
+        return f"{loc}: required field is missing"
+    if kind == "extra_forbidden":
+        return f"{loc}: unknown field (given {given!r}); check the spelling against the documented fields"
+    msg = err["msg"]
+    ctx = err.get("ctx") or {}
+    if kind == "finite_number":
+        msg = "must be a finite number"
+    elif "gt" in ctx or "ge" in ctx or "lt" in ctx or "le" in ctx:
+        lo = f"> {ctx['gt']}" if "gt" in ctx else (f">= {ctx['ge']}" if "ge" in ctx else "")
+        hi = f"< {ctx['lt']}" if "lt" in ctx else (f"<= {ctx['le']}" if "le" in ctx else "")
+        msg = f"{msg} (allowed: {' and '.join(p for p in (lo, hi) if p)})"
+    return f"{loc}: {msg}; given {given!r}"
+
+
+def parse_config(data: Any, model: type[M], *, source: str) -> M:
+    """Validate already-parsed data against a config model.
+
+    Args:
+        data: the parsed YAML document.
+        model: the pydantic config class.
+        source: where the data came from, for messages (a file path).
+
+    Raises:
+        ConfigError: naming ``source``, each offending field, the given value and what is allowed.
+    """
+    if not isinstance(data, dict):
+        raise ConfigError(f"{source}: the top level must be a mapping of fields, got {type(data).__name__}")
+    try:
+        return model.model_validate(data)
+    except ValidationError as exc:
+        lines = [_describe_error(e) for e in exc.errors(include_url=False)]
+        raise ConfigError(f"{source}: invalid {model.__name__}:\n  " + "\n  ".join(lines)) from None
+
+
+def load_config(path: str | pathlib.Path, model: type[M]) -> M:
+    """Read and validate a YAML configuration file.
+
+    Args:
+        path: the YAML file.
+        model: the pydantic config class, e.g. :class:`RobotConfig`.
+
+    Returns:
+        The validated, frozen configuration.
+
+    Raises:
+        ConfigError: the file is missing, is not YAML, or a field is invalid.
+    """
+    path = pathlib.Path(path)
+    try:
+        text = path.read_text()
+    except OSError as exc:
+        raise ConfigError(f"{path}: cannot read the {model.__name__} file ({exc.strerror})") from None
+    try:
+        data = yaml.load(text, Loader=_Loader)  # noqa: S506 (a SafeLoader subclass)
+    except yaml.YAMLError as exc:
+        raise ConfigError(f"{path}: not valid YAML: {exc}") from None
+    return parse_config(data, model, source=str(path))
+
+
+def load_robot_config(path: str | pathlib.Path | None = None) -> RobotConfig:
+    """Load ``configs/robot.yaml`` (or ``path``)."""
+    return load_config(path or constants.ROBOT_YAML, RobotConfig)
+
+
+def load_scene_config(path: str | pathlib.Path | None = None) -> SceneConfig:
+    """Load ``configs/scene.yaml`` (or ``path``)."""
+    return load_config(path or constants.SCENE_YAML, SceneConfig)

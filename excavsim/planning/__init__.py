@@ -1,0 +1,1 @@
+"""excavsim.planning: see shared/DESIGN.md §2 (filled by later issues)."""

@@ -1,0 +1,1 @@
+"""excavsim.record: see shared/DESIGN.md §2 (filled by later issues)."""

@@ -1,0 +1,1 @@
+"""excavsim.sensing: see shared/DESIGN.md §2 (filled by later issues)."""
