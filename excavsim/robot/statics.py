@@ -47,9 +47,10 @@ def tip_force_in_plane(force_tip_frame: np.ndarray, pitch: np.ndarray) -> np.nda
     Returns:
         (..., 2) force (F_x, F_z) in the arm plane [N].
     """
-    # The tip frame's x axis is the blade at counter-clockwise angle π + ρ in (x, z); its z axis
-    # (into the bucket) is that angle + π/2, so the frame is a rotation by π + ρ.
-    return _rot(np.pi + np.asarray(pitch, dtype=float), np.asarray(force_tip_frame, dtype=float))
+    # The tip frame's x axis is the blade, at counter-clockwise angle π + ρ in (x, z). Its y axis is
+    # the plane's -y, so its z axis (into the bucket) lies 90° *clockwise* of x: (-sin ρ, cos ρ).
+    f = np.asarray(force_tip_frame, dtype=float)
+    return _rot(np.pi + np.asarray(pitch, dtype=float), np.stack([f[..., 0], -f[..., 1]], axis=-1))
 
 
 def gravity_torques(arm: PlanarArm, q: np.ndarray, *, payload_kg: float | np.ndarray = 0.0,
@@ -60,9 +61,8 @@ def gravity_torques(arm: PlanarArm, q: np.ndarray, *, payload_kg: float | np.nda
         arm: the planar chain.
         q: (..., 3) planar joint angles [rad].
         payload_kg: soil carried in the bucket [kg], broadcast against ``q[..., 0]``.
-        payload_com_tip: payload centre of mass in the tip frame (along blade, into bucket) [m];
-            the centre of the bucket's struck profile when None is not known here, so the default
-            puts the payload at the tip.
+        payload_com_tip: (2,) payload centre of mass in the tip frame (x along the blade, z into
+            the bucket) [m]; at the tip when None.
 
     Returns:
         (..., 3) holding torques [N m]; equal to MuJoCo's ``qfrc_bias`` at rest.
