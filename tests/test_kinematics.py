@@ -86,7 +86,7 @@ def test_poses_needing_a_joint_beyond_its_limit_are_unreachable(arm):
     pose = arm.forward(q)
     _, ok = arm.inverse(pose)
     assert ok
-    shifted = pose + np.array([0.0, 0.0, (arm.upper[2] - 0.0) + 0.2])  # demands q_wrist > upper
+    shifted = pose + np.array([0.0, 0.0, arm.upper[2] + 0.2])  # same wrist point, q_wrist = upper + 0.2
     q_s, ok_s = arm.inverse(shifted)
     assert not ok_s, q_s
 

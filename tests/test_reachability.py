@@ -24,9 +24,9 @@ def test_table_agrees_with_exact_ik_except_within_one_cell_of_the_boundary(arm, 
     # Every disagreement lies within one cell of the boundary: some pose at most one cell away
     # (1 cm in x or z, 1 degree in pitch) gets the table's answer from exact IK.
     near = np.zeros(wrong.sum(), dtype=bool)
-    steps = (spec.dx_scan_m / 2, spec.dz_m, np.radians(spec.dpitch_deg))
+    cell = np.array([spec.dz_m, spec.dz_m, np.radians(spec.dpitch_deg)])  # x judged at the z cell size
     for dx, dz, dp in itertools.product((-1, 0, 1), repeat=3):
-        shift = np.array([dx * 0.01, dz * steps[1], dp * steps[2]])
+        shift = np.array([dx, dz, dp]) * cell
         near |= arm.reachable(poses[wrong] + shift) == table[wrong]
     assert near.all(), poses[wrong][~near][:5]
 
