@@ -17,6 +17,7 @@ SCENE_XML = MODELS_DIR / "t3" / "scene.xml"
 SOIL_BOX_XML = MODELS_DIR / "soil_box" / "soil_box.xml"
 ROBOT_YAML = CONFIGS_DIR / "robot.yaml"
 SCENE_YAML = CONFIGS_DIR / "scene.yaml"
+SOILS_YAML = CONFIGS_DIR / "soils.yaml"
 
 # Joints, in qpos order; actuators carry the joint name without the suffix (Menagerie convention).
 JOINTS = ("waist_joint", "shoulder_joint", "elbow_joint", "wrist_pitch_joint", "wrist_yaw_joint", "wrist_roll_joint")
