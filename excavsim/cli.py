@@ -15,13 +15,13 @@ from excavsim.errors import ExcavsimError
 def _cmd_demo(args: argparse.Namespace) -> int:
     from excavsim.config import load_robot_config, load_scene_config
     from excavsim.loop.demo import format_summary, run_demo
-    from excavsim.world.scene import build_physics
+    from excavsim.world.simulation import Simulation
 
     robot = load_robot_config(args.robot_config)
     scene = load_scene_config(args.scene_config)
-    print("excavsim demo: T3 arm in the soil box, scripted Cartesian moves (no soil yet)")
-    physics = build_physics(robot, scene)
-    summary = run_demo(physics, robot, progress=print)
+    print(f"excavsim demo: T3 arm digs one hand-written dig into {scene.soil}, dumps to spoil, the soil settles")
+    sim = Simulation(robot, scene, seed=args.seed)
+    summary = run_demo(sim, progress=print)
     print(format_summary(summary))
     return 0
 
@@ -37,9 +37,9 @@ def _cmd_bench(args: argparse.Namespace) -> int:
 
 
 def _cmd_validate(args: argparse.Namespace) -> int:
-    from excavsim.config import RobotConfig, SceneConfig, load_config
+    from excavsim.config import RobotConfig, SceneConfig, SoilsFile, load_config
 
-    kinds = {"robot": RobotConfig, "scene": SceneConfig}
+    kinds = {"robot": RobotConfig, "scene": SceneConfig, "soils": SoilsFile}
     load_config(args.file, kinds[args.kind])
     print(f"{args.file}: valid {kinds[args.kind].__name__}")
     return 0
@@ -50,9 +50,10 @@ def build_parser() -> argparse.ArgumentParser:
     parser = argparse.ArgumentParser(prog="excavsim", description="MuJoCo testbed for robotic trenching.")
     sub = parser.add_subparsers(dest="command", required=True, metavar="COMMAND")
 
-    demo = sub.add_parser("demo", help="load the scene and move the arm through a scripted pose sequence")
+    demo = sub.add_parser("demo", help="one scripted dig into the soil, a dump, and settlement")
     demo.add_argument("--robot-config", metavar="YAML", help="servo configuration (default configs/robot.yaml)")
     demo.add_argument("--scene-config", metavar="YAML", help="scene configuration (default configs/scene.yaml)")
+    demo.add_argument("--seed", type=int, default=0, help="episode seed (soil heterogeneity, sensor noise)")
     demo.set_defaults(func=_cmd_demo)
 
     bench = sub.add_parser("bench", help="run benchmarks and print one table of numbers and ratios")
@@ -60,7 +61,7 @@ def build_parser() -> argparse.ArgumentParser:
     bench.set_defaults(func=_cmd_bench)
 
     validate = sub.add_parser("validate", help="check a configuration file and report every problem")
-    validate.add_argument("kind", choices=["robot", "scene"], help="what the file configures")
+    validate.add_argument("kind", choices=["robot", "scene", "soils"], help="what the file configures")
     validate.add_argument("file", help="the YAML file")
     validate.set_defaults(func=_cmd_validate)
     return parser

@@ -1,0 +1,145 @@
+"""The world facade: MuJoCo and the soil stepped together at a fixed control rate.
+
+The rest of the package talks to the world only through :class:`Simulation`: it sets servo commands
+and reads :class:`Observation` (joint angles and velocities, actuator forces, the noisy wrist F/T
+reading, time), the sensor-level data a real T3 gives. The true terrain, the soil volumes and the
+soil's wrench on the bucket are available separately through :attr:`Simulation.truth`, as privileged
+data for tests and logging (DESIGN.md §1: the planner must never read them).
+
+One control step (:meth:`Simulation.step`): the soil model reads the bucket's pose and velocity,
+cuts and moves soil and computes its wrench on the bucket; the wrench is written to
+``xfrc_applied`` of the bucket body and held over the physics substeps; MuJoCo steps; the
+observation is read. The F/T sensor (``ft_force``/``ft_torque`` at ``ft_mount``) therefore measures
+the soil force plus the bucket's own weight and inertia, as a real wrist sensor does.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+
+import mujoco
+import numpy as np
+from dm_control import mjcf
+
+from excavsim import constants
+from excavsim.config import RobotConfig, SceneConfig, SoilParams, get_soil, load_robot_config, load_scene_config
+from excavsim.errors import ExcavsimError
+from excavsim.robot.servo import setpoint_rates
+from excavsim.world.scene import build_physics
+from excavsim.world.soil import SoilContact, SoilModel, Volumes
+
+
+@dataclasses.dataclass(frozen=True)
+class Observation:
+    """What the robot's sensors report after a control step (all arrays in qpos/actuator order).
+
+    ``ft_force``/``ft_torque`` are MuJoCo's force/torque sensors at ``ft_mount`` (the force and
+    moment the wrist exerts on the bucket subtree, in the ``ft_mount`` frame) plus Gaussian noise.
+    """
+
+    time: float
+    q: np.ndarray
+    qdot: np.ndarray
+    actuator_force: np.ndarray
+    ft_force: np.ndarray
+    ft_torque: np.ndarray
+
+
+@dataclasses.dataclass(frozen=True)
+class Truth:
+    """Privileged world state for tests and logging: never an input to the robot's mind."""
+
+    heights: np.ndarray
+    volumes: Volumes
+    contact: SoilContact | None
+
+
+class Simulation:
+    """MuJoCo physics of the testbed plus the soil, stepped at the robot's control rate.
+
+    Args:
+        robot: servo configuration (``configs/robot.yaml`` when None).
+        scene: scene and soil configuration (``configs/scene.yaml`` when None).
+        soil: soil parameters or preset name (the scene's ``soil`` preset when None).
+        seed: the episode seed; the soil's heterogeneity, rocks and the sensor noise derive from it,
+            so the same seed gives the same episode bit for bit.
+    """
+
+    def __init__(self, robot: RobotConfig | None = None, scene: SceneConfig | None = None,
+                 soil: SoilParams | str | None = None, *, seed: int = 0):
+        self.robot = robot or load_robot_config()
+        self.scene = scene or load_scene_config()
+        if soil is None or isinstance(soil, str):
+            soil = get_soil(soil or self.scene.soil)
+        self.physics: mjcf.Physics = build_physics(self.robot, self.scene)
+        self.model: mujoco.MjModel = self.physics.model.ptr
+        self.data: mujoco.MjData = self.physics.data.ptr
+        world_rng, self._noise_rng = np.random.default_rng(seed).spawn(2)
+        self.soil = SoilModel(self.model, self.scene, soil, world_rng)
+        self.control_dt = 1.0 / self.robot.control_rate_hz
+        self.substeps = max(1, int(round(self.control_dt / self.model.opt.timestep)))
+        self.control_dt = self.substeps * self.model.opt.timestep
+        self._joint_qpos = np.array([self.model.jnt_qposadr[self.model.joint(j).id] for j in constants.JOINTS])
+        self._joint_dof = np.array([self.model.jnt_dofadr[self.model.joint(j).id] for j in constants.JOINTS])
+        self._act = np.array([self.model.actuator(a).id for a in constants.ACTUATORS])
+        self._bucket = self.soil.bucket.body_id
+        f_id = self.model.sensor(constants.FT_FORCE_SENSOR).id
+        t_id = self.model.sensor(constants.FT_TORQUE_SENSOR).id
+        self._ft_adr = (int(self.model.sensor_adr[f_id]), int(self.model.sensor_adr[t_id]))
+        self.rate_limit = self.model.actuator_ctrlrange[self._act, 1].copy()
+        self.torque_limit = self.model.actuator_forcerange[self._act, 1].copy()
+        self.contact: SoilContact | None = None
+        self.soil_enabled = True
+
+    # -- sensing --------------------------------------------------------------------------------
+    def observe(self) -> Observation:
+        """The sensor-level observation now (F/T with noise)."""
+        d = self.data
+        fa, ta = self._ft_adr
+        truth = self.scene.truth
+        force = d.sensordata[fa:fa + 3] + self._noise_rng.normal(0.0, truth.ft_force_noise_n, 3)
+        torque = d.sensordata[ta:ta + 3] + self._noise_rng.normal(0.0, truth.ft_torque_noise_nm, 3)
+        return Observation(float(d.time), d.qpos[self._joint_qpos].copy(), d.qvel[self._joint_dof].copy(),
+                           d.actuator_force[self._act].copy(), force, torque)
+
+    @property
+    def truth(self) -> Truth:
+        """Privileged world state (true terrain, soil volumes, the last soil contact)."""
+        return Truth(self.soil.grid.heights.copy(), self.soil.volumes(), self.contact)
+
+    # -- stepping -------------------------------------------------------------------------------
+    def step(self, ctrl: np.ndarray | None = None) -> Observation:
+        """One control step: soil update, then the physics substeps with the soil wrench held.
+
+        Args:
+            ctrl: (6,) set-point rates for the servos [rad/s]; the previous controls when None.
+
+        Raises:
+            ExcavsimError: the physics produced non-finite values (with the time it happened).
+        """
+        d = self.data
+        if ctrl is not None:
+            ctrl = np.asarray(ctrl, dtype=float)
+            if ctrl.shape != (len(self._act),) or not np.all(np.isfinite(ctrl)):
+                raise ExcavsimError(f"ctrl must be {len(self._act)} finite set-point rates [rad/s], got {ctrl!r}")
+            d.ctrl[self._act] = ctrl
+        if self.soil_enabled:
+            self.contact = self.soil.step(d, self.control_dt)
+            d.xfrc_applied[self._bucket, :3] = self.contact.force
+            d.xfrc_applied[self._bucket, 3:] = self.contact.torque
+        else:
+            d.xfrc_applied[self._bucket] = 0.0
+        mujoco.mj_step(self.model, d, self.substeps)
+        if not (np.all(np.isfinite(d.qpos)) and np.all(np.isfinite(d.qvel))):
+            raise ExcavsimError(f"the simulation diverged at t = {d.time:.3f} s (non-finite joint state)")
+        return self.observe()
+
+    def track(self, target: np.ndarray) -> Observation:
+        """One control step driving the joints towards ``target`` (6,) [rad] with the servo law."""
+        rates = setpoint_rates(target, self.data.qpos[self._joint_qpos], gain_per_s=self.robot.setpoint_gain_per_s,
+                               rate_limit=self.rate_limit)
+        return self.step(rates)
+
+    def settle_soil(self) -> None:
+        """Settle the whole terrain now (e.g. after a dump)."""
+        self.soil.settle_all()
