@@ -1,0 +1,275 @@
+"""From range images to the elevation map the planner consumes (000_a3ca905d8c6d92bf.txt §7.1.2).
+
+The processing is the thesis' (Figs. 101-102 and the text around them):
+
+1. **Calibration** of every range image: a linear least-squares fit ``measured = scale * surveyed +
+   offset`` over the rays aimed at the surveyed targets on the walls, with one pass of outlier
+   rejection (a target hidden by a pile or a wild range), applied to the whole image as
+   ``(r - offset) / scale``.
+2. **Median filter** across N images (default 10), per pixel, ignoring dropouts.
+3. **Binning**: pixels become world points along the known ray directions; points inside the soil
+   area (less a 3 cm margin at the walls, whose faces would otherwise be read as soil) are reduced
+   to their median height per cell of the map (default 5 cm).
+4. **Unobserved cells** (occluded, grazing, off the field of view) are flagged and filled
+   conservatively: repeatedly with the highest observed neighbour, i.e. assuming soil is there, so
+   the planner never counts on empty space it has not seen.
+
+:class:`ElevationMap` is a small value type; :func:`map_accuracy` compares it with the true terrain
+(privileged data, for tests and logging only).
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import pathlib
+from collections.abc import Sequence
+
+import numpy as np
+
+from excavsim.config import ElevationMapConfig
+from excavsim.errors import ExcavsimError
+from excavsim.sensing.scanner import RangeImage, ScanGeometry
+
+WALL_MARGIN_M = 0.03
+
+
+@dataclasses.dataclass(frozen=True)
+class Calibration:
+    """Scale and offset of one range image, and the residuals at the targets after correction [m].
+
+    ``residuals`` has the shape of the target rays; rays without a return or rejected as outliers
+    are NaN.
+    """
+
+    scale: float
+    offset: float
+    residuals: np.ndarray
+    n_used: int
+
+    @property
+    def rms_residual_m(self) -> float:
+        r = self.residuals[np.isfinite(self.residuals)]
+        return float(np.sqrt(np.mean(r * r))) if r.size else float("nan")
+
+    def correct(self, ranges: np.ndarray) -> np.ndarray:
+        """Ranges corrected by this calibration."""
+        return (ranges - self.offset) / self.scale
+
+
+def calibrate(image: RangeImage, geometry: ScanGeometry, *, reject_m: float = 0.05) -> Calibration:
+    """Fit ``measured = scale * surveyed + offset`` over the target rays (Fig. 102).
+
+    Rays without a return are skipped. Starting from scale 1 and the median offset, rays whose
+    residual exceeds ``reject_m`` (a hidden target, a wild range) are dropped and the fit repeated
+    (three times).
+
+    Raises:
+        ExcavsimError: fewer than two usable target rays (no fit is possible).
+    """
+    surveyed = geometry.target_ranges.ravel()
+    measured = image.target_ranges.ravel()
+    use = np.isfinite(measured)
+    if use.sum() < 2:
+        raise ExcavsimError(f"scanner calibration needs at least two target rays; {int(use.sum())} returned "
+                            "(are the targets hidden?)")
+    # Start from scale 1 and the median offset (robust to a hidden target), then refit without outliers.
+    scale, offset = 1.0, float(np.median(measured[use] - surveyed[use]))
+    for _ in range(3):
+        resid = measured - (scale * surveyed + offset)
+        use = np.isfinite(measured) & (np.abs(resid) <= reject_m)
+        if use.sum() < 2 or np.ptp(surveyed[use]) <= 0:
+            raise ExcavsimError(f"scanner calibration needs at least two target rays at different ranges; "
+                                f"{int(use.sum())} agree (are the targets hidden?)")
+        a = np.stack([surveyed[use], np.ones(int(use.sum()))], axis=1)
+        (scale, offset), *_ = np.linalg.lstsq(a, measured[use], rcond=None)
+    residuals = np.where(use, (measured - offset) / scale - surveyed, np.nan).reshape(geometry.target_ranges.shape)
+    return Calibration(float(scale), float(offset), residuals, int(use.sum()))
+
+
+@dataclasses.dataclass(frozen=True)
+class ElevationMap:
+    """A grid of soil elevations over the box, as the robot believes it to be.
+
+    Attributes:
+        x0, y0: world position of the corner of cell (0, 0) [m]; cell (i, j) spans
+            ``x0 + j * cell ... x0 + (j + 1) * cell`` and likewise in y (rows along y).
+        cell: cell size [m].
+        heights: (ny, nx) elevation of each cell [m, world z].
+        observed: (ny, nx) True where scan points fell in the cell; the rest were filled.
+        time: simulation time of the last scan used [s].
+    """
+
+    x0: float
+    y0: float
+    cell: float
+    heights: np.ndarray
+    observed: np.ndarray
+    time: float
+
+    @property
+    def shape(self) -> tuple[int, int]:
+        return self.heights.shape
+
+    def centres(self) -> tuple[np.ndarray, np.ndarray]:
+        """World x (nx,) and y (ny,) of the cell centres."""
+        ny, nx = self.heights.shape
+        return self.x0 + (np.arange(nx) + 0.5) * self.cell, self.y0 + (np.arange(ny) + 0.5) * self.cell
+
+    def height_at(self, x: np.ndarray, y: np.ndarray) -> np.ndarray:
+        """Elevation at world points, bilinear between cell centres (clamped at the edges)."""
+        ny, nx = self.heights.shape
+        u = np.clip((np.asarray(x, float) - self.x0) / self.cell - 0.5, 0, nx - 1)
+        v = np.clip((np.asarray(y, float) - self.y0) / self.cell - 0.5, 0, ny - 1)
+        c0 = np.minimum(u.astype(np.int64), nx - 2)
+        r0 = np.minimum(v.astype(np.int64), ny - 2)
+        fu, fv = u - c0, v - r0
+        h = self.heights
+        return ((1 - fu) * (1 - fv) * h[r0, c0] + fu * (1 - fv) * h[r0, c0 + 1]
+                + (1 - fu) * fv * h[r0 + 1, c0] + fu * fv * h[r0 + 1, c0 + 1])
+
+    def save(self, path: str | pathlib.Path) -> None:
+        """Write the map to an ``.npz`` file."""
+        np.savez_compressed(path, x0=self.x0, y0=self.y0, cell=self.cell, heights=self.heights,
+                            observed=self.observed, time=self.time)
+
+    @classmethod
+    def load(cls, path: str | pathlib.Path) -> ElevationMap:
+        """Read a map written by :meth:`save`."""
+        try:
+            with np.load(path) as f:
+                return cls(float(f["x0"]), float(f["y0"]), float(f["cell"]), f["heights"], f["observed"].astype(bool),
+                           float(f["time"]))
+        except (OSError, KeyError, ValueError) as exc:
+            raise ExcavsimError(f"{path}: not an elevation map written by excavsim ({exc})") from None
+
+
+def median_ranges(images: Sequence[RangeImage], calibrations: Sequence[Calibration] | None) -> np.ndarray:
+    """Per-pixel median across images of the (corrected) ranges, ignoring dropouts (NaN if none)."""
+    stack = np.stack([im.ranges for im in images])
+    if calibrations is not None:
+        scale = np.array([c.scale for c in calibrations])[:, None, None]
+        offset = np.array([c.offset for c in calibrations])[:, None, None]
+        stack = (stack - offset) / scale
+    valid = np.isfinite(stack)
+    out = np.full(stack.shape[1:], np.nan)
+    any_valid = valid.any(axis=0)
+    s = np.sort(np.where(valid, stack, np.inf), axis=0)  # NaNs (inf) last
+    n = valid.sum(axis=0)
+    k = np.maximum(n - 1, 0)
+    lo = np.take_along_axis(s, (k // 2)[None], axis=0)[0]
+    hi = np.take_along_axis(s, ((k + 1) // 2)[None], axis=0)[0]
+    out[any_valid] = 0.5 * (lo + hi)[any_valid]
+    return out
+
+
+def fill_unobserved(heights: np.ndarray, observed: np.ndarray) -> np.ndarray:
+    """Fill unobserved cells with the highest observed (or already filled) 8-neighbour, repeatedly."""
+    h = np.where(observed, heights, -np.inf)
+    known = observed.copy()
+    if not known.any():
+        raise ExcavsimError("the scans observed no cell of the soil area; is the scanner blocked?")
+    while not known.all():
+        pad = np.pad(h, 1, constant_values=-np.inf)
+        best = np.full(h.shape, -np.inf)
+        ny, nx = h.shape
+        for dr in (-1, 0, 1):
+            for dc in (-1, 0, 1):
+                if dr or dc:
+                    best = np.maximum(best, pad[1 + dr:1 + dr + ny, 1 + dc:1 + dc + nx])
+        newly = ~known & np.isfinite(best)
+        h[newly] = best[newly]
+        known |= newly
+    return h
+
+
+def build_map(images: Sequence[RangeImage], geometry: ScanGeometry, config: ElevationMapConfig | None = None,
+              ) -> tuple[ElevationMap, list[Calibration]]:
+    """Turn range images into an elevation map (calibrate, median-filter, bin, fill).
+
+    Returns:
+        The map and the calibration of each image.
+
+    Raises:
+        ExcavsimError: no images, images of another scanner geometry, or nothing observed.
+    """
+    config = config or ElevationMapConfig()
+    if not images:
+        raise ExcavsimError("build_map needs at least one range image")
+    for im in images:
+        if im.ranges.shape != geometry.image_shape:
+            raise ExcavsimError(f"range image of shape {im.ranges.shape} does not match the scanner's "
+                                f"{geometry.image_shape}")
+    cals = [calibrate(im, geometry) for im in images] if config.calibrate else None
+    r = median_ranges(images, cals)
+    pts = geometry.origin + geometry.directions * r[..., None]
+    ok = np.isfinite(r)
+    x0, x1, y0, y1 = geometry.area
+    cell = config.cell_size_m
+    nx = int(round((x1 - x0) / cell))
+    ny = int(round((y1 - y0) / cell))
+    p = pts[ok]
+    inside = ((p[:, 0] > x0 + WALL_MARGIN_M) & (p[:, 0] < x1 - WALL_MARGIN_M)
+              & (p[:, 1] > y0 + WALL_MARGIN_M) & (p[:, 1] < y1 - WALL_MARGIN_M))
+    p = p[inside]
+    col = np.clip(((p[:, 0] - x0) / cell).astype(np.int64), 0, nx - 1)
+    row = np.clip(((p[:, 1] - y0) / cell).astype(np.int64), 0, ny - 1)
+    idx = row * nx + col
+    count = np.bincount(idx, minlength=nx * ny)
+    # per-cell median of the point heights: robust to the few wall points a misaligned scanner
+    # still places inside the margin
+    order = np.lexsort((p[:, 2], idx))
+    z_sorted = p[order, 2]
+    start = np.concatenate([[0], np.cumsum(count)[:-1]])
+    has = count > 0
+    lo = start + (count - 1) // 2
+    hi = start + count // 2
+    med = np.full(nx * ny, np.nan)
+    med[has] = 0.5 * (z_sorted[lo[has]] + z_sorted[hi[has]])
+    observed = has.reshape(ny, nx)
+    heights = fill_unobserved(med.reshape(ny, nx), observed)
+    emap = ElevationMap(float(x0), float(y0), float(cell), heights, observed, float(images[-1].time))
+    return emap, cals or []
+
+
+@dataclasses.dataclass(frozen=True)
+class MapAccuracy:
+    """Errors of a map against the true terrain (privileged) [m]."""
+
+    rms_m: float
+    max_m: float
+    mean_m: float
+    rms_filled_m: float
+    observed_fraction: float
+    target_rms_m: float
+
+    def summary(self) -> str:
+        return (f"map error RMS {100 * self.rms_m:.2f} cm, max {100 * self.max_m:.2f} cm, bias "
+                f"{100 * self.mean_m:+.2f} cm over {100 * self.observed_fraction:.0f} % observed cells; "
+                f"filled cells RMS {100 * self.rms_filled_m:.2f} cm; target residual RMS "
+                f"{100 * self.target_rms_m:.2f} cm")
+
+
+def true_cell_heights(emap: ElevationMap, surface_z, samples: int = 4) -> np.ndarray:
+    """Mean true surface height over each map cell, from ``surface_z(x, y)`` on a sub-grid."""
+    xc, yc = emap.centres()
+    off = ((np.arange(samples) + 0.5) / samples - 0.5) * emap.cell
+    xx = xc[None, :, None, None] + off[None, None, None, :]
+    yy = yc[:, None, None, None] + off[None, None, :, None]
+    xx, yy = np.broadcast_arrays(xx, yy)
+    return surface_z(xx, yy).mean(axis=(2, 3))
+
+
+def map_accuracy(emap: ElevationMap, surface_z, calibrations: Sequence[Calibration] = ()) -> MapAccuracy:
+    """Compare a map with the true surface ``surface_z(x, y)`` (e.g. ``SoilGrid.surface_z``)."""
+    truth = true_cell_heights(emap, surface_z)
+    err = emap.heights - truth
+    obs = emap.observed
+    e = err[obs]
+    f = err[~obs]
+    res = np.concatenate([c.residuals.ravel() for c in calibrations]) if calibrations else np.array([np.nan])
+    res = res[np.isfinite(res)]
+    return MapAccuracy(
+        rms_m=float(np.sqrt(np.mean(e * e))), max_m=float(np.abs(e).max()), mean_m=float(e.mean()),
+        rms_filled_m=float(np.sqrt(np.mean(f * f))) if f.size else 0.0, observed_fraction=float(obs.mean()),
+        target_rms_m=float(np.sqrt(np.mean(res * res))) if res.size else float("nan"),
+    )

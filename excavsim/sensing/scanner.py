@@ -1,0 +1,209 @@
+"""The simulated laser range scanner: true ranges from the world, with the errors of §7.1.2.
+
+The scanner sits at the ``scanner`` site of the soil box (a Perceptron-like range scanner on a mast
+beyond the near wall; the site's +z is its boresight). Each scan casts a grid of rays, uniform in
+azimuth and elevation over the box plus a margin, and a small patch of rays at each surveyed target
+on the walls. Occlusion is truthful: rays stop at the soil (MuJoCo's heightfield triangles), the
+walls and the target plates (:mod:`excavsim.sensing.raycast`). The arm is not in this scene model:
+the executor parks it out of view before a scan (000_a3ca905d8c6d92bf.txt §7.2).
+
+Errors (``configs/sensing.yaml``):
+
+* Gaussian range noise (default sigma 1 cm);
+* a slowly drifting scale and offset, a temperature-like random walk between scans (Fig. 98):
+  ``e_k+1 = m e_k + N(0, s)`` for the scale error and the offset, with memory ``m``;
+* a fixed misalignment of the mount (default sigma 0.15 deg about each axis, drawn per episode):
+  the robot maps with the surveyed directions while the rays go slightly elsewhere, a systematic
+  error that neither calibration nor the median removes and that, with the rest, gives the
+  thesis' ~2 cm residual map error;
+* dropouts at grazing incidence (beyond 80 deg from the surface normal), random dropouts, and rare
+  wild ranges (outliers) that the median over scans removes; no return beyond the maximum range.
+
+:class:`LaserScanner` belongs to the world: it reads the true terrain. What the robot's mind knows
+of it is :class:`ScanGeometry` (the calibrated pose, the ray directions and the surveyed target
+ranges) and what it receives is :class:`RangeImage`.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+
+import mujoco
+import numpy as np
+
+from excavsim import constants
+from excavsim.config import ScannerConfig
+from excavsim.errors import ModelError
+from excavsim.sensing import raycast
+from excavsim.world.terrain import SoilGrid
+
+
+@dataclasses.dataclass(frozen=True)
+class ScanGeometry:
+    """What the robot knows about its scanner and the box (surveyed, §7.1.2).
+
+    Attributes:
+        origin: (3,) scanner position, world [m].
+        directions: (n_el, n_az, 3) unit ray directions of the range image, world.
+        target_directions: (n_targets, k, 3) rays aimed at points on each surveyed target plate.
+        target_ranges: (n_targets, k) surveyed ranges along those rays [m].
+        area: (x0, x1, y0, y1) the soil area inside the walls, world [m].
+        wall_top_z: height of the walls' tops [m].
+    """
+
+    origin: np.ndarray
+    directions: np.ndarray
+    target_directions: np.ndarray
+    target_ranges: np.ndarray
+    area: tuple[float, float, float, float]
+    wall_top_z: float
+
+    @property
+    def image_shape(self) -> tuple[int, int]:
+        return self.directions.shape[:2]
+
+
+@dataclasses.dataclass(frozen=True)
+class RangeImage:
+    """One scan: ranges along the image rays and the target rays [m]; NaN where there was no return."""
+
+    time: float
+    ranges: np.ndarray
+    target_ranges: np.ndarray
+
+
+def _small_rotation(angles: np.ndarray) -> np.ndarray:
+    """Rotation matrix of the rotation vector ``angles`` (3,) [rad] (Rodrigues)."""
+    theta = float(np.linalg.norm(angles))
+    if theta == 0.0:
+        return np.eye(3)
+    k = angles / theta
+    kx = np.array([[0, -k[2], k[1]], [k[2], 0, -k[0]], [-k[1], k[0], 0]])
+    return np.eye(3) + np.sin(theta) * kx + (1 - np.cos(theta)) * kx @ kx
+
+
+def _occluders(model: mujoco.MjModel, data: mujoco.MjData) -> np.ndarray:
+    """The box's walls and target plates as rows (centre 3, rotation 9, half sizes 3)."""
+    body = mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_BODY, constants.SOIL_BOX_BODY)
+    rows = []
+    for g in range(model.ngeom):
+        name = mujoco.mj_id2name(model, mujoco.mjtObj.mjOBJ_GEOM, g) or ""
+        if (model.geom_bodyid[g] == body and model.geom_type[g] == mujoco.mjtGeom.mjGEOM_BOX
+                and not name.startswith("scanner")):
+            rows.append(np.r_[data.geom_xpos[g], data.geom_xmat[g], model.geom_size[g]])
+    return np.asarray(rows, dtype=float).reshape(-1, 15)
+
+
+class LaserScanner:
+    """A range scanner looking at the soil box (world side: it reads the true terrain).
+
+    Args:
+        model: the compiled scene (scanner site, walls, targets, soil hfield).
+        grid: the true terrain.
+        config: scanner settings and error model.
+        rng: the episode's generator for noise and drift.
+    """
+
+    def __init__(self, model: mujoco.MjModel, grid: SoilGrid, config: ScannerConfig, rng: np.random.Generator):
+        self.grid = grid
+        self.config = config
+        self.rng = rng
+        data = mujoco.MjData(model)
+        mujoco.mj_kinematics(model, data)
+        site = mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_SITE, constants.SCANNER_SITE)
+        if site < 0:
+            raise ModelError(f"the model has no {constants.SCANNER_SITE!r} site")
+        origin = data.site_xpos[site].copy()
+        rot = data.site_xmat[site].reshape(3, 3).copy()
+        self.boxes = np.ascontiguousarray(_occluders(model, data))
+        wall_top = float(max(self.boxes[:, 2] + self.boxes[:, 14])) if len(self.boxes) else 1.0
+        area = (grid.x0, grid.x1, grid.y0, grid.y1)
+        # field of view: the soil volume's corners (floor to wall top) plus a margin
+        corners = np.array([[x, y, z] for x in area[:2] for y in area[2:] for z in (grid.z0, wall_top)])
+        local = (corners - origin) @ rot
+        az = np.arctan2(local[:, 0], local[:, 2])
+        el = np.arctan2(local[:, 1], np.hypot(local[:, 0], local[:, 2]))
+        m = np.radians(config.margin_deg)
+        a = np.linspace(az.min() - m, az.max() + m, config.n_azimuth)
+        e = np.linspace(el.min() - m, el.max() + m, config.n_elevation)
+        ee, aa = np.meshgrid(e, a, indexing="ij")
+        d_local = np.stack([np.cos(ee) * np.sin(aa), np.sin(ee), np.cos(ee) * np.cos(aa)], axis=-1)
+        directions = d_local @ rot.T
+        t_dirs, t_ranges = self._target_rays(model, data, origin)
+        self.geometry = ScanGeometry(origin, np.ascontiguousarray(directions), t_dirs, t_ranges, area, wall_top)
+        self.scale_error = 0.0
+        self.offset = 0.0
+        # The mount's true orientation differs from the surveyed one by a small fixed rotation.
+        self.misalignment = _small_rotation(rng.normal(0.0, np.radians(config.pose_error_deg), 3))
+        self._surveyed_dirs = np.ascontiguousarray(np.concatenate([directions.reshape(-1, 3), t_dirs.reshape(-1, 3)]))
+        self._true_dirs = np.ascontiguousarray(self._surveyed_dirs @ self.misalignment.T)
+
+    def _target_rays(self, model: mujoco.MjModel, data: mujoco.MjData,
+                     origin: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        k = self.config.target_rays
+        offsets = np.linspace(-0.02, 0.02, k) if k > 1 else np.zeros(1)
+        dirs, ranges = [], []
+        for i in range(constants.N_SURVEY_TARGETS):
+            site = mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_SITE, f"{constants.SURVEY_TARGET_SITE_PREFIX}{i}")
+            if site < 0:
+                raise ModelError(f"survey target site {i} is missing")
+            plate = mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_GEOM,
+                                      f"{constants.SURVEY_TARGET_SITE_PREFIX}{i}_plate")
+            if plate < 0:
+                raise ModelError(f"survey target plate {i} is missing")
+            centre = data.site_xpos[site]
+            axes = data.geom_xmat[plate].reshape(3, 3)  # columns: the plate's x, y (in plane), z (normal)
+            pts = np.array([centre + u * axes[:, 0] + v * axes[:, 1] for v in offsets for u in offsets])
+            vec = pts - origin
+            rng_ = np.linalg.norm(vec, axis=1)
+            dirs.append(vec / rng_[:, None])
+            ranges.append(rng_)
+        return np.asarray(dirs), np.asarray(ranges)
+
+    # -- scanning -------------------------------------------------------------------------------
+    def true_ranges(self, directions: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """Exact ranges, incidence cosines and hit kinds along rays (privileged; image + target rays).
+
+        Returns flat arrays over ``directions`` (n, 3, world frame), by default the image rays then the
+        target rays as the misaligned scanner actually casts them.
+        """
+        dirs = self._true_dirs if directions is None else np.ascontiguousarray(directions, dtype=float)
+        n = dirs.shape[0]
+        t = np.empty(n)
+        cos = np.empty(n)
+        kind = np.empty(n, np.int64)
+        g = self.grid
+        ztop = g.z0 + float(g.heights.max()) + 1e-9
+        raycast.cast(g.heights, g.x0, g.y0, g.cell, g.z0, ztop, self.boxes, self.geometry.origin, dirs,
+                     self.config.max_range_m, t, cos, kind)
+        return t, cos, kind
+
+    def drift(self) -> None:
+        """Advance the scale and offset errors by one scan (the temperature-like random walk)."""
+        c = self.config
+        self.scale_error = c.drift_memory * self.scale_error + self.rng.normal(0.0, c.scale_drift_per_scan)
+        self.offset = c.drift_memory * self.offset + self.rng.normal(0.0, c.offset_drift_m_per_scan)
+
+    def scan(self, time: float = 0.0, *, noise: bool = True) -> RangeImage:
+        """Take one range image (after advancing the drift).
+
+        ``noise=False`` gives an ideal scanner: exact ranges along the surveyed directions (no
+        misalignment, drift, noise, dropouts or outliers; rays that hit nothing still return NaN).
+        """
+        t, cos, _ = self.true_ranges(None if noise else self._surveyed_dirs)
+        c = self.config
+        r = t.copy()
+        r[~np.isfinite(r)] = np.nan
+        if noise:
+            self.drift()
+            n = r.size
+            r = (1.0 + self.scale_error) * r + self.offset + self.rng.normal(0.0, c.range_noise_m, n)
+            grazing = cos < np.cos(np.radians(c.grazing_dropout_deg))
+            dropped = grazing | (self.rng.random(n) < c.dropout_probability)
+            wild = self.rng.random(n) < c.outlier_probability
+            r[wild] = self.rng.uniform(0.5, c.max_range_m, int(wild.sum()))
+            r[dropped] = np.nan
+            r[r > c.max_range_m] = np.nan
+        n_img = self.geometry.directions.shape[0] * self.geometry.directions.shape[1]
+        return RangeImage(float(time), r[:n_img].reshape(self.geometry.image_shape),
+                          r[n_img:].reshape(self.geometry.target_ranges.shape))
