@@ -37,9 +37,9 @@ def _cmd_bench(args: argparse.Namespace) -> int:
 
 
 def _cmd_validate(args: argparse.Namespace) -> int:
-    from excavsim.config import RobotConfig, SceneConfig, SoilsFile, load_config
+    from excavsim.config import RobotConfig, SceneConfig, SensingConfig, SoilsFile, load_config
 
-    kinds = {"robot": RobotConfig, "scene": SceneConfig, "soils": SoilsFile}
+    kinds = {"robot": RobotConfig, "scene": SceneConfig, "soils": SoilsFile, "sensing": SensingConfig}
     load_config(args.file, kinds[args.kind])
     print(f"{args.file}: valid {kinds[args.kind].__name__}")
     return 0
@@ -61,7 +61,7 @@ def build_parser() -> argparse.ArgumentParser:
     bench.set_defaults(func=_cmd_bench)
 
     validate = sub.add_parser("validate", help="check a configuration file and report every problem")
-    validate.add_argument("kind", choices=["robot", "scene", "soils"], help="what the file configures")
+    validate.add_argument("kind", choices=["robot", "scene", "soils", "sensing"], help="what the file configures")
     validate.add_argument("file", help="the YAML file")
     validate.set_defaults(func=_cmd_validate)
     return parser
