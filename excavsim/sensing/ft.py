@@ -1,0 +1,229 @@
+"""The wrist force/torque sensor as the robot's mind reads it (000_a3ca905d8c6d92bf.txt §7.1.3).
+
+On the testbed a JR3 six-axis sensor sits between the wrist and the bucket; its processor was
+"programmed to register forces with respect to the tip of the bucket" (Fig. 103), and a dedicated
+process recorded readings at about 10 Hz. :class:`ForceSensor` does the same with what the robot
+knows: the raw wrist reading of an :class:`~excavsim.world.simulation.Observation`, the measured
+joint angles, and its own kinematic model (the compiled ``MjModel`` with a private ``MjData``; never
+the simulation's data).
+
+Conventions:
+
+* The raw reading (``Observation.ft_force``/``ft_torque``, MuJoCo's ``force``/``torque`` sensors at
+  the ``ft_mount`` site) is the force and moment the *wrist exerts on the bucket*, moment about the
+  ``ft_mount`` origin, in the ``ft_mount`` frame. It includes the bucket's own weight.
+* :class:`FTReading` reports the wrench of the *environment (soil and load) on the bucket*: positive
+  components are the force the soil exerts ON the bucket. Moments are about the bucket tip (the
+  centre of the cutting edge, site ``bucket_tip``). The tip frame (Fig. 103): x along the blade from
+  heel to cutting edge, z normal to the blade pointing into the bucket, y = z × x. So a bucket
+  dragged through soil towards the robot (cutting edge leading) reads a force pointing backwards,
+  away from the robot: negative ``force_tip[0]`` (-x_tip); in sand it also reads negative
+  ``force_tip[2]`` (the wedge pushes on the blade's outer face, eq. 8 direction
+  ``-sin δ x_tip - cos δ z_tip``).
+* The load of soil carried in the bucket is part of the environment: its weight shows in the
+  reading, as it did on the testbed's sensor once the tool was tared.
+
+The conversion is a static balance of the bucket (the sensor's gravity compensation for a known
+tool): ``F_env = -F_wrist - m g`` and, about the tip point t, ``M_env = -M_wrist - (s - t) × F_wrist
+- (c - t) × m g`` with s the sensor origin, c the bucket's centre of mass and m its mass, both read
+from the model. The bucket's acceleration is ignored (as in the thesis' statics, App. 2): while the
+arm accelerates, the reading is off by the bucket's inertial force ``m a`` (28 kg × a).
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import math
+from typing import TYPE_CHECKING
+
+import mujoco
+import numpy as np
+
+from excavsim import constants
+from excavsim.config import ForceSensorConfig
+from excavsim.errors import ExcavsimError, ModelError
+
+if TYPE_CHECKING:  # the mind reads observations; it never imports the world at run time
+    from excavsim.world.simulation import Observation
+
+
+@dataclasses.dataclass(frozen=True)
+class FTReading:
+    """One F/T reading: the environment's (soil + load) wrench on the bucket, about the bucket tip.
+
+    Sign: positive components are the force the soil exerts ON the bucket; a bucket dragged towards
+    the robot through soil reads a force backwards, away from the robot, i.e. along -x_tip.
+
+    Attributes:
+        time: time of the observation the reading came from [s].
+        force_tip: (3,) force in the tip frame (x_tip, y_tip, z_tip) [N].
+        torque_tip: (3,) moment about the tip point, in the tip frame [N m].
+        force_world: (3,) the same force in world axes [N].
+        torque_world: (3,) the same moment about the tip point, in world axes [N m].
+    """
+
+    time: float
+    force_tip: np.ndarray
+    torque_tip: np.ndarray
+    force_world: np.ndarray
+    torque_world: np.ndarray
+
+
+def environment_wrench(sensor_force: np.ndarray, sensor_torque: np.ndarray, *, sensor_rot: np.ndarray,
+                       sensor_pos: np.ndarray, tip_rot: np.ndarray, tip_pos: np.ndarray, com: np.ndarray,
+                       weight: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """The environment's wrench on a tool about its tip, from a wrist sensor reading (static balance).
+
+    All arguments broadcast over leading dimensions ``(...)``.
+
+    Args:
+        sensor_force: (..., 3) force of the wrist on the tool, sensor frame [N].
+        sensor_torque: (..., 3) moment of the wrist on the tool about the sensor origin, sensor frame [N m].
+        sensor_rot: (..., 3, 3) sensor frame orientation (columns = sensor axes in world).
+        sensor_pos: (..., 3) sensor origin, world [m].
+        tip_rot: (..., 3, 3) tip frame orientation (columns = tip axes in world).
+        tip_pos: (..., 3) tip point, world [m].
+        com: (..., 3) the tool's centre of mass, world [m].
+        weight: (..., 3) the tool's weight ``m g``, world [N].
+
+    Returns:
+        ``(force_tip, torque_tip, force_world, torque_world)``, each (..., 3): the environment's force
+        on the tool and its moment about the tip point, in the tip frame and in world axes.
+    """
+    f_wrist = np.einsum("...ij,...j->...i", sensor_rot, sensor_force)
+    m_wrist = np.einsum("...ij,...j->...i", sensor_rot, sensor_torque)
+    f_env = -f_wrist - weight
+    m_env = -m_wrist - np.cross(sensor_pos - tip_pos, f_wrist) - np.cross(com - tip_pos, weight)
+    force_tip = np.einsum("...ji,...j->...i", tip_rot, f_env)
+    torque_tip = np.einsum("...ji,...j->...i", tip_rot, m_env)
+    return force_tip, torque_tip, f_env, m_env
+
+
+def _named_id(model: mujoco.MjModel, obj: mujoco.mjtObj, n: int, name: str, kind: str) -> int:
+    i = mujoco.mj_name2id(model, obj, name)
+    if i < 0:
+        available = [mujoco.mj_id2name(model, obj, k) for k in range(n)]
+        raise ModelError(f"{kind} {name!r} not found in the model. Available: {available}")
+    return i
+
+
+class ForceSensor:
+    """The wrist F/T sensor programmed to report the soil's wrench at the bucket tip, at a fixed rate.
+
+    Args:
+        model: the compiled scene (the robot's kinematic model; read, never stepped).
+        rate_hz: sample rate of :meth:`sample` [Hz] (the testbed's process ran at about 10 Hz).
+
+    Raises:
+        ExcavsimError: ``rate_hz`` is not a positive finite number.
+        ModelError: the model lacks the bucket, its sites or an arm joint.
+    """
+
+    def __init__(self, model: mujoco.MjModel, *, rate_hz: float = 10.0):
+        try:
+            rate = float(rate_hz)
+        except (TypeError, ValueError):
+            rate = math.nan
+        if not (math.isfinite(rate) and rate > 0.0):
+            raise ExcavsimError(f"ForceSensor rate_hz must be a positive finite number [Hz], got {rate_hz!r}")
+        self.rate_hz = rate
+        self.period_s = 1.0 / rate
+        self.model = model
+        self._data = mujoco.MjData(model)  # private: the mind's own kinematic state
+        self._bucket = _named_id(model, mujoco.mjtObj.mjOBJ_BODY, model.nbody, constants.BUCKET_BODY, "body")
+        self._ft_site = _named_id(model, mujoco.mjtObj.mjOBJ_SITE, model.nsite, constants.FT_SITE, "site")
+        self._tip_site = _named_id(model, mujoco.mjtObj.mjOBJ_SITE, model.nsite, constants.BUCKET_TIP_SITE, "site")
+        joints = [_named_id(model, mujoco.mjtObj.mjOBJ_JOINT, model.njnt, j, "joint") for j in constants.JOINTS]
+        self._qadr = np.array([model.jnt_qposadr[j] for j in joints])
+        if model.site_bodyid[self._ft_site] != self._bucket:
+            raise ModelError(f"site {constants.FT_SITE!r} must be on body {constants.BUCKET_BODY!r} "
+                             f"(the sensor measures the bucket subtree)")
+        self.bucket_mass_kg = float(model.body_subtreemass[self._bucket])
+        self._weight = self.bucket_mass_kg * np.asarray(model.opt.gravity, dtype=float)
+        self.reset()
+
+    @classmethod
+    def from_config(cls, model: mujoco.MjModel, config: ForceSensorConfig | None = None) -> ForceSensor:
+        """A sensor with the rate of ``config`` (the ``force_sensor`` section of ``configs/sensing.yaml``)."""
+        config = config or ForceSensorConfig()
+        return cls(model, rate_hz=config.rate_hz)
+
+    # -- conversion -----------------------------------------------------------------------------
+    def frames(self, q: np.ndarray) -> dict[str, np.ndarray]:
+        """The sensor and tip frames and the bucket's centre of mass at joint angles ``q`` (6,) [rad].
+
+        Returns:
+            ``sensor_rot`` (3, 3), ``sensor_pos`` (3,), ``tip_rot`` (3, 3), ``tip_pos`` (3,), ``com`` (3,),
+            world frame (rotations have the frame's axes as columns).
+        """
+        d = self._data
+        d.qpos[self._qadr] = q
+        mujoco.mj_kinematics(self.model, d)
+        mujoco.mj_comPos(self.model, d)  # subtree centres of mass
+        return {
+            "sensor_rot": d.site_xmat[self._ft_site].reshape(3, 3).copy(),
+            "sensor_pos": d.site_xpos[self._ft_site].copy(),
+            "tip_rot": d.site_xmat[self._tip_site].reshape(3, 3).copy(),
+            "tip_pos": d.site_xpos[self._tip_site].copy(),
+            "com": d.subtree_com[self._bucket].copy(),
+        }
+
+    def reading(self, obs: Observation) -> FTReading:
+        """The environment's wrench on the bucket about its tip, from one observation (static balance).
+
+        Raises:
+            ExcavsimError: the observation's time, ``q`` (6,), ``ft_force`` (3,) or ``ft_torque`` (3,)
+                are missing, wrongly shaped or not finite.
+        """
+        time, q, force, torque = _checked(obs, len(self._qadr))
+        ft, tt, fw, tw = environment_wrench(force, torque, weight=self._weight, **self.frames(q))
+        return FTReading(time, ft, tt, fw, tw)
+
+    # -- rate -----------------------------------------------------------------------------------
+    def sample(self, obs: Observation) -> FTReading | None:
+        """A reading if ``obs.time`` has reached the next sample time, else None.
+
+        The first call (after construction or :meth:`reset`) samples; later samples fall on the grid
+        ``t0 + k / rate_hz`` anchored at that first time (slots the observations skipped are dropped).
+
+        Raises:
+            ExcavsimError: as :meth:`reading`, or time went backwards past the last sample (call
+                :meth:`reset` at the start of an episode).
+        """
+        time = _checked(obs, len(self._qadr))[0]
+        if self._t0 is None:
+            self._t0, self._k, self._last = time, 0, time
+            return self.reading(obs)
+        if time < self._last:
+            raise ExcavsimError(f"F/T sample time went backwards ({time:.6f} s < last sample {self._last:.6f} s); "
+                                f"call ForceSensor.reset() when a new episode starts")
+        # Slot index with a small tolerance so that accumulated float time (n * timestep) lands on it.
+        k = math.floor((time - self._t0) * self.rate_hz + 1e-6)
+        if k <= self._k:
+            return None
+        self._k, self._last = k, time
+        return self.reading(obs)
+
+    def reset(self) -> None:
+        """Forget the sampling schedule: the next :meth:`sample` call samples."""
+        self._t0: float | None = None
+        self._k = 0
+        self._last = -math.inf
+
+
+def _checked(obs: Observation, n_joints: int) -> tuple[float, np.ndarray, np.ndarray, np.ndarray]:
+    """The observation's time, joint angles, F/T force and torque, validated."""
+    try:
+        time = float(obs.time)
+        arrays = [np.asarray(getattr(obs, name), dtype=float) for name in ("q", "ft_force", "ft_torque")]
+    except (AttributeError, TypeError, ValueError) as e:
+        raise ExcavsimError(f"ForceSensor needs an Observation with time, q, ft_force and ft_torque; "
+                            f"got {type(obs).__name__} ({e})") from e
+    for name, a, shape in zip(("q", "ft_force", "ft_torque"), arrays, ((n_joints,), (3,), (3,))):
+        if a.shape != shape:
+            raise ExcavsimError(f"observation {name} must have shape {shape}, got {a.shape}")
+        if not np.all(np.isfinite(a)):
+            raise ExcavsimError(f"observation {name} must be finite, got {a!r}")
+    if not math.isfinite(time):
+        raise ExcavsimError(f"observation time must be finite, got {time!r}")
+    return time, arrays[0], arrays[1], arrays[2]
