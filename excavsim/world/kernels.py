@@ -113,15 +113,19 @@ def surcharge_volume(h, x0, y0, cell, z0, centre, across, ahead, width, length, 
 
 @numba.njit(cache=True)
 def bearing(h, x0, y0, cell, z0, pts, normals, areas, vel, active, sigma, dt,
-            k_rest, q_ult0, q_ult_slope, k_mob, mu, v_eps, ref, out_force, out_torque):
+            k_rest, q_ult0, q_ult_slope, k_mob, mu, v_eps, m_ref, ref, across, out_force, out_torque):
     """Elasto-plastic bearing pressure and friction on the buried outer surface of the bucket.
 
     For each active sample (point ``pts[i]``, outward normal ``normals[i]``, area ``areas[i]``,
     velocity ``vel[i]``) buried ``p`` below the surface, the normal pressure ``sigma[i]`` (state,
     updated in place) moves by ``k_mob * (v . n) * dt`` as the surface pushes into or withdraws from
     the soil, bounded below by the at-rest pressure ``k_rest * p`` and above by the bearing capacity
-    ``q_ult0 + q_ult_slope * p``. Friction ``mu * sigma * area`` opposes the tangential slip,
-    regularized below ``v_eps``. Forces on the bucket and their moment about ``ref`` are written to
+    ``q_ult0 + q_ult_slope * p``. Friction ``mu * sigma * area`` opposes the tangential slip in the
+    bucket's own plane (the slip along the unit vector ``across``, the bucket's width, is left out:
+    trenching is planar, and friction across the soft wrist yaw and roll chattered), regularized
+    below ``max(v_eps, mu N dt / m_ref)`` with ``N`` the total normal force: the friction's implied
+    damping then stays below ``m_ref / dt``, which the explicit, once-per-control-step update needs
+    to stay stable (``m_ref`` is a lower bound on the bucket's effective mass). Forces on the bucket and their moment about ``ref`` are written to
     ``out_force`` and ``out_torque`` (3,).
 
     Returns:
@@ -130,6 +134,7 @@ def bearing(h, x0, y0, cell, z0, pts, normals, areas, vel, active, sigma, dt,
     fx = fy = fz = 0.0
     tx = ty = tz = 0.0
     pmax = 0.0
+    n_total = 0.0
     for i in range(pts.shape[0]):
         if active[i] == 0.0:
             sigma[i] = 0.0
@@ -140,13 +145,17 @@ def bearing(h, x0, y0, cell, z0, pts, normals, areas, vel, active, sigma, dt,
             sigma[i] = 0.0
             continue
         pmax = max(pmax, p)
+        vn = vel[i, 0] * normals[i, 0] + vel[i, 1] * normals[i, 1] + vel[i, 2] * normals[i, 2]
+        sg = min(max(sigma[i] + k_mob * vn * dt, k_rest * p), q_ult0 + q_ult_slope * p)
+        sigma[i] = sg
+        n_total += sg * areas[i]
+    v_reg = max(v_eps, mu * n_total * dt / m_ref)
+    for i in range(pts.shape[0]):
+        sg = sigma[i]
+        if sg == 0.0:
+            continue
         nx, ny, nz = normals[i, 0], normals[i, 1], normals[i, 2]
         vn = vel[i, 0] * nx + vel[i, 1] * ny + vel[i, 2] * nz
-        lo = k_rest * p
-        hi = q_ult0 + q_ult_slope * p
-        sg = sigma[i] + k_mob * vn * dt
-        sg = min(max(sg, lo), hi)
-        sigma[i] = sg
         a = areas[i]
         # pressure pushes the surface inward (-n); friction opposes tangential slip
         px = -sg * a * nx
@@ -155,9 +164,13 @@ def bearing(h, x0, y0, cell, z0, pts, normals, areas, vel, active, sigma, dt,
         vtx = vel[i, 0] - vn * nx
         vty = vel[i, 1] - vn * ny
         vtz = vel[i, 2] - vn * nz
+        va = vtx * across[0] + vty * across[1] + vtz * across[2]
+        vtx -= va * across[0]
+        vty -= va * across[1]
+        vtz -= va * across[2]
         vt = np.sqrt(vtx * vtx + vty * vty + vtz * vtz)
         if vt > 0.0:
-            scale = mu * sg * a / max(vt, v_eps)
+            scale = mu * sg * a / max(vt, v_reg)
             px -= scale * vtx
             py -= scale * vty
             pz -= scale * vtz
@@ -200,7 +213,7 @@ PROBE_CELLS = 2.0
 S_PREV_A, S_PREV_B, S_PREV_C, S_HAS_PREV, S_CUT_FORCE, S_SHEAR_TRAVEL, S_LOAD, S_LEN = 0, 3, 6, 9, 10, 11, 12, 13
 (P_GAMMA_G, P_COHESION, P_ADHESION, P_SIN_DELTA, P_COS_DELTA, P_WIDTH, P_DT, P_K_CUT, P_SPEED, P_SAW,
  P_LOAD_SURCHARGE, P_CAPACITY, P_K_REST, P_Q0, P_Q_SLOPE, P_K_MOB, P_MU, P_V_EPS, P_K_ROCK, P_RAKE_MIN,
- P_LEN) = range(21)
+ P_M_REF, P_LEN) = range(22)
 # Indices into the ``out`` vector.
 (O_DEPTH, O_RAKE, O_SPEED, O_FAIL, O_FCUT, O_FBEAR, O_FROCK, O_FORCE, O_TORQUE, O_CUT, O_TAKE, O_PMAX,
  O_AHEAD, O_CENTRE, O_WEIGHT, O_LEN) = (0, 1, 2, 3, 4, 7, 10, 13, 16, 19, 20, 21, 22, 25, 28, 29)
@@ -369,8 +382,9 @@ def soil_step(h, x0, y0, cell, z0, xpos, xmat, xipos, site_xmat, body, site, vel
         vel[k, 2] = v_org[2] + omega[0] * ry - omega[1] * rx
     fb = np.zeros(3)
     tb = np.zeros(3)
+    across_b = np.array([rot[0, 1], rot[1, 1], rot[2, 1]])
     pmax = bearing(h, x0, y0, cell, z0, pts, nrm, areas, vel, active, sigma, dt, params[P_K_REST], params[P_Q0],
-                   params[P_Q_SLOPE], params[P_K_MOB], params[P_MU], params[P_V_EPS], com, fb, tb)
+                   params[P_Q_SLOPE], params[P_K_MOB], params[P_MU], params[P_V_EPS], params[P_M_REF], com, across_b, fb, tb)
 
     # rocks push the edge samples out
     frx = fry = frz = 0.0

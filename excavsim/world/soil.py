@@ -209,6 +209,7 @@ class SoilModel:
         p[kernels.P_V_EPS] = scene.bucket.friction_velocity_m_s
         p[kernels.P_K_ROCK] = scene.bucket.rock_stiffness_n_per_m
         p[kernels.P_RAKE_MIN] = max(self.table.rake_min, MIN_WEDGE_RAKE)
+        p[kernels.P_M_REF] = scene.bucket.friction_mass_kg
         self._params = p
         self._state = np.zeros(kernels.S_LEN)
         self._out = np.zeros(kernels.O_LEN)
