@@ -290,7 +290,9 @@ class PlannerConfig(_Strict):
     curl_radii_m: list[float] = Field(default=[0.25, 0.3, 0.35, 0.4, 0.5, 0.6, 0.8], min_length=1,
                                       description="curl radii tried, smallest first (§3.4.2.4)")
     curl_samples: int = Field(default=10, ge=2, le=100, description="samples along the curl")
-    curl_backoff: int = Field(default=4, ge=1, le=16, description="shorter drags tried when the curl fails")
+    curl_exit_pitch_deg: float = Field(
+        default=0.0, ge=-120, le=60, description="the pitch the bucket must have reached when its edge leaves the soil"
+    )
     fill_fraction: float = Field(default=1.0, gt=0, le=2, description="volume limit as a fraction of capacity")
     objective: str = Field(default="lexicographic",
                            description="volume | peak_torque | cumulative_torque | lexicographic (eq. 44)")

@@ -19,6 +19,8 @@ ROBOT_YAML = CONFIGS_DIR / "robot.yaml"
 SCENE_YAML = CONFIGS_DIR / "scene.yaml"
 SOILS_YAML = CONFIGS_DIR / "soils.yaml"
 SENSING_YAML = CONFIGS_DIR / "sensing.yaml"
+PLANNER_YAML = CONFIGS_DIR / "planner.yaml"
+TRENCHES_DIR = CONFIGS_DIR / "trenches"
 
 # Joints, in qpos order; actuators carry the joint name without the suffix (Menagerie convention).
 JOINTS = ("waist_joint", "shoulder_joint", "elbow_joint", "wrist_pitch_joint", "wrist_yaw_joint", "wrist_roll_joint")

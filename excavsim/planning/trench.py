@@ -1,0 +1,538 @@
+"""The action-space trenching planner (000_a3ca905d8c6d92bf.txt ch. 3-6).
+
+One dig is the trenching action (k, alpha, d1) of §3.4.1: enter the mapped surface at radial
+distance ``k``; **penetrate** a straight line at ``alpha`` below horizontal for ``d1`` with rake
+``alpha + epsilon`` (§3.4.2.2); **drag** horizontally towards the robot for ``d2`` while the rake
+falls as ``max(zeta, rho_i - omega s)`` (eq. 1); **curl** about a centre ``r`` straight above the
+edge, turning the bucket to the end pitch, with the smallest radius of
+``curl_radii_m`` whose end pose is reachable (§3.4.2.4, Fig. 23). ``d2`` is the dependent
+variable: the longest drag on a ``sample_spacing_m`` grid that satisfies every constraint.
+
+Constraints (ch. 4, §5.3), each evaluated on the tip path sampled every ``sample_spacing_m``, as a
+vectorized mask over the candidates, cheapest first:
+
+* **shaping**: no sample below the goal profile (``TrenchGoal``);
+* **sensible**: every sample from entry to the end of the drag is in the soil, and the curl has
+  turned the bucket to ``curl_exit_pitch_deg`` before the edge leaves the soil (§4.3.6: soil must
+  not spill as the bucket moves through the air);
+* **volume**: the swept area between the mapped surface and the path, times the bucket width, at
+  most ``fill_fraction`` x capacity;
+* **reachability**: the (z, pitch) lookup table first, exact elbow-up IK on the survivors;
+* **force**: predicted soil forces (any :class:`~excavsim.planning.predictor.ForcePredictor`)
+  and the swept soil's weight turned into joint torques ``tau = tau_grav - J^T F`` (eq. 28),
+  within the relief limits at every sample.
+
+Exhaustive search over the (k, alpha, d1) grid prunes along d1 at the first penetration that cuts
+through the goal (§6.2.1: every longer penetration contains it). The objective is the swept volume,
+the peak or the cumulative torque, or eq. 44: among digs sweeping at least ``volume_threshold`` of
+the capacity, the smallest peak torque (the largest volume when none does). A best dig below
+``min_volume_fraction`` of the capacity is "no dig" (the loop's boundary-following fallback, §7.2).
+
+All of it is numpy on :class:`~excavsim.robot.kinematics.PlanarArm` and the elevation map: no MuJoCo.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import math
+import time
+
+import numpy as np
+
+from excavsim.config import PlannerConfig, TrenchGoal
+from excavsim.errors import ExcavsimError
+from excavsim.planning.predictor import ForcePredictor
+from excavsim.robot.kinematics import PlanarArm
+from excavsim.robot.reachability import ReachabilityTable
+from excavsim.robot.statics import static_joint_torques
+from excavsim.sensing.elevation import ElevationMap
+
+CONSTRAINTS = ("shaping", "sensible", "volume", "reachability", "force")
+_NO_DIG = -1
+
+
+def goal_profile(goal: TrenchGoal, x: np.ndarray) -> np.ndarray:
+    """Lowest height the bucket may cut to at radial distance ``x`` (the goal's 2-D profile)."""
+    x = np.asarray(x, dtype=float)
+    z_ref = goal.surface_z_m
+    inside = (x >= goal.near_x_m) & (x <= goal.far_x_m)
+    near = z_ref - (x - goal.near_x_m) * math.tan(math.radians(goal.near_wall_deg))
+    far = z_ref - (goal.far_x_m - x) * math.tan(math.radians(goal.far_wall_deg))
+    z = np.maximum(np.maximum(near, far), z_ref - goal.depth_m)
+    return np.where(inside, z, z_ref)
+
+
+@dataclasses.dataclass(frozen=True)
+class SurfaceProfile:
+    """The mapped surface along the arm plane, averaged across the bucket width."""
+
+    x: np.ndarray
+    z: np.ndarray
+
+    @classmethod
+    def from_map(cls, emap: ElevationMap, arm: PlanarArm, waist: float, width: float, *,
+                 dx: float = 0.01, n_across: int = 5) -> SurfaceProfile:
+        x = np.arange(0.0, 4.0 + dx / 2, dx)
+        offsets = (np.arange(n_across) + 0.5) / n_across * width - width / 2
+        pts = arm.plane_to_world(waist, np.stack([x, np.zeros_like(x)], axis=-1))  # (n, 3)
+        side = np.array([-math.sin(arm.waist_sign * waist), math.cos(arm.waist_sign * waist)])
+        xs = pts[:, None, 0] + offsets[None, :] * side[0]
+        ys = pts[:, None, 1] + offsets[None, :] * side[1]
+        return cls(x, emap.height_at(xs, ys).mean(axis=1))
+
+    def __call__(self, x: np.ndarray) -> np.ndarray:
+        return np.interp(x, self.x, self.z)
+
+
+@dataclasses.dataclass
+class PlanResult:
+    """The planner's answer and everything it learned on the way (for logs and figures).
+
+    ``action`` is (k, alpha, d1, d2) [m, rad, m, m] or None for "no dig"; per-cell arrays have the
+    grid's shape (n_k, n_alpha, n_d1). ``masks`` holds, per constraint, the cells whose dig with the
+    shortest drag satisfies that constraint (evaluated on every cell, for figures) and
+    ``feasible`` the cells with some drag satisfying all of them.
+    """
+
+    action: tuple[float, float, float, float] | None
+    reason: str
+    utility: float
+    volume_m3: float
+    poses: np.ndarray
+    phases: np.ndarray
+    forces: np.ndarray
+    torques: np.ndarray
+    grid_k: np.ndarray
+    grid_alpha: np.ndarray
+    grid_d1: np.ndarray
+    feasible: np.ndarray
+    d2: np.ndarray
+    volume: np.ndarray
+    peak_torque_ratio: np.ndarray
+    cumulative_torque: np.ndarray
+    limiting: np.ndarray
+    masks: dict[str, np.ndarray]
+    counts: dict[str, int]
+    seconds: float
+
+
+class TrenchPlanner:
+    """Plans one dig of a trench on an elevation map (see the module docstring).
+
+    Args:
+        arm: the planar chain.
+        table: reachability table of ``arm``.
+        torque_limits: (3,) relief limits of shoulder, elbow, wrist pitch [N m].
+        bucket_width: [m]; bucket_capacity: struck capacity [m^3].
+        goal: the trench.
+        config: rules, grid and objective.
+        predictor: force predictor for the force constraint.
+        density: soil density for the load's weight [kg/m^3].
+    """
+
+    def __init__(self, arm: PlanarArm, table: ReachabilityTable, torque_limits: np.ndarray, bucket_width: float,
+                 bucket_capacity: float, goal: TrenchGoal, config: PlannerConfig, predictor: ForcePredictor,
+                 density: float = 2000.0):
+        self.arm = arm
+        self.table = table
+        self.limits = np.asarray(torque_limits, dtype=float)
+        if self.limits.shape != (3,) or np.any(self.limits <= 0):
+            raise ExcavsimError(f"torque_limits must be 3 positive values [N m]; given {torque_limits!r}")
+        self.width = float(bucket_width)
+        self.capacity = float(bucket_capacity)
+        self.goal = goal
+        self.cfg = config
+        self.predictor = predictor
+        self.density = float(density)
+        g = config.grid
+        self.grid_k = _steps(g.k_min_m, g.k_max_m, g.k_step_m)
+        self.grid_alpha = np.radians(_steps(g.alpha_min_deg, g.alpha_max_deg, g.alpha_step_deg))
+        self.grid_d1 = _steps(g.d1_min_m, g.d1_max_m, g.d1_step_m)
+
+    @property
+    def grid_shape(self) -> tuple[int, int, int]:
+        return len(self.grid_k), len(self.grid_alpha), len(self.grid_d1)
+
+    # -- trajectories ---------------------------------------------------------------------------
+    def penetrate(self, k, alpha, d1, surface: SurfaceProfile) -> np.ndarray:
+        """(n, P, 3) penetrate poses for n actions, padded by repeating the end pose."""
+        ds = self.cfg.sample_spacing_m
+        n_s = int(math.ceil(self.grid_d1.max() / ds)) + 1
+        s = np.minimum(np.arange(n_s)[None, :] * ds, d1[:, None])
+        x = k[:, None] - s * np.cos(alpha)[:, None]
+        z = surface(k)[:, None] - s * np.sin(alpha)[:, None]
+        rho = np.broadcast_to((alpha + math.radians(self.cfg.epsilon_deg))[:, None], x.shape)
+        return np.stack([x, z, rho], axis=-1)
+
+    def drag(self, start: np.ndarray) -> np.ndarray:
+        """(n, J, 3) drag poses from penetrate end poses ``start`` (n, 3): sample j is d2 = j ds."""
+        ds = self.cfg.sample_spacing_m
+        n_j = int(math.floor(self.cfg.d2_max_m / ds + 1e-9)) + 1
+        s = np.arange(n_j) * ds
+        x = start[:, None, 0] - s[None, :]
+        z = np.broadcast_to(start[:, None, 1], x.shape)
+        rho = np.maximum(math.radians(self.cfg.zeta_deg),
+                         start[:, None, 2] - math.radians(self.cfg.omega_deg_per_m) * s[None, :])
+        return np.stack([x, z, rho], axis=-1)
+
+    def curl(self, start: np.ndarray, radius: np.ndarray) -> np.ndarray:
+        """(n, M, 3) curl poses from drag end poses ``start`` (n, 3) about centres ``radius`` away.
+
+        The centre lies ``radius`` straight above the edge, so the edge leaves the drag horizontally
+        (the rotation centres of a horizontally moving edge lie on its vertical, §3.4.2.3) and
+        curves up; the bucket turns clockwise in (x, z) to the end pitch.
+        """
+        rho0 = start[:, 2]
+        turn = np.maximum(rho0 - math.radians(self.cfg.curl_end_pitch_deg), 0.0)
+        frac = np.linspace(0.0, 1.0, self.cfg.curl_samples)
+        th = turn[:, None] * frac[None, :]
+        cx = start[:, 0] + 0.0 * radius
+        cz = start[:, 1] + radius
+        vx, vz = start[:, 0] - cx, start[:, 1] - cz
+        c, s = np.cos(th), np.sin(th)
+        x = cx[:, None] + c * vx[:, None] + s * vz[:, None]  # clockwise rotation by th
+        z = cz[:, None] - s * vx[:, None] + c * vz[:, None]
+        return np.stack([x, z, rho0[:, None] - th], axis=-1)
+
+    # -- per-sample quantities ------------------------------------------------------------------
+    def _swept(self, poses: np.ndarray, surface: SurfaceProfile) -> np.ndarray:
+        """Volume swept between consecutive samples [m^3] (..., S-1): depth x travel x width."""
+        xm = 0.5 * (poses[..., 1:, 0] + poses[..., :-1, 0])
+        zm = 0.5 * (poses[..., 1:, 1] + poses[..., :-1, 1])
+        dx = poses[..., :-1, 0] - poses[..., 1:, 0]
+        return np.maximum(surface(xm) - zm, 0.0) * np.abs(dx) * self.width
+
+    def _reach(self, poses: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """Reachability (table, then exact IK on the table's survivors) and joint angles."""
+        flat = poses.reshape(-1, 3)
+        ok = self.table.contains(flat)
+        q = np.full(flat.shape, np.nan)
+        if ok.any():
+            qi, oki = self.arm.inverse(flat[ok])
+            q[ok] = qi
+            ok[ok] = oki
+        return ok.reshape(poses.shape[:-1]), q.reshape(poses.shape)
+
+    def _torque_ratio(self, poses: np.ndarray, q: np.ndarray, depth: np.ndarray, volume: np.ndarray
+                      ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """Predicted forces, joint torques and the largest torque/limit ratio per sample."""
+        f = self.predictor.predict(depth, poses[..., 2], volume)
+        wrench = np.concatenate([f, np.zeros(f.shape[:-1] + (1,))], axis=-1)
+        tau = static_joint_torques(self.arm, q, wrench, payload_kg=self.density * volume,
+                                   payload_com_tip=np.asarray(self.cfg.payload_com_tip_m))
+        return f, tau, np.max(np.abs(tau) / self.limits, axis=-1)
+
+    # -- the search -----------------------------------------------------------------------------
+    def plan(self, emap: ElevationMap, *, prune: bool = True) -> PlanResult:
+        """Choose one dig on ``emap`` by exhaustive search over the grid (see the module docstring).
+
+        Args:
+            emap: the scanned elevation map (never the true terrain).
+            prune: skip cells beyond the first goal-cutting penetration along d1 and evaluate
+                constraints cheapest first on survivors only; ``False`` evaluates every constraint
+                on every cell (same answer, for tests and figures).
+        """
+        t0 = time.perf_counter()
+        cfg = self.cfg
+        surface = SurfaceProfile.from_map(emap, self.arm, math.radians(self.goal.waist_deg), self.width)
+        kk, aa, dd = np.meshgrid(self.grid_k, self.grid_alpha, self.grid_d1, indexing="ij")
+        k, alpha, d1 = kk.ravel(), aa.ravel(), dd.ravel()
+        n = k.size
+        shape = self.grid_shape
+        vmax = cfg.fill_fraction * self.capacity
+        tol_shape, tol_surf = cfg.shaping_tolerance_m, cfg.surface_tolerance_m
+        counts = {"cells": n}
+
+        # Penetration: shaping and sensible on every cell (cheap), then prune along d1.
+        pen = self.penetrate(k, alpha, d1, surface)
+        pen_shape = np.all(pen[..., 1] >= goal_profile(self.goal, pen[..., 0]) - tol_shape, axis=1)
+        pen_sense = np.all(pen[..., 1] <= surface(pen[..., 0]) + tol_surf, axis=1)
+        if prune:
+            ok3 = pen_shape.reshape(shape)
+            alive = np.cumprod(ok3, axis=2).astype(bool).ravel()  # stop at the first failure along d1
+        else:
+            alive = np.ones(n, bool)
+        counts["pruned_d1"] = int(n - alive.sum())
+
+        drag_all = self.drag(pen[:, -1])
+        n_j = drag_all.shape[1]
+        res_j = np.full(n, _NO_DIG)
+        res_r = np.zeros(n)
+        res = {key: np.full(n, np.nan) for key in ("volume", "peak", "cum")}
+        masks = {c: np.zeros(n, bool) for c in CONSTRAINTS}
+        limiting = np.zeros(n, np.int8)  # 0 none/feasible, 1 geometry, 2 force
+        evaluated = 0
+
+        idx = np.nonzero(alive)[0]
+        if idx.size:
+            evaluated = idx.size
+            out = self._evaluate(idx, pen[idx], drag_all[idx], surface, vmax, prune)
+            res_j[idx], res_r[idx] = out["j"], out["r"]
+            for key in res:
+                res[key][idx] = out[key]
+            for c in CONSTRAINTS:
+                masks[c][idx] = out["mask_" + c]
+            limiting[idx] = out["limiting"]
+        counts["evaluated"] = evaluated
+        counts.update({k_: int(v) for k_, v in (out.get("stage_counts", {}) if idx.size else {}).items()})
+        feasible = res_j >= 0
+        # Mask of the penetration constraints on every cell (pruned cells failed shaping).
+        masks["shaping"] &= pen_shape
+        masks["sensible"] &= pen_sense
+
+        choice, utility, reason = self._choose(feasible, res)
+        action = None
+        poses = np.zeros((0, 3))
+        phases = np.zeros(0, np.int8)
+        forces = np.zeros((0, 2))
+        torques = np.zeros((0, 3))
+        vol = 0.0
+        if choice is not None:
+            c = choice
+            j = int(res_j[c])
+            action = (float(k[c]), float(alpha[c]), float(d1[c]), j * cfg.sample_spacing_m)
+            poses, phases = self.trajectory(action, surface, radius=float(res_r[c]))
+            q = self.arm.inverse(poses)[0]
+            steps = self._swept(poses, surface)
+            vcum = np.concatenate([[0.0], np.cumsum(steps)])
+            depth = np.maximum(surface(poses[:, 0]) - poses[:, 1], 0.0)
+            forces, torques, _ = self._torque_ratio(poses, q, depth, vcum)
+            vol = float(res["volume"][c])
+        return PlanResult(
+            action=action, reason=reason, utility=utility, volume_m3=vol, poses=poses, phases=phases, forces=forces,
+            torques=torques, grid_k=self.grid_k, grid_alpha=self.grid_alpha, grid_d1=self.grid_d1,
+            feasible=feasible.reshape(shape), d2=np.where(feasible, res_j * cfg.sample_spacing_m, np.nan).reshape(shape),
+            volume=res["volume"].reshape(shape), peak_torque_ratio=res["peak"].reshape(shape),
+            cumulative_torque=res["cum"].reshape(shape), limiting=limiting.reshape(shape),
+            masks={c: m.reshape(shape) for c, m in masks.items()}, counts=counts,
+            seconds=time.perf_counter() - t0,
+        )
+
+    def trajectory(self, action: tuple[float, float, float, float], surface: SurfaceProfile,
+                   radius: float | None = None) -> tuple[np.ndarray, np.ndarray]:
+        """Poses (S, 3) and phase labels (0 penetrate, 1 drag, 2 curl) of one action."""
+        k, alpha, d1, d2 = action
+        ds = self.cfg.sample_spacing_m
+        n_p = int(math.ceil(d1 / ds)) + 1
+        s = np.linspace(0.0, d1, n_p)
+        z0 = float(surface(np.array([k]))[0])
+        rho_p = alpha + math.radians(self.cfg.epsilon_deg)
+        pen = np.stack([k - s * math.cos(alpha), z0 - s * math.sin(alpha), np.full(n_p, rho_p)], axis=-1)
+        n_d = int(round(d2 / ds)) + 1
+        sd = np.arange(n_d) * ds
+        drag = np.stack([pen[-1, 0] - sd, np.full(n_d, pen[-1, 1]),
+                         np.maximum(math.radians(self.cfg.zeta_deg),
+                                    rho_p - math.radians(self.cfg.omega_deg_per_m) * sd)], axis=-1)
+        r = self.cfg.curl_radii_m[0] if radius is None else radius
+        curl = self.curl(drag[-1:], np.array([r]))[0]
+        poses = np.concatenate([pen, drag[1:], curl[1:]])
+        phases = np.concatenate([np.zeros(n_p), np.ones(n_d - 1), np.full(len(curl) - 1, 2)]).astype(np.int8)
+        return poses, phases
+
+    def _evaluate(self, idx, pen, drag, surface, vmax, prune) -> dict:
+        """Constraints and the longest admissible drag for the cells ``idx`` (vectorized)."""
+        cfg = self.cfg
+        m, n_j = drag.shape[:2]
+        tol_shape, tol_surf = cfg.shaping_tolerance_m, cfg.surface_tolerance_m
+        stage = {}
+        # Penetration geometry per cell.
+        p_shape = np.all(pen[..., 1] >= goal_profile(self.goal, pen[..., 0]) - tol_shape, axis=1)
+        p_sense = np.all(pen[..., 1] <= surface(pen[..., 0]) + tol_surf, axis=1)
+        v_pen = self._swept(pen, surface).sum(axis=1)
+        # Drag prefixes: count of leading samples passing each cheap constraint.
+        d_shape = drag[..., 1] >= goal_profile(self.goal, drag[..., 0]) - tol_shape
+        d_sense = drag[..., 1] <= surface(drag[..., 0]) + tol_surf
+        v_drag = np.concatenate([np.zeros((m, 1)), np.cumsum(self._swept(drag, surface), axis=1)], axis=1)
+        v_cum = v_pen[:, None] + v_drag
+        d_vol = v_cum <= vmax
+        lead = lambda ok: np.argmin(np.concatenate([ok, np.zeros((m, 1), bool)], axis=1), axis=1)  # noqa: E731
+        j_shape, j_sense, j_vol = lead(d_shape), lead(d_sense), lead(d_vol)
+        j_geo = np.minimum(np.minimum(j_shape, j_sense), j_vol)
+        j_geo = np.where(p_shape & p_sense, j_geo, 0) if prune else np.full(m, n_j)
+        # Reachability on penetrate + drag samples (only up to j_geo when pruning).
+        live = np.arange(n_j)[None, :] < np.maximum(j_geo, 1)[:, None] if prune else np.ones((m, n_j), bool)
+        p_reach, q_pen = self._reach(pen)
+        p_reach = p_reach.all(axis=1)
+        d_reach = np.zeros((m, n_j), bool)
+        q_drag = np.full(drag.shape, np.nan)
+        sel = live & (p_reach[:, None] | (not prune))
+        stage["reach_samples"] = int(sel.sum()) + pen.shape[0] * pen.shape[1]
+        if sel.any():
+            ok, q = self._reach(drag[sel])
+            d_reach[sel] = ok
+            q_drag[sel] = q
+        j_reach = lead(d_reach)
+        # Force on penetrate + drag samples that are geometrically live.
+        depth_pen = np.maximum(surface(pen[..., 0]) - pen[..., 1], 0.0)
+        v_pen_cum = np.concatenate([np.zeros((m, 1)), np.cumsum(self._swept(pen, surface), axis=1)], axis=1)
+        fsel_p = p_reach if prune else np.ones(m, bool)
+        p_force = np.zeros(m, bool)
+        peak_p = np.full(m, np.inf)
+        cum_p = np.zeros(m)
+        if fsel_p.any():
+            qp = np.where(np.isfinite(q_pen[fsel_p]), q_pen[fsel_p], 0.0)
+            _, tau, ratio = self._torque_ratio(pen[fsel_p], qp, depth_pen[fsel_p], v_pen_cum[fsel_p])
+            ratio = np.where(np.isfinite(q_pen[fsel_p]).all(axis=-1), ratio, np.inf)
+            peak_p[fsel_p] = ratio.max(axis=1)
+            cum_p[fsel_p] = (np.abs(tau).sum(axis=-1)[:, 1:] * self._step_len(pen[fsel_p])).sum(axis=1)
+            p_force = peak_p <= 1.0
+        j_live = np.minimum(j_geo, j_reach) if prune else np.full(m, n_j)
+        fsel = (np.arange(n_j)[None, :] < np.maximum(j_live, 1)[:, None]) & p_force[:, None] if prune else \
+            np.ones((m, n_j), bool)
+        ratio_d = np.full((m, n_j), np.inf)
+        absum_d = np.zeros((m, n_j))
+        stage["force_samples"] = int(fsel.sum()) + int(fsel_p.sum()) * pen.shape[1]
+        if fsel.any():
+            depth_d = np.maximum(surface(drag[..., 0]) - drag[..., 1], 0.0)
+            qd = q_drag[fsel]
+            good = np.isfinite(qd).all(axis=-1)
+            _, tau, ratio = self._torque_ratio(drag[fsel], np.where(np.isfinite(qd), qd, 0.0), depth_d[fsel],
+                                               v_cum[fsel])
+            ratio_d[fsel] = np.where(good, ratio, np.inf)
+            absum_d[fsel] = np.abs(tau).sum(axis=-1)
+        d_force = ratio_d <= 1.0
+        j_force = lead(d_force)
+        # The longest drag whose curl also passes: binary search over j below the prefix bound, all
+        # cells at once (the curl's volume grows and its room shrinks with j: feasibility is taken
+        # to be monotone in d2, the thesis' assumption of §3.4.1).
+        j_all = np.minimum(np.minimum(j_shape, j_sense), np.minimum(j_vol, np.minimum(j_reach, j_force)))
+        pen_ok = p_shape & p_sense & p_reach & p_force
+        best_j = np.full(m, _NO_DIG)
+        best_r = np.zeros(m)
+        res_curl = {key: np.full(m, np.nan) for key in ("volume", "peak", "cum")}
+
+        stage["curl_evaluations"] = 0
+
+        def try_curl(cells: np.ndarray, jj: np.ndarray) -> np.ndarray:
+            stage["curl_evaluations"] += len(cells)
+            ok, r, extra = self._curl_ok(drag[cells, jj], surface, v_cum[cells, jj], vmax)
+            better = ok & (jj > best_j[cells])
+            win = cells[better]
+            best_j[win] = jj[better]
+            best_r[win] = r[better]
+            for key, v in extra.items():
+                res_curl[key][win] = v[better]
+            return ok
+
+        lo = np.zeros(m, np.int64)
+        hi = j_all - 1
+        cand = np.nonzero(pen_ok & (hi >= 0))[0]
+        if cand.size:
+            ok_hi = try_curl(cand, hi[cand])
+            rest = cand[~ok_hi]
+            rest = rest[hi[rest] > 0]
+            if rest.size:
+                ok_lo = try_curl(rest, lo[rest])
+                live = rest[ok_lo]  # feasible at 0, infeasible at hi: bisect
+                lo_l, hi_l = lo[live], hi[live]
+                while live.size:
+                    mid = (lo_l + hi_l) // 2
+                    step = hi_l - lo_l > 1
+                    if not step.any():
+                        break
+                    live, lo_l, hi_l, mid = live[step], lo_l[step], hi_l[step], mid[step]
+                    ok_mid = try_curl(live, mid)
+                    lo_l = np.where(ok_mid, mid, lo_l)
+                    hi_l = np.where(ok_mid, hi_l, mid)
+        # Per-cell results.
+        feasible = best_j >= 0
+        jsafe = np.maximum(best_j, 0)
+        rows = np.arange(m)
+        volume = np.where(feasible, v_cum[rows, jsafe] + res_curl["volume"], np.nan)
+        prefix_peak = np.maximum.accumulate(np.where(np.isfinite(ratio_d), ratio_d, np.inf), axis=1)
+        peak = np.where(feasible, np.maximum(np.maximum(peak_p, prefix_peak[rows, jsafe]),
+                                             res_curl["peak"]), np.nan)
+        ds = cfg.sample_spacing_m
+        cum_d = np.cumsum(absum_d * ds, axis=1) - absum_d[:, :1] * ds
+        cum = np.where(feasible, cum_p + cum_d[rows, jsafe] + res_curl["cum"], np.nan)
+        # Per-constraint masks at the shortest drag (j = 0), and which kind of constraint limits.
+        geo0 = d_shape[:, 0] & d_sense[:, 0] & d_vol[:, 0]
+        limiting = np.where(feasible, 0, np.where(pen_ok | ~p_force, 2, 1)).astype(np.int8)
+        limiting = np.where(~feasible & p_shape & p_sense & p_reach & ~p_force, 2, limiting)
+        limiting = np.where(~feasible & ~(p_shape & p_sense & p_reach), 1, limiting)
+        return {
+            "j": best_j, "r": best_r, "volume": volume, "peak": peak, "cum": cum, "limiting": limiting,
+            "mask_shaping": p_shape & d_shape[:, 0], "mask_sensible": p_sense & d_sense[:, 0],
+            "mask_volume": d_vol[:, 0], "mask_reachability": p_reach & d_reach[:, 0] if not prune else p_reach,
+            "mask_force": p_force & (d_force[:, 0] | ~geo0), "stage_counts": stage,
+            "prefix": np.stack([j_shape, j_sense, j_vol, j_reach, j_force]), "pen_ok": pen_ok,
+        }
+
+    @staticmethod
+    def _step_len(poses: np.ndarray) -> np.ndarray:
+        return np.linalg.norm(np.diff(poses[..., :2], axis=-2), axis=-1)
+
+    def _curl_ok(self, start: np.ndarray, surface: SurfaceProfile, v_before: np.ndarray, vmax: float):
+        """Smallest reachable curl radius per start pose and whether that curl passes every constraint."""
+        cfg = self.cfg
+        n = start.shape[0]
+        radius = np.full(n, np.nan)
+        for r in cfg.curl_radii_m:  # smallest radius whose end pose is reachable (Fig. 23)
+            todo = np.isnan(radius)
+            if not todo.any():
+                break
+            end = self.curl(start[todo], np.full(todo.sum(), r))[:, -1]
+            ok, _ = self._reach(end[:, None, :])
+            sel = np.nonzero(todo)[0][ok[:, 0]]
+            radius[sel] = r
+        has = np.isfinite(radius)
+        ok = has.copy()
+        extra = {"volume": np.zeros(n), "peak": np.zeros(n), "cum": np.zeros(n)}
+        if not has.any():
+            return ok, np.nan_to_num(radius), extra
+        h = np.nonzero(has)[0]
+        poses = self.curl(start[h], radius[h])
+        shape_ok = np.all(poses[..., 1] >= goal_profile(self.goal, poses[..., 0]) - cfg.shaping_tolerance_m, axis=1)
+        # Sensible (§4.3.6): the bucket must have curled enough to hold its load before the edge
+        # leaves the soil; what follows the exit is the lift-out.
+        above = poses[..., 1] > surface(poses[..., 0]) + cfg.surface_tolerance_m
+        exits = above.any(axis=1)
+        first = np.argmax(above, axis=1)
+        exit_pitch = poses[np.arange(len(h)), first, 2]
+        sense_ok = ~exits | (exit_pitch <= math.radians(cfg.curl_exit_pitch_deg))
+        steps = self._swept(poses, surface)
+        vol = v_before[h][:, None] + np.concatenate([np.zeros((len(h), 1)), np.cumsum(steps, axis=1)], axis=1)
+        vol_ok = vol[:, -1] <= vmax
+        reach_ok, q = self._reach(poses)
+        reach_ok = reach_ok.all(axis=1)
+        depth = np.maximum(surface(poses[..., 0]) - poses[..., 1], 0.0)
+        _, tau, ratio = self._torque_ratio(poses, np.where(np.isfinite(q), q, 0.0), depth, vol)
+        ratio = np.where(np.isfinite(q).all(axis=-1), ratio, np.inf)
+        force_ok = ratio.max(axis=1) <= 1.0
+        ok[h] = shape_ok & sense_ok & vol_ok & reach_ok & force_ok
+        extra["volume"][h] = vol[:, -1] - v_before[h]
+        extra["peak"][h] = ratio.max(axis=1)
+        extra["cum"][h] = (np.abs(tau).sum(axis=-1)[:, 1:] * self._step_len(poses)).sum(axis=1)
+        return ok, np.nan_to_num(radius), extra
+
+    def _choose(self, feasible: np.ndarray, res: dict) -> tuple[int | None, float, str]:
+        """Apply the objective to the feasible cells: (index, utility, reason)."""
+        cfg = self.cfg
+        if not feasible.any():
+            return None, 0.0, "no feasible dig"
+        vol = np.where(feasible, res["volume"], -np.inf)
+        if vol.max() < cfg.min_volume_fraction * self.capacity:
+            return None, float(vol.max()), (f"best dig sweeps {1000 * vol.max():.1f} l, below the minimum "
+                                            f"{100 * cfg.min_volume_fraction:.0f} % of capacity")
+        peak = np.where(feasible, res["peak"], np.inf)
+        cum = np.where(feasible, res["cum"], np.inf)
+        if cfg.objective == "volume":
+            c = int(np.argmax(vol))
+            return c, float(vol[c]), "max volume"
+        if cfg.objective == "peak_torque":
+            c = int(np.argmin(peak))
+            return c, float(-peak[c]), "min peak torque"
+        if cfg.objective == "cumulative_torque":
+            c = int(np.argmin(cum))
+            return c, float(-cum[c]), "min cumulative torque"
+        enough = vol >= cfg.volume_threshold * self.capacity  # eq. 44
+        if enough.any():
+            c = int(np.argmin(np.where(enough, peak, np.inf)))
+            return c, float(1.0 - peak[c]), f"volume >= {100 * cfg.volume_threshold:.0f} % of capacity, min peak torque"
+        c = int(np.argmax(vol))
+        return c, 0.0, f"no dig reaches {100 * cfg.volume_threshold:.0f} % of capacity: max volume"
+
+
+def _steps(lo: float, hi: float, step: float) -> np.ndarray:
+    n = int(math.floor((hi - lo) / step + 1e-9)) + 1
+    return lo + step * np.arange(n)
