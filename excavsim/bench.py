@@ -213,6 +213,61 @@ def bench_sensing() -> list[Row]:
     ]
 
 
+def bench_planner(*, n_loop: int = 150) -> list[Row]:
+    """The exhaustive trenching planner over its ~10^4-cell grid, against a per-action loop.
+
+    All five constraints, the force constraint (nominal wedge predictor) included, on the flat
+    0.5 m fill and the goal of ``configs/trenches/straight.yaml``. The loop runs the same evaluation
+    one candidate at a time on ``n_loop`` cells spread over the grid; its time is scaled to the grid.
+    """
+    import mujoco
+
+    from excavsim.config import get_soil, load_planner_config, load_robot_config, load_trench_goal
+    from excavsim.planning.predictor import WedgePredictor
+    from excavsim.planning.trench import SurfaceProfile, TrenchPlanner
+    from excavsim.robot.kinematics import PlanarArm
+    from excavsim.robot.reachability import load_or_build
+    from excavsim.sensing.elevation import ElevationMap
+
+    model = mujoco.MjModel.from_xml_path(str(constants.SCENE_XML))
+    arm = PlanarArm.from_model(model)
+    table = load_or_build(arm)
+    robot = load_robot_config()
+    limits = np.array([robot.joints.shoulder.torque_limit_nm, robot.joints.elbow.torque_limit_nm,
+                       robot.joints.wrist_pitch.torque_limit_nm])
+    soil = get_soil("testbed_sand")
+    width = float(model.numeric(constants.BUCKET_WIDTH_NUMERIC).data[0])
+    capacity = float(model.numeric(constants.BUCKET_CAPACITY_NUMERIC).data[0])
+    planner = TrenchPlanner(arm, table, limits, width, capacity, load_trench_goal(constants.TRENCHES_DIR / "straight.yaml"),
+                            load_planner_config(), WedgePredictor(soil, width), soil.density_kg_m3)
+    emap = ElevationMap(0.55, -1.5, 0.05, np.full((60, 60), 0.5), np.ones((60, 60), bool), 0.0)
+    result = {}
+    t_plan = _best_of(lambda: result.setdefault("r", planner.plan(emap)), 3)
+    t_full = _best_of(lambda: planner.plan(emap, prune=False), 1)
+    res = result["r"]
+    n = res.feasible.size
+    surface = SurfaceProfile.from_map(emap, arm, 0.0, width)
+    kk, aa, dd = np.meshgrid(planner.grid_k, planner.grid_alpha, planner.grid_d1, indexing="ij")
+    cells = np.linspace(0, n - 1, n_loop).astype(int)
+
+    def loop():
+        for c in cells:
+            k, a, d = kk.ravel()[c:c + 1], aa.ravel()[c:c + 1], dd.ravel()[c:c + 1]
+            pen = planner.penetrate(k, a, d, surface)
+            planner._evaluate(np.array([0]), pen, planner.drag(pen[:, -1]), surface, capacity, True)
+
+    t_loop = _best_of(loop, 1) * n / n_loop
+    per_1e4 = t_plan * 1e4 / n
+    return [
+        ("planner: exhaustive search, pruned", per_1e4 * 1e3, "ms/1e4", f"{n} cells, {res.counts['evaluated']} "
+                                                                       f"evaluated; target <= 50 ms"),
+        ("planner: plans per second", n / t_plan, "cells/s", f"feasible {int(res.feasible.sum())}"),
+        ("planner: no pruning", t_full * 1e3, "ms", "every constraint on every cell"),
+        ("planner: per-action loop (same code)", t_loop * 1e3, "ms", f"timed on {n_loop} cells, scaled"),
+        ("planner: vectorized / loop", t_loop / t_plan, "x speed-up", ""),
+    ]
+
+
 BENCHMARKS: dict[str, Callable[[], list[Row]]] = {
     "step": bench_step_rate,
     "kinematics": bench_kinematics,
@@ -221,6 +276,7 @@ BENCHMARKS: dict[str, Callable[[], list[Row]]] = {
     "wedge": bench_wedge,
     "soil": bench_soil_coupling,
     "sensing": bench_sensing,
+    "planner": bench_planner,
 }
 
 

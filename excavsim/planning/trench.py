@@ -6,7 +6,10 @@ distance ``k``; **penetrate** a straight line at ``alpha`` below horizontal for 
 falls as ``max(zeta, rho_i - omega s)`` (eq. 1); **curl** about a centre ``r`` straight above the
 edge, turning the bucket to the end pitch, with the smallest radius of
 ``curl_radii_m`` whose end pose is reachable (§3.4.2.4, Fig. 23). ``d2`` is the dependent
-variable: the longest drag on a ``sample_spacing_m`` grid that satisfies every constraint.
+variable: the longest drag on a ``sample_spacing_m`` grid that satisfies every constraint. It is
+bounded by the constraints along the drag, then found by trying the curl from that bound down in
+strides of four samples and refining upwards; a feasible drag that lies between strides below the
+first feasible one can be missed (the curl's feasibility is not monotone in d2).
 
 Constraints (ch. 4, §5.3), each evaluated on the tip path sampled every ``sample_spacing_m``, as a
 vectorized mask over the candidates, cheapest first:
@@ -49,6 +52,7 @@ from excavsim.sensing.elevation import ElevationMap
 
 CONSTRAINTS = ("shaping", "sensible", "volume", "reachability", "force")
 _NO_DIG = -1
+_CURL_STRIDE = 4  # drag samples between the curls tried first
 
 
 def goal_profile(goal: TrenchGoal, x: np.ndarray) -> np.ndarray:
@@ -323,11 +327,42 @@ class TrenchPlanner:
         drag = np.stack([pen[-1, 0] - sd, np.full(n_d, pen[-1, 1]),
                          np.maximum(math.radians(self.cfg.zeta_deg),
                                     rho_p - math.radians(self.cfg.omega_deg_per_m) * sd)], axis=-1)
-        r = self.cfg.curl_radii_m[0] if radius is None else radius
-        curl = self.curl(drag[-1:], np.array([r]))[0]
+        if radius is None:  # the smallest radius whose end pose is reachable, as in the search
+            ends = np.concatenate([self.curl(drag[-1:], np.array([r_]))[:, -1] for r_ in self.cfg.curl_radii_m])
+            ok, _ = self._reach(ends[:, None, :])
+            radius = self.cfg.curl_radii_m[int(np.argmax(ok[:, 0]))] if ok.any() else self.cfg.curl_radii_m[0]
+        curl = self.curl(drag[-1:], np.array([radius]))[0]
         poses = np.concatenate([pen, drag[1:], curl[1:]])
         phases = np.concatenate([np.zeros(n_p), np.ones(n_d - 1), np.full(len(curl) - 1, 2)]).astype(np.int8)
         return poses, phases
+
+    def check_action(self, emap: ElevationMap, action: tuple[float, float, float, float],
+                     radius: float | None = None) -> dict[str, bool]:
+        """Each constraint's verdict on one fully specified dig (k, alpha, d1, d2), plus its volume.
+
+        The same tests as the search, on the whole path of this one action: for inspecting a dig,
+        and for the executor to re-check a plan against a fresh map.
+        """
+        cfg = self.cfg
+        surface = SurfaceProfile.from_map(emap, self.arm, math.radians(self.goal.waist_deg), self.width)
+        poses, phases = self.trajectory(action, surface, radius)
+        body = phases < 2
+        curl = poses[phases == 2]
+        shaping = bool(np.all(poses[:, 1] >= goal_profile(self.goal, poses[:, 0]) - cfg.shaping_tolerance_m))
+        in_soil = poses[body, 1] <= surface(poses[body, 0]) + cfg.surface_tolerance_m
+        above = curl[:, 1] > surface(curl[:, 0]) + cfg.surface_tolerance_m
+        exit_ok = (not above.any()) or curl[int(np.argmax(above)), 2] <= math.radians(cfg.curl_exit_pitch_deg)
+        vcum = np.concatenate([[0.0], np.cumsum(self._swept(poses, surface))])
+        reach, q = self._reach(poses[None])
+        reachable = bool(reach.all())
+        force = False
+        if reachable:
+            depth = np.maximum(surface(poses[:, 0]) - poses[:, 1], 0.0)
+            _, _, ratio = self._torque_ratio(poses, q[0], depth, vcum)
+            force = bool(ratio.max() <= 1.0)
+        return {"shaping": shaping, "sensible": bool(in_soil.all() and exit_ok),
+                "volume": bool(vcum[-1] <= cfg.fill_fraction * self.capacity), "reachability": reachable,
+                "force": force, "volume_m3": float(vcum[-1])}
 
     def _evaluate(self, idx, pen, drag, surface, vmax, prune) -> dict:
         """Constraints and the longest admissible drag for the cells ``idx`` (vectorized)."""
@@ -392,15 +427,14 @@ class TrenchPlanner:
             absum_d[fsel] = np.abs(tau).sum(axis=-1)
         d_force = ratio_d <= 1.0
         j_force = lead(d_force)
-        # The longest drag whose curl also passes: binary search over j below the prefix bound, all
-        # cells at once (the curl's volume grows and its room shrinks with j: feasibility is taken
-        # to be monotone in d2, the thesis' assumption of §3.4.1).
+        # The longest drag whose curl also passes. Feasibility is not monotone in d2 (a short drag
+        # leaves the rake too high to curl before the edge leaves the soil; a long one runs the curl
+        # into the near wall), so scan down from the prefix bound in strides, then refine upward.
         j_all = np.minimum(np.minimum(j_shape, j_sense), np.minimum(j_vol, np.minimum(j_reach, j_force)))
         pen_ok = p_shape & p_sense & p_reach & p_force
         best_j = np.full(m, _NO_DIG)
         best_r = np.zeros(m)
         res_curl = {key: np.full(m, np.nan) for key in ("volume", "peak", "cum")}
-
         stage["curl_evaluations"] = 0
 
         def try_curl(cells: np.ndarray, jj: np.ndarray) -> np.ndarray:
@@ -414,26 +448,19 @@ class TrenchPlanner:
                 res_curl[key][win] = v[better]
             return ok
 
-        lo = np.zeros(m, np.int64)
         hi = j_all - 1
-        cand = np.nonzero(pen_ok & (hi >= 0))[0]
-        if cand.size:
-            ok_hi = try_curl(cand, hi[cand])
-            rest = cand[~ok_hi]
-            rest = rest[hi[rest] > 0]
-            if rest.size:
-                ok_lo = try_curl(rest, lo[rest])
-                live = rest[ok_lo]  # feasible at 0, infeasible at hi: bisect
-                lo_l, hi_l = lo[live], hi[live]
-                while live.size:
-                    mid = (lo_l + hi_l) // 2
-                    step = hi_l - lo_l > 1
-                    if not step.any():
-                        break
-                    live, lo_l, hi_l, mid = live[step], lo_l[step], hi_l[step], mid[step]
-                    ok_mid = try_curl(live, mid)
-                    lo_l = np.where(ok_mid, mid, lo_l)
-                    hi_l = np.where(ok_mid, hi_l, mid)
+        stride = _CURL_STRIDE
+        for t in range(int(math.ceil(n_j / stride)) + 1):
+            jj = hi - stride * t
+            todo = np.nonzero(pen_ok & (jj >= 0) & (best_j == _NO_DIG))[0]
+            if todo.size == 0:
+                break
+            try_curl(todo, jj[todo])
+        for up in range(stride - 1, 0, -1):  # refine: the largest j in (found, found + stride)
+            jj = np.minimum(best_j + up, hi)
+            todo = np.nonzero((best_j >= 0) & (jj > best_j))[0]
+            if todo.size:
+                try_curl(todo, jj[todo])
         # Per-cell results.
         feasible = best_j >= 0
         jsafe = np.maximum(best_j, 0)
@@ -511,11 +538,12 @@ class TrenchPlanner:
         if not feasible.any():
             return None, 0.0, "no feasible dig"
         vol = np.where(feasible, res["volume"], -np.inf)
-        if vol.max() < cfg.min_volume_fraction * self.capacity:
+        useful = vol >= cfg.min_volume_fraction * self.capacity
+        if not useful.any():
             return None, float(vol.max()), (f"best dig sweeps {1000 * vol.max():.1f} l, below the minimum "
                                             f"{100 * cfg.min_volume_fraction:.0f} % of capacity")
-        peak = np.where(feasible, res["peak"], np.inf)
-        cum = np.where(feasible, res["cum"], np.inf)
+        peak = np.where(useful, res["peak"], np.inf)
+        cum = np.where(useful, res["cum"], np.inf)
         if cfg.objective == "volume":
             c = int(np.argmax(vol))
             return c, float(vol[c]), "max volume"
