@@ -120,8 +120,9 @@ def test_pruning_gives_the_same_answer_as_no_pruning(straight_plan):
 def test_a_weaker_wrist_shrinks_the_feasible_set_and_shortens_the_dig(arm, reach_table):
     """§7.2.2: 1000 -> 500 N m at the wrist. The nominal wedge forces of the testbed sand never load
     the wrist past 350 N m on this trench, so the comparison uses the lean clay of Table 1."""
-    strong = make_planner(arm, reach_table, soil="lean_clay").plan(flat_map())
-    weak = make_planner(arm, reach_table, soil="lean_clay", limits=np.array([25000.0, 12000.0, 500.0])).plan(flat_map())
+    strong = make_planner(arm, reach_table, soil="lean_clay").plan(flat_map(), classify_limits=True)
+    weak = make_planner(arm, reach_table, soil="lean_clay", limits=np.array([25000.0, 12000.0, 500.0])).plan(
+        flat_map(), classify_limits=True)
     assert weak.feasible.sum() < strong.feasible.sum()
     # Nearly a subset: d2 is found by a strided scan, which can land on a different drag length
     # when the force bound moves the scan's starting point.

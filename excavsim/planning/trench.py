@@ -45,9 +45,9 @@ import numpy as np
 from excavsim.config import PlannerConfig, TrenchGoal
 from excavsim.errors import ExcavsimError
 from excavsim.planning.predictor import ForcePredictor
+from excavsim.robot.fast import arm_params, ik_torques
 from excavsim.robot.kinematics import PlanarArm
 from excavsim.robot.reachability import ReachabilityTable
-from excavsim.robot.statics import static_joint_torques
 from excavsim.sensing.elevation import ElevationMap
 
 CONSTRAINTS = ("shaping", "sensible", "volume", "reachability", "force")
@@ -148,6 +148,8 @@ class TrenchPlanner:
         self.cfg = config
         self.predictor = predictor
         self.density = float(density)
+        self._arm_params = arm_params(arm)
+        self._load_tip = np.asarray(config.payload_com_tip_m, dtype=float)
         g = config.grid
         self.grid_k = _steps(g.k_min_m, g.k_max_m, g.k_step_m)
         self.grid_alpha = np.radians(_steps(g.alpha_min_deg, g.alpha_max_deg, g.alpha_step_deg))
@@ -206,31 +208,49 @@ class TrenchPlanner:
         dx = poses[..., :-1, 0] - poses[..., 1:, 0]
         return np.maximum(surface(xm) - zm, 0.0) * np.abs(dx) * self.width
 
+    def _ik(self, poses: np.ndarray, wrench: np.ndarray | None = None, payload: np.ndarray | None = None
+            ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """Compiled IK (and static torques when ``wrench`` is given) of flat poses (n, 3)."""
+        n = poses.shape[0]
+        q = np.empty((n, 3))
+        ok = np.empty(n, bool)
+        tau = np.empty((n, 3))
+        want = wrench is not None
+        ik_torques(self._arm_params, np.ascontiguousarray(poses, dtype=float),
+                   np.ascontiguousarray(wrench) if want else np.zeros((n, 3)),
+                   np.ascontiguousarray(payload) if want else np.zeros(n), self._load_tip, want, q, ok, tau)
+        return q, ok, tau
+
     def _reach(self, poses: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """Reachability (table, then exact IK on the table's survivors) and joint angles."""
         flat = poses.reshape(-1, 3)
         ok = self.table.contains(flat)
         q = np.full(flat.shape, np.nan)
         if ok.any():
-            qi, oki = self.arm.inverse(flat[ok])
+            qi, oki, _ = self._ik(flat[ok])
             q[ok] = qi
             ok[ok] = oki
         return ok.reshape(poses.shape[:-1]), q.reshape(poses.shape)
 
-    def _torque_ratio(self, poses: np.ndarray, q: np.ndarray, depth: np.ndarray, volume: np.ndarray
+    def _torque_ratio(self, poses: np.ndarray, depth: np.ndarray, volume: np.ndarray
                       ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-        """Predicted forces, joint torques and the largest torque/limit ratio per sample."""
+        """Predicted forces, static joint torques (eq. 28) and the largest torque/limit ratio per
+        sample; ``inf`` ratio where a pose is unreachable."""
         f = self.predictor.predict(depth, poses[..., 2], volume)
-        wrench = np.concatenate([f, np.zeros(f.shape[:-1] + (1,))], axis=-1)
-        tau = static_joint_torques(self.arm, q, wrench, payload_kg=self.density * volume,
-                                   payload_com_tip=np.asarray(self.cfg.payload_com_tip_m))
-        return f, tau, np.max(np.abs(tau) / self.limits, axis=-1)
+        shape = poses.shape[:-1]
+        wrench = np.concatenate([f.reshape(-1, 2), np.zeros((f[..., 0].size, 1))], axis=-1)
+        _, ok, tau = self._ik(poses.reshape(-1, 3), wrench, (self.density * volume).reshape(-1))
+        ratio = np.where(ok, np.max(np.abs(tau) / self.limits, axis=-1), np.inf)
+        return f, tau.reshape(shape + (3,)), ratio.reshape(shape)
 
     # -- the search -----------------------------------------------------------------------------
-    def plan(self, emap: ElevationMap, *, prune: bool = True) -> PlanResult:
+    def plan(self, emap: ElevationMap, *, prune: bool = True, classify_limits: bool = False) -> PlanResult:
         """Choose one dig on ``emap`` by exhaustive search over the grid (see the module docstring).
 
         Args:
+            classify_limits: also search once more with the force constraint off, so that
+                ``limiting`` tells geometry-limited cells (1) from force-limited ones (2, feasible
+                but for force: Fig. 87). Without it, every infeasible cell is marked 1.
             emap: the scanned elevation map (never the true terrain).
             prune: skip cells beyond the first goal-cutting penetration along d1 and evaluate
                 constraints cheapest first on survivors only; ``False`` evaluates every constraint
@@ -264,19 +284,29 @@ class TrenchPlanner:
         res_r = np.zeros(n)
         res = {key: np.full(n, np.nan) for key in ("volume", "peak", "cum")}
         masks = {c: np.zeros(n, bool) for c in CONSTRAINTS}
-        limiting = np.zeros(n, np.int8)  # 0 none/feasible, 1 geometry, 2 force
+        limiting = np.ones(n, np.int8)  # 0 feasible, 1 geometry (or unclassified), 2 force
         evaluated = 0
 
         idx = np.nonzero(alive)[0]
         if idx.size:
             evaluated = idx.size
-            out = self._evaluate(idx, pen[idx], drag_all[idx], surface, vmax, prune)
+            info = self._penetrations(k, alpha, d1, surface)
+            sub = {key: (v[idx] if isinstance(v, np.ndarray) else v) for key, v in info.items()}
+            out = self._evaluate(idx, pen[idx], drag_all[idx], surface, vmax, prune, sub)
             res_j[idx], res_r[idx] = out["j"], out["r"]
             for key in res:
                 res[key][idx] = out[key]
             for c in CONSTRAINTS:
                 masks[c][idx] = out["mask_" + c]
-            limiting[idx] = out["limiting"]
+            limiting[idx] = np.where(out["j"] >= 0, 0, 1)
+            if classify_limits:
+                saved = self.limits
+                self.limits = np.full(3, np.inf)
+                try:
+                    free = self._evaluate(idx, pen[idx], drag_all[idx], surface, vmax, prune)
+                finally:
+                    self.limits = saved
+                limiting[idx] = np.where(out["j"] >= 0, 0, np.where(free["j"] >= 0, 2, 1))
         counts["evaluated"] = evaluated
         counts.update({k_: int(v) for k_, v in (out.get("stage_counts", {}) if idx.size else {}).items()})
         feasible = res_j >= 0
@@ -296,11 +326,10 @@ class TrenchPlanner:
             j = int(res_j[c])
             action = (float(k[c]), float(alpha[c]), float(d1[c]), j * cfg.sample_spacing_m)
             poses, phases = self.trajectory(action, surface, radius=float(res_r[c]))
-            q = self.arm.inverse(poses)[0]
             steps = self._swept(poses, surface)
             vcum = np.concatenate([[0.0], np.cumsum(steps)])
             depth = np.maximum(surface(poses[:, 0]) - poses[:, 1], 0.0)
-            forces, torques, _ = self._torque_ratio(poses, q, depth, vcum)
+            forces, torques, _ = self._torque_ratio(poses, depth, vcum)
             vol = float(res["volume"][c])
         return PlanResult(
             action=action, reason=reason, utility=utility, volume_m3=vol, poses=poses, phases=phases, forces=forces,
@@ -353,27 +382,97 @@ class TrenchPlanner:
         above = curl[:, 1] > surface(curl[:, 0]) + cfg.surface_tolerance_m
         exit_ok = (not above.any()) or curl[int(np.argmax(above)), 2] <= math.radians(cfg.curl_exit_pitch_deg)
         vcum = np.concatenate([[0.0], np.cumsum(self._swept(poses, surface))])
-        reach, q = self._reach(poses[None])
+        reach, _ = self._reach(poses[None])
         reachable = bool(reach.all())
         force = False
         if reachable:
             depth = np.maximum(surface(poses[:, 0]) - poses[:, 1], 0.0)
-            _, _, ratio = self._torque_ratio(poses, q[0], depth, vcum)
+            _, _, ratio = self._torque_ratio(poses, depth, vcum)
             force = bool(ratio.max() <= 1.0)
         return {"shaping": shaping, "sensible": bool(in_soil.all() and exit_ok),
                 "volume": bool(vcum[-1] <= cfg.fill_fraction * self.capacity), "reachability": reachable,
                 "force": force, "volume_m3": float(vcum[-1])}
 
-    def _evaluate(self, idx, pen, drag, surface, vmax, prune) -> dict:
-        """Constraints and the longest admissible drag for the cells ``idx`` (vectorized)."""
+    def _penetration_verdicts(self, pen: np.ndarray, surface: SurfaceProfile, prune: bool) -> dict:
+        """Shaping, sensible, reachability, force, volume and torque sums of penetrations (m, P, 3)."""
+        cfg = self.cfg
+        m = pen.shape[0]
+        shape = np.all(pen[..., 1] >= goal_profile(self.goal, pen[..., 0]) - cfg.shaping_tolerance_m, axis=1)
+        sense = np.all(pen[..., 1] <= surface(pen[..., 0]) + cfg.surface_tolerance_m, axis=1)
+        steps = self._swept(pen, surface)
+        reach = self._reach(pen)[0].all(axis=1)
+        vcum = np.concatenate([np.zeros((m, 1)), np.cumsum(steps, axis=1)], axis=1)
+        depth = np.maximum(surface(pen[..., 0]) - pen[..., 1], 0.0)
+        peak = np.full(m, np.inf)
+        cum = np.zeros(m)
+        sel = reach if prune else np.ones(m, bool)
+        if sel.any():
+            _, tau, ratio = self._torque_ratio(pen[sel], depth[sel], vcum[sel])
+            peak[sel] = ratio.max(axis=1)
+            cum[sel] = (np.nan_to_num(np.abs(tau)).sum(axis=-1)[:, 1:] * self._step_len(pen[sel])).sum(axis=1)
+        return {"shape": shape, "sense": sense, "reach": reach, "force": peak <= 1.0, "peak": peak, "cum": cum,
+                "volume": steps.sum(axis=1), "samples": int(pen.shape[0] * pen.shape[1])}
+
+    def _penetrations(self, k: np.ndarray, alpha: np.ndarray, d1: np.ndarray, surface: SurfaceProfile) -> dict:
+        """Penetration verdicts for the whole grid, sharing the work along each (k, alpha) line.
+
+        Every penetration of a (k, alpha) pair lies on one line from the entry point; its samples at
+        multiples of the spacing are evaluated once per line and each cell adds only its end point
+        (prefix AND / max / sum over the line's samples before d1).
+        """
+        nk, na, nd = self.grid_shape
+        ds = self.cfg.sample_spacing_m
+        n_s = int(math.ceil(self.grid_d1.max() / ds)) + 1
+        kl = np.repeat(self.grid_k, na)
+        al = np.tile(self.grid_alpha, nk)
+        line = self.penetrate(kl, al, np.full(kl.size, (n_s - 1) * ds), surface)  # (L, n_s, 3), unclamped
+        cfg = self.cfg
+        shape_i = line[..., 1] >= goal_profile(self.goal, line[..., 0]) - cfg.shaping_tolerance_m
+        sense_i = line[..., 1] <= surface(line[..., 0]) + cfg.surface_tolerance_m
+        steps = self._swept(line, surface)
+        vcum = np.concatenate([np.zeros((line.shape[0], 1)), np.cumsum(steps, axis=1)], axis=1)
+        reach_i = self._reach(line)[0]
+        depth = np.maximum(surface(line[..., 0]) - line[..., 1], 0.0)
+        _, tau, ratio = self._torque_ratio(line, depth, vcum)
+        tsum = np.nan_to_num(np.abs(tau)).sum(axis=-1)
+        cum_i = np.concatenate([np.zeros((line.shape[0], 1)), np.cumsum(tsum[:, 1:] * ds, axis=1)], axis=1)
+        # per cell: line samples 0 .. c-1 lie before d1, then the end point at d1
+        li = np.arange(nk * na).repeat(nd)
+        c = np.clip(np.ceil(d1 / ds - 1e-9).astype(np.int64), 1, n_s)
+        last = c - 1
+        cumall = lambda ok: np.cumprod(ok, axis=1).astype(bool)  # noqa: E731
+        end = np.stack([k - d1 * np.cos(alpha), surface(k) - d1 * np.sin(alpha),
+                        alpha + math.radians(cfg.epsilon_deg)], axis=-1)
+        prev = line[li, last]
+        seg = np.stack([prev, end], axis=1)
+        v_end = vcum[li, last] + self._swept(seg, surface)[:, 0]
+        end_reach = self._reach(end[:, None, :])[0][:, 0]
+        _, tau_e, ratio_e = self._torque_ratio(end, np.maximum(surface(end[:, 0]) - end[:, 1], 0.0), v_end)
+        peak_line = np.maximum.accumulate(np.where(np.isfinite(ratio), ratio, np.inf), axis=1)
+        shape = cumall(shape_i)[li, last] & (end[:, 1] >= goal_profile(self.goal, end[:, 0]) - cfg.shaping_tolerance_m)
+        sense = cumall(sense_i)[li, last] & (end[:, 1] <= surface(end[:, 0]) + cfg.surface_tolerance_m)
+        reach = cumall(reach_i)[li, last] & end_reach
+        peak = np.where(reach, np.maximum(peak_line[li, last], ratio_e), np.inf)
+        seg_len = np.linalg.norm(end[:, :2] - prev[:, :2], axis=1)
+        cum = cum_i[li, last] + np.nan_to_num(np.abs(tau_e)).sum(axis=-1) * seg_len
+        return {"shape": shape, "sense": sense, "reach": reach, "force": peak <= 1.0, "peak": peak, "cum": cum,
+                "volume": v_end, "samples": int(line.shape[0] * n_s + k.size)}
+
+    def _evaluate(self, idx, pen, drag, surface, vmax, prune, pen_info: dict | None = None) -> dict:
+        """Constraints and the longest admissible drag for the cells ``idx`` (vectorized).
+
+        ``pen_info`` (from :meth:`_penetrations`) supplies the penetration's verdicts, computed once
+        per (k, alpha) line; without it they are computed here from ``pen``.
+        """
         cfg = self.cfg
         m, n_j = drag.shape[:2]
         tol_shape, tol_surf = cfg.shaping_tolerance_m, cfg.surface_tolerance_m
         stage = {}
-        # Penetration geometry per cell.
-        p_shape = np.all(pen[..., 1] >= goal_profile(self.goal, pen[..., 0]) - tol_shape, axis=1)
-        p_sense = np.all(pen[..., 1] <= surface(pen[..., 0]) + tol_surf, axis=1)
-        v_pen = self._swept(pen, surface).sum(axis=1)
+        if pen_info is None:
+            pen_info = self._penetration_verdicts(pen, surface, prune)
+        p_shape, p_sense, v_pen = pen_info["shape"], pen_info["sense"], pen_info["volume"]
+        p_reach, p_force = pen_info["reach"], pen_info["force"]
+        peak_p, cum_p = pen_info["peak"], pen_info["cum"]
         # Drag prefixes: count of leading samples passing each cheap constraint.
         d_shape = drag[..., 1] >= goal_profile(self.goal, drag[..., 0]) - tol_shape
         d_sense = drag[..., 1] <= surface(drag[..., 0]) + tol_surf
@@ -386,45 +485,24 @@ class TrenchPlanner:
         j_geo = np.where(p_shape & p_sense, j_geo, 0) if prune else np.full(m, n_j)
         # Reachability on penetrate + drag samples (only up to j_geo when pruning).
         live = np.arange(n_j)[None, :] < np.maximum(j_geo, 1)[:, None] if prune else np.ones((m, n_j), bool)
-        p_reach, q_pen = self._reach(pen)
-        p_reach = p_reach.all(axis=1)
         d_reach = np.zeros((m, n_j), bool)
-        q_drag = np.full(drag.shape, np.nan)
         sel = live & (p_reach[:, None] | (not prune))
-        stage["reach_samples"] = int(sel.sum()) + pen.shape[0] * pen.shape[1]
+        stage["reach_samples"] = int(sel.sum()) + pen_info["samples"]
         if sel.any():
-            ok, q = self._reach(drag[sel])
-            d_reach[sel] = ok
-            q_drag[sel] = q
+            d_reach[sel] = self._reach(drag[sel])[0]
         j_reach = lead(d_reach)
-        # Force on penetrate + drag samples that are geometrically live.
-        depth_pen = np.maximum(surface(pen[..., 0]) - pen[..., 1], 0.0)
-        v_pen_cum = np.concatenate([np.zeros((m, 1)), np.cumsum(self._swept(pen, surface), axis=1)], axis=1)
-        fsel_p = p_reach if prune else np.ones(m, bool)
-        p_force = np.zeros(m, bool)
-        peak_p = np.full(m, np.inf)
-        cum_p = np.zeros(m)
-        if fsel_p.any():
-            qp = np.where(np.isfinite(q_pen[fsel_p]), q_pen[fsel_p], 0.0)
-            _, tau, ratio = self._torque_ratio(pen[fsel_p], qp, depth_pen[fsel_p], v_pen_cum[fsel_p])
-            ratio = np.where(np.isfinite(q_pen[fsel_p]).all(axis=-1), ratio, np.inf)
-            peak_p[fsel_p] = ratio.max(axis=1)
-            cum_p[fsel_p] = (np.abs(tau).sum(axis=-1)[:, 1:] * self._step_len(pen[fsel_p])).sum(axis=1)
-            p_force = peak_p <= 1.0
+        # Force on the drag samples that are geometrically live.
         j_live = np.minimum(j_geo, j_reach) if prune else np.full(m, n_j)
         fsel = (np.arange(n_j)[None, :] < np.maximum(j_live, 1)[:, None]) & p_force[:, None] if prune else \
             np.ones((m, n_j), bool)
         ratio_d = np.full((m, n_j), np.inf)
         absum_d = np.zeros((m, n_j))
-        stage["force_samples"] = int(fsel.sum()) + int(fsel_p.sum()) * pen.shape[1]
+        stage["force_samples"] = int(fsel.sum()) + pen_info["samples"]
         if fsel.any():
             depth_d = np.maximum(surface(drag[..., 0]) - drag[..., 1], 0.0)
-            qd = q_drag[fsel]
-            good = np.isfinite(qd).all(axis=-1)
-            _, tau, ratio = self._torque_ratio(drag[fsel], np.where(np.isfinite(qd), qd, 0.0), depth_d[fsel],
-                                               v_cum[fsel])
-            ratio_d[fsel] = np.where(good, ratio, np.inf)
-            absum_d[fsel] = np.abs(tau).sum(axis=-1)
+            _, tau, ratio = self._torque_ratio(drag[fsel], depth_d[fsel], v_cum[fsel])
+            ratio_d[fsel] = ratio
+            absum_d[fsel] = np.nan_to_num(np.abs(tau)).sum(axis=-1)
         d_force = ratio_d <= 1.0
         j_force = lead(d_force)
         # The longest drag whose curl also passes. Feasibility is not monotone in d2 (a short drag
@@ -474,11 +552,8 @@ class TrenchPlanner:
         cum = np.where(feasible, cum_p + cum_d[rows, jsafe] + res_curl["cum"], np.nan)
         # Per-constraint masks at the shortest drag (j = 0), and which kind of constraint limits.
         geo0 = d_shape[:, 0] & d_sense[:, 0] & d_vol[:, 0]
-        limiting = np.where(feasible, 0, np.where(pen_ok | ~p_force, 2, 1)).astype(np.int8)
-        limiting = np.where(~feasible & p_shape & p_sense & p_reach & ~p_force, 2, limiting)
-        limiting = np.where(~feasible & ~(p_shape & p_sense & p_reach), 1, limiting)
         return {
-            "j": best_j, "r": best_r, "volume": volume, "peak": peak, "cum": cum, "limiting": limiting,
+            "j": best_j, "r": best_r, "volume": volume, "peak": peak, "cum": cum,
             "mask_shaping": p_shape & d_shape[:, 0], "mask_sensible": p_sense & d_sense[:, 0],
             "mask_volume": d_vol[:, 0], "mask_reachability": p_reach & d_reach[:, 0] if not prune else p_reach,
             "mask_force": p_force & (d_force[:, 0] | ~geo0), "stage_counts": stage,
@@ -520,16 +595,15 @@ class TrenchPlanner:
         steps = self._swept(poses, surface)
         vol = v_before[h][:, None] + np.concatenate([np.zeros((len(h), 1)), np.cumsum(steps, axis=1)], axis=1)
         vol_ok = vol[:, -1] <= vmax
-        reach_ok, q = self._reach(poses)
+        reach_ok, _ = self._reach(poses)
         reach_ok = reach_ok.all(axis=1)
         depth = np.maximum(surface(poses[..., 0]) - poses[..., 1], 0.0)
-        _, tau, ratio = self._torque_ratio(poses, np.where(np.isfinite(q), q, 0.0), depth, vol)
-        ratio = np.where(np.isfinite(q).all(axis=-1), ratio, np.inf)
+        _, tau, ratio = self._torque_ratio(poses, depth, vol)
         force_ok = ratio.max(axis=1) <= 1.0
         ok[h] = shape_ok & sense_ok & vol_ok & reach_ok & force_ok
         extra["volume"][h] = vol[:, -1] - v_before[h]
         extra["peak"][h] = ratio.max(axis=1)
-        extra["cum"][h] = (np.abs(tau).sum(axis=-1)[:, 1:] * self._step_len(poses)).sum(axis=1)
+        extra["cum"][h] = (np.nan_to_num(np.abs(tau)).sum(axis=-1)[:, 1:] * self._step_len(poses)).sum(axis=1)
         return ok, np.nan_to_num(radius), extra
 
     def _choose(self, feasible: np.ndarray, res: dict) -> tuple[int | None, float, str]:
