@@ -45,6 +45,94 @@ def _cmd_validate(args: argparse.Namespace) -> int:
     return 0
 
 
+def _cmd_plan(args: argparse.Namespace) -> int:
+    import math
+    import pathlib
+    import time
+
+    import mujoco
+    import numpy as np
+
+    from excavsim import constants
+    from excavsim.config import get_soil, load_planner_config, load_robot_config, load_trench_goal
+    from excavsim.planning.predictor import WedgePredictor
+    from excavsim.planning.trench import SurfaceProfile, TrenchPlanner
+    from excavsim.robot.kinematics import PlanarArm
+    from excavsim.robot.reachability import load_or_build
+    from excavsim.sensing.elevation import ElevationMap
+
+    goal = load_trench_goal(args.goal or constants.TRENCHES_DIR / "straight.yaml")
+    config = load_planner_config(args.planner_config)
+    robot = load_robot_config(args.robot_config)
+    soil = get_soil(args.soil)
+    if args.map:
+        emap, map_label = ElevationMap.load(args.map), args.map
+    else:  # the soil box of models/soil_box (3 m square from x = 0.55 m), flat at the 0.5 m fill
+        emap = ElevationMap(0.55, -1.5, 0.05, np.full((60, 60), 0.5), np.ones((60, 60), bool), 0.0)
+        map_label = "flat 0.5 m fill"
+    joints = robot.joints
+    wrist = joints.wrist_pitch.torque_limit_nm if args.wrist_limit is None else args.wrist_limit
+    if not (math.isfinite(wrist) and wrist > 0):
+        raise ExcavsimError(f"--wrist-limit must be a positive torque [N m]; given {args.wrist_limit}")
+    limits = np.array([joints.shoulder.torque_limit_nm, joints.elbow.torque_limit_nm, wrist])
+
+    model = mujoco.MjModel.from_xml_path(str(constants.SCENE_XML))
+    arm = PlanarArm.from_model(model)
+    width = float(model.numeric(constants.BUCKET_WIDTH_NUMERIC).data[0])
+    capacity = float(model.numeric(constants.BUCKET_CAPACITY_NUMERIC).data[0])
+    print(f"excavsim plan: trench {goal.name or args.goal!r} on {map_label}, soil {args.soil}, "
+          f"objective {config.objective}")
+    t0 = time.perf_counter()
+    table = load_or_build(arm)  # built and cached on first use (a few seconds)
+    t_table = time.perf_counter() - t0
+    planner = TrenchPlanner(arm, table, limits, width, capacity, goal, config, WedgePredictor(soil, width),
+                            soil.density_kg_m3)
+    # The figures show every constraint's set over the whole grid, so they need the unpruned search
+    # (same answer, slower); without figures the planner searches as the loop does.
+    result = planner.plan(emap, prune=args.no_figures, classify_limits=not args.no_figures)
+
+    rows = []
+    if result.action is None:
+        rows.append(("action", f"none: {result.reason}"))
+    else:
+        k, alpha, d1, d2 = result.action
+        rows.append(("action", f"k {k:.2f} m   alpha {math.degrees(alpha):.1f} deg   d1 {d1:.3f} m   d2 {d2:.3f} m"))
+        rows.append(("objective", f"{result.reason} (utility {result.utility:.3f})"))
+        rows.append(("volume", f"{1000 * result.volume_m3:.1f} l of {1000 * capacity:.1f} l capacity "
+                               f"({100 * result.volume_m3 / capacity:.0f} %)"))
+        peaks = np.abs(result.torques).max(axis=0)
+        for name, peak, limit in zip(("shoulder", "elbow", "wrist pitch"), peaks, limits):
+            rows.append((f"torque {name}", f"peak {peak:7.0f} N m of {limit:7.0f} N m ({100 * peak / limit:3.0f} %)"))
+    counts = result.counts
+    n_force = int(np.sum(~result.feasible & (result.limiting == 2)))
+    n_geometry = int(np.sum(~result.feasible)) - n_force
+    rows.append(("cells", f"{int(result.feasible.sum())} feasible of {counts['cells']} (geometry-limited "
+                          f"{n_geometry}, force-limited {n_force}); evaluated {counts['evaluated']}, "
+                          f"pruned along d1 {counts['pruned_d1']}"))
+    search = "pruned search" if args.no_figures else "unpruned: every constraint on every cell, for the figures"
+    rows.append(("time", f"planning {result.seconds:.2f} s ({search}); reachability table {t_table:.1f} s"))
+    width_col = max(len(r[0]) for r in rows)
+    for label, text in rows:
+        print(f"  {label:<{width_col}}  {text}")
+
+    if not args.no_figures:
+        from excavsim.planning import figures
+
+        out = pathlib.Path(args.out)
+        paths = [figures.plot_feasible_sets(result, out / "feasible_sets.png",
+                                            min_volume_m3=config.volume_threshold * capacity),
+                 figures.plot_limits(result, out / "limits.png")]
+        if result.action is not None:
+            surface = SurfaceProfile.from_map(emap, arm, math.radians(goal.waist_deg), width)
+            paths.append(figures.plot_dig(result, goal, surface, out / "dig.png", torque_limits_nm=limits))
+        else:
+            print("  (no dig chosen: no dig figure)")
+        print("figures:")
+        for p in paths:
+            print(f"  {p}")
+    return 0
+
+
 def build_parser() -> argparse.ArgumentParser:
     """The argument parser of the ``excavsim`` command."""
     parser = argparse.ArgumentParser(prog="excavsim", description="MuJoCo testbed for robotic trenching.")
@@ -64,6 +152,19 @@ def build_parser() -> argparse.ArgumentParser:
     validate.add_argument("kind", choices=["robot", "scene", "soils", "sensing"], help="what the file configures")
     validate.add_argument("file", help="the YAML file")
     validate.set_defaults(func=_cmd_validate)
+
+    plan = sub.add_parser("plan", help="plan one dig of a trench on an elevation map, print it and draw figures")
+    plan.add_argument("--goal", metavar="YAML", help="trench goal (default configs/trenches/straight.yaml)")
+    plan.add_argument("--map", metavar="NPZ", help="elevation map written by excavsim (default: flat 0.5 m sand)")
+    plan.add_argument("--planner-config", metavar="YAML", help="planner configuration (default configs/planner.yaml)")
+    plan.add_argument("--robot-config", metavar="YAML", help="torque limits (default configs/robot.yaml)")
+    plan.add_argument("--soil", metavar="NAME", default="testbed_sand",
+                      help="soil preset of configs/soils.yaml the force predictor assumes (default testbed_sand)")
+    plan.add_argument("--wrist-limit", metavar="NM", type=float,
+                      help="wrist pitch torque limit [N m] (default: the robot configuration's)")
+    plan.add_argument("--out", metavar="DIR", default="runs/plan", help="where the figures go (default runs/plan)")
+    plan.add_argument("--no-figures", action="store_true", help="only print the plan (pruned search, faster)")
+    plan.set_defaults(func=_cmd_plan)
     return parser
 
 
