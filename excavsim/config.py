@@ -315,6 +315,36 @@ class PlannerConfig(_Strict):
         return self
 
 
+class ExecutorConfig(_Strict):
+    """``configs/executor.yaml``: numbers of the trenching dig script (execution.dig)."""
+
+    approach_height_m: float = Field(default=0.12, gt=0, le=1, description="start of touch-down above the map [m]")
+    touch_speed_m_s: float = Field(default=0.05, gt=0, le=1, description="descent speed while seeking contact")
+    touch_pitch_deg: float = Field(default=10.0, ge=-30, le=90,
+                                   description="bucket pitch during touch-down: nearly flat, so the bottom meets the soil")
+    touch_force_n: float = Field(default=120.0, gt=0, le=1e4, description="F/T force that signals contact [N]")
+    touch_sink_m: float = Field(
+        default=0.03, ge=0, le=0.5,
+        description="how far the edge sinks into the soil before the force registers (calibrated on known flat sand) [m]",
+    )
+    touch_search_m: float = Field(default=0.15, gt=0, le=1, description="how far below the map to keep seeking [m]")
+    touch_warn_m: float = Field(default=0.04, gt=0, le=1,
+                                description="contact this far from the map is reported (§7.1.3 failure modes) [m]")
+    path_speed_m_s: float = Field(default=0.15, gt=0, le=2, description="tip speed along the planned path")
+    lift_height_m: float = Field(default=1.1, gt=0, le=2.5, description="tip height after lift-out [m]")
+    spoil_waist_deg: float = Field(default=40.0, ge=-45, le=100, description="waist angle of the spoil area")
+    dump_pose: list[float] = Field(default=[1.7, 1.3, 100.0], min_length=3, max_length=3,
+                                   description="tip (x m, z m, pitch deg) to dump at")
+    empty_force_n: float = Field(default=40.0, gt=0, le=1e4, description="F/T force below which the bucket is empty")
+    park_joints_deg: list[float] = Field(default=[149.0, 68.8, -137.5, -34.4], min_length=4, max_length=4,
+                                         description="waist, shoulder, elbow, wrist pitch when parked [deg]")
+    settle_tol_rad: float = Field(default=0.01, gt=0, le=1, description="joint error that counts as reached")
+    move_timeout_s: float = Field(default=20.0, gt=0, le=600, description="longest any one move may take")
+    stall_torque_fraction: float = Field(default=0.97, gt=0, le=1, description="torque/limit that counts as saturated")
+    stall_error_rad: float = Field(default=0.02, gt=0, le=1, description="tracking error that counts as lagging")
+    stall_time_s: float = Field(default=0.5, gt=0, le=10, description="how long both must last to declare a stall")
+
+
 class SoilParams(_Strict):
     """Mohr-Coulomb soil and soil-tool parameters (000_a3ca905d8c6d92bf.txt §5.1.1, eq. 2, Table 1).
 
@@ -474,3 +504,8 @@ def load_planner_config(path: str | pathlib.Path | None = None) -> PlannerConfig
 def load_trench_goal(path: str | pathlib.Path) -> TrenchGoal:
     """Load a trench goal (``configs/trenches/*.yaml``)."""
     return load_config(path, TrenchGoal)
+
+
+def load_executor_config(path: str | pathlib.Path | None = None) -> ExecutorConfig:
+    """Load ``configs/executor.yaml`` (or ``path``)."""
+    return load_config(path or constants.EXECUTOR_YAML, ExecutorConfig)

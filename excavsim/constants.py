@@ -20,6 +20,7 @@ SCENE_YAML = CONFIGS_DIR / "scene.yaml"
 SOILS_YAML = CONFIGS_DIR / "soils.yaml"
 SENSING_YAML = CONFIGS_DIR / "sensing.yaml"
 PLANNER_YAML = CONFIGS_DIR / "planner.yaml"
+EXECUTOR_YAML = CONFIGS_DIR / "executor.yaml"
 TRENCHES_DIR = CONFIGS_DIR / "trenches"
 
 # Joints, in qpos order; actuators carry the joint name without the suffix (Menagerie convention).

@@ -1,0 +1,347 @@
+"""The trenching dig script and its executor (000_a3ca905d8c6d92bf.txt §7.1.3, 001_0de172b0d6b3614b.txt §4).
+
+:func:`dig_script` fills the fixed structure of a dig with the numbers of one plan. The arm group
+(shoulder, elbow, wrist pitch) runs: move above the entry; **touch-down** (descend until the F/T
+force stays above a threshold for three control ticks, the ``contact`` event); **dig** along the planned path shifted by the offset touch-down found;
+**lift out**; **dump** once the waist has reached the spoil side; **park** once the bucket reads
+empty. The waist runs: turn to the dig plane; when the arm has lifted, swing to the spoil area; when
+the bucket is empty, swing to park. Couplings are conditions on the other joints and on events the
+executor raises (``contact``, ``path_done``, ``lifted``, ``empty``).
+
+:class:`DigExecutor` ticks the :class:`~excavsim.execution.script.ScriptEngine` at the control rate,
+turns Cartesian path commands into joint targets through IK, watches for **stalls** (a joint at its
+relief limit that lags its target for ``stall_time_s``): the dig is then stopped and the bucket
+backed out along the path it took, before lifting, dumping and parking as usual. No physical failure
+raises: the :class:`ExecutionRecord` says what happened. Compliance (§5.4) is not implemented yet.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import math
+
+import numpy as np
+
+from excavsim import constants
+from excavsim.config import ExecutorConfig
+from excavsim.errors import ExcavsimError
+from excavsim.execution.script import (Command, Script, ScriptEngine, Sense, Step, SubScript, all_of, always, any_of,
+                                       event, reached)
+from excavsim.robot.kinematics import PlanarArm
+from excavsim.sensing.ft import ForceSensor
+from excavsim.world.simulation import Observation, Simulation
+
+ARM = ("shoulder_joint", "elbow_joint", "wrist_pitch_joint")
+WAIST = "waist_joint"
+
+
+@dataclasses.dataclass(frozen=True)
+class DigPlan:
+    """What the executor needs from a plan: the tip path in the arm plane and where it is.
+
+    Attributes:
+        poses: (S, 3) planned tip poses (x, z, pitch) [m, m, rad] from entry to the end of the curl.
+        phases: (S,) 0 penetrate, 1 drag, 2 curl.
+        waist: waist angle of the arm plane [rad].
+        volume_m3: swept volume the planner predicted.
+    """
+
+    poses: np.ndarray
+    phases: np.ndarray
+    waist: float
+    volume_m3: float
+
+
+@dataclasses.dataclass
+class ExecutionRecord:
+    """What happened during one dig (sensor-level, plus the soil in the bucket as privileged truth)."""
+
+    outcome: str = "running"
+    planned_path: np.ndarray | None = None
+    executed_path: list[np.ndarray] = dataclasses.field(default_factory=list)
+    ft: list[tuple[float, np.ndarray]] = dataclasses.field(default_factory=list)
+    torques: list[np.ndarray] = dataclasses.field(default_factory=list)
+    times: list[float] = dataclasses.field(default_factory=list)
+    phase_times: dict[str, float] = dataclasses.field(default_factory=dict)
+    touch_expected_z: float = float("nan")
+    touch_found_z: float = float("nan")
+    touch_offset_m: float = 0.0
+    warnings: list[str] = dataclasses.field(default_factory=list)
+    stall: dict | None = None
+    planned_volume_m3: float = 0.0
+    bucket_volume_m3: float = float("nan")  # truth: soil in the bucket at lift-out
+    script_text: str = ""
+
+    @property
+    def completed(self) -> bool:
+        return self.outcome == "completed"
+
+    def path_error(self) -> float:
+        """Largest distance of the executed tip path (dig phase) from the planned path [m]."""
+        if self.planned_path is None or not self.executed_path:
+            return float("nan")
+        plan = self.planned_path[:, :2]
+        ex = np.asarray(self.executed_path)[:, :2]
+        # distance of each executed point to the planned polyline
+        a, b = plan[:-1], plan[1:]
+        ab = b - a
+        t = np.clip(np.einsum("nij,ij->ni", ex[:, None, :] - a[None], ab) / np.maximum((ab * ab).sum(1), 1e-12), 0, 1)
+        d = np.linalg.norm(ex[:, None, :] - (a[None] + t[..., None] * ab[None]), axis=-1)
+        return float(d.min(axis=1).max())
+
+
+def touch_pitch(plan: DigPlan, arm: PlanarArm, cfg: ExecutorConfig) -> float:
+    """The flattest pitch, from ``touch_pitch_deg`` up to the entry's, at which the whole vertical
+    touch-down descent above the entry is reachable [rad]."""
+    entry = plan.poses[0]
+    for deg in np.arange(cfg.touch_pitch_deg, math.degrees(entry[2]) + 5.0, 5.0):
+        pitch = min(math.radians(deg), float(entry[2]))
+        z = np.linspace(entry[1] - cfg.touch_search_m, entry[1] + cfg.approach_height_m, 8)
+        if arm.reachable(np.stack([np.full(8, entry[0]), z, np.full(8, pitch)], axis=-1)).all():
+            return pitch
+    return float(entry[2])
+
+
+def dig_script(plan: DigPlan, arm: PlanarArm, cfg: ExecutorConfig) -> Script:
+    """The trenching dig script with this plan's numbers (see the module docstring)."""
+    entry = plan.poses[0]
+    above = np.array([entry[0], entry[1] + cfg.approach_height_m, touch_pitch(plan, arm, cfg)])
+    q_above, ok = arm.inverse(above)
+    pre_dump = np.array([cfg.dump_pose[0], cfg.dump_pose[1], plan.poses[-1, 2]])
+    q_dump, ok_dump = arm.inverse(pre_dump)
+    if not ok or not ok_dump:
+        raise ExcavsimError(f"dig script: the pose above the entry {above.round(3)} or the dump pose "
+                            f"{cfg.dump_pose} is out of reach")
+    park = np.radians(cfg.park_joints_deg)
+    tol = cfg.settle_tol_rad
+    late = event("step_timeout")  # a move that does not settle in time does not hang the dig
+    at_above = any_of(all_of(*(reached(j, tol) for j in (WAIST,) + ARM)), late)
+    arm_steps = (
+        Step("above entry", always(), Command(tuple(q_above))),
+        Step("touch-down", at_above, Command(path="touchdown")),
+        Step("dig", event("contact"), Command(path="dig")),
+        Step("lift out", any_of(event("path_done:dig"), late), Command(path="lift")),
+        Step("hold lifted", any_of(event("path_done:lift"), late), Command()),
+        Step("over spoil", any_of(reached(WAIST, tol), late), Command(tuple(q_dump))),
+        Step("dump", any_of(all_of(*(reached(j, tol) for j in ARM)), late), Command(path="dump")),
+        Step("park", any_of(event("empty"), late), Command(tuple(park[1:]))),
+    )
+    waist_steps = (
+        Step("dig plane", always(), Command((plan.waist,))),
+        Step("swing to spoil", any_of(event("path_done:lift"), event("lift_timeout")),
+             Command((math.radians(cfg.spoil_waist_deg),))),
+        Step("swing to park", event("empty"), Command((park[0],))),
+    )
+    return Script("trench dig", (SubScript(ARM, arm_steps), SubScript((WAIST,), waist_steps)))
+
+
+class DigExecutor:
+    """Runs one planned dig in the simulation (see the module docstring).
+
+    Args:
+        sim: the world.
+        arm: the robot's planar kinematics.
+        cfg: the script's numbers.
+    """
+
+    def __init__(self, sim: Simulation, arm: PlanarArm, cfg: ExecutorConfig):
+        self.sim = sim
+        self.arm = arm
+        self.cfg = cfg
+        self.ft = ForceSensor(sim.model)
+        names = list(constants.JOINTS)
+        self._arm_idx = [names.index(j) for j in ARM]
+        self._waist_idx = names.index(WAIST)
+        self._names = names
+
+    def run(self, plan: DigPlan) -> ExecutionRecord:
+        """Execute ``plan``; never raises for a physical failure (the record's ``outcome`` says)."""
+        cfg = self.cfg
+        sim = self.sim
+        rec = ExecutionRecord(planned_volume_m3=plan.volume_m3)
+        script = dig_script(plan, self.arm, cfg)
+        rec.script_text = script.describe()
+        engine = ScriptEngine(script)
+        entry = plan.poses[0]
+        rec.touch_expected_z = float(entry[1])
+        tp = touch_pitch(plan, self.arm, cfg)
+        paths: dict[str, np.ndarray] = {
+            "touchdown": np.array([[entry[0], entry[1] + cfg.approach_height_m, tp],
+                                   [entry[0], entry[1] - cfg.touch_search_m, tp]]),
+        }
+        cursor: dict[str, float] = {}
+        events: set[str] = set()
+        target = sim.observe().q.copy()
+        stall_since = None
+        empty_since = None
+        contact_ticks = 0
+        lead_len = 0.0
+        t0 = sim.data.time
+        max_time = 8 * cfg.move_timeout_s
+        obs = sim.observe()
+        phase_start: dict[str, float] = {}
+        while True:
+            reading = self.ft.reading(obs)
+            q = obs.q
+            sense = Sense(obs.time, dict(zip(self._names, q)), dict(zip(self._names, obs.qdot)),
+                          dict(zip(self._names, obs.actuator_force)), reading.force_tip, frozenset(events))
+            n_before = len(engine.transitions)
+            commands = engine.tick(sense)
+            for tr in engine.transitions[n_before:]:
+                phase_start[tr.name] = tr.time
+                if tr.subscript == 0:
+                    if "step_timeout" in events and tr.name == "hold lifted":
+                        events.add("lift_timeout")  # the waist swings even if the lift never settled
+                    events.discard("step_timeout")
+                if tr.name == "dig":  # contact: shift the planned path by what touch-down found
+                    tip = self.arm.forward(q[self._arm_idx])
+                    rec.touch_found_z = float(tip[1])
+                    rec.touch_offset_m = float(tip[1] + cfg.touch_sink_m - entry[1])
+                    if abs(rec.touch_offset_m) > cfg.touch_warn_m:
+                        kind = "below" if rec.touch_offset_m < 0 else "above"
+                        rec.warnings.append(
+                            f"contact {100 * abs(rec.touch_offset_m):.1f} cm {kind} the map: "
+                            + ("the map is high, or the bucket overshot before the force registered (Fig. 104)"
+                               if kind == "below" else "the map is low, or terrain interferes before the entry "
+                                                       "(Fig. 105)"))
+                    shifted = plan.poses.copy()
+                    shifted[:, 1] += rec.touch_offset_m
+                    # lead-in: back up clear of the soil, turn to the entry pitch in the air, go in
+                    clear = shifted[0, 1] + 0.03
+                    lead = np.array([tip, [tip[0], clear, tip[2]], [shifted[0, 0], clear, shifted[0, 2]]])
+                    paths["dig"] = np.concatenate([lead, shifted])
+                    lead_len = _length(np.concatenate([lead, shifted[:1]]))
+                    rec.planned_path = shifted
+                if tr.name == "dump":
+                    here = self.arm.forward(q[self._arm_idx])
+                    paths["dump"] = np.array([here, [here[0], here[1], math.radians(cfg.dump_pose[2])]])
+                if tr.name == "lift out":
+                    end = self.arm.forward(q[self._arm_idx])
+                    paths["lift"] = np.array([end, [end[0], max(cfg.lift_height_m, end[1]), end[2]]])
+                    rec.bucket_volume_m3 = float(sim.truth.volumes.bucket)
+            # contact: the F/T force stays above the threshold for a few samples once the descent runs
+            if engine.current(0).name == "touch-down" and obs.time - phase_start["touch-down"] > 0.3:
+                contact_ticks = contact_ticks + 1 if np.linalg.norm(reading.force_tip) > cfg.touch_force_n else 0
+                if contact_ticks >= 3:
+                    events.add("contact")
+            # the touch-down ran out without contact
+            if engine.current(0).name == "touch-down" and cursor.get("touchdown", 0.0) >= _length(paths["touchdown"]):
+                if self._settled(q, target):
+                    rec.outcome = "no contact"
+                    rec.warnings.append(f"no contact within {100 * cfg.touch_search_m:.0f} cm below the map")
+                    self._park(rec)
+                    break
+            # commands -> joint targets
+            for i, cmd in enumerate(commands):
+                joints = script.subscripts[i].joints
+                idx = [self._names.index(j) for j in joints]
+                if cmd.path:
+                    path = paths[cmd.path]
+                    s = cursor.get(cmd.path, 0.0)
+                    speed = cfg.touch_speed_m_s if cmd.path == "touchdown" else cfg.path_speed_m_s
+                    s = min(s + speed * sim.control_dt, _length(path))
+                    cursor[cmd.path] = s
+                    pose = _point_at(path, s)
+                    qp, ok = self.arm.inverse(pose)
+                    if ok:
+                        target[idx] = qp
+                    if s >= _length(path) and self._settled(q[idx], target[idx]):
+                        events.add(f"path_done:{cmd.path}")
+                elif cmd.targets:
+                    target[idx] = cmd.targets
+            # stall watch while digging
+            if engine.current(0).name == "dig" and rec.stall is None and cursor.get("dig", 0.0) >= lead_len:
+                rec.executed_path.append(self.arm.forward(q[self._arm_idx]))
+                lim = sim.torque_limit[self._arm_idx]
+                saturated = np.abs(obs.actuator_force[self._arm_idx]) >= cfg.stall_torque_fraction * lim
+                lagging = np.abs(q[self._arm_idx] - target[self._arm_idx]) > cfg.stall_error_rad
+                bad = saturated & lagging
+                if bad.any():
+                    stall_since = obs.time if stall_since is None else stall_since
+                    if obs.time - stall_since >= cfg.stall_time_s:
+                        j = ARM[int(np.argmax(bad))]
+                        tip = self.arm.forward(q[self._arm_idx])
+                        rec.stall = {"joint": j, "time": obs.time, "tip": tip,
+                                     "torque": float(obs.actuator_force[self._names.index(j)])}
+                        back = np.asarray(rec.executed_path)[::-1]
+                        paths["dig"] = back  # back out along the path taken
+                        cursor["dig"] = 0.0
+                        target[self._arm_idx] = q[self._arm_idx]
+                else:
+                    stall_since = None
+            # the bucket is empty when the F/T force stays low at the dump pose
+            if (engine.current(0).name == "dump" and "path_done:dump" in events
+                    and self._settled(q[self._arm_idx], target[self._arm_idx])):
+                if np.linalg.norm(reading.force_tip) < cfg.empty_force_n:
+                    empty_since = obs.time if empty_since is None else empty_since
+                    if obs.time - empty_since >= 0.5:
+                        events.add("empty")
+                else:
+                    empty_since = None
+            if len(rec.times) == 0 or obs.time - rec.times[-1] >= 1.0 / self.ft.rate_hz - 1e-9:
+                rec.times.append(obs.time)
+                rec.ft.append((obs.time, reading.force_tip.copy()))
+                rec.torques.append(obs.actuator_force.copy())
+            step = engine.current(0).name
+            if obs.time - phase_start.get(step, obs.time) > cfg.move_timeout_s and "step_timeout" not in events:
+                err = np.abs(q - target)
+                events.add("step_timeout")
+                rec.warnings.append(f"step {step!r} did not settle within {cfg.move_timeout_s:.0f} s "
+                                    f"(largest joint error {np.degrees(err.max()):.1f} deg at "
+                                    f"{self._names[int(np.argmax(err))]}); moving on")
+            if step == "park" and (self._settled(q, target) or "step_timeout" in events):
+                rec.outcome = "stalled" if rec.stall else "completed"
+                break
+            if obs.time - t0 > max_time:
+                rec.outcome = f"timeout in step {engine.current(0).name!r}"
+                break
+            try:
+                obs = sim.track(target)
+            except ExcavsimError as exc:  # a physical failure of the simulation: report, do not raise
+                rec.outcome = f"simulation failure: {exc}"
+                break
+        names = [tr.name for tr in engine.transitions if tr.subscript == 0]
+        times = [tr.time for tr in engine.transitions if tr.subscript == 0] + [obs.time]
+        rec.phase_times = {n: times[i + 1] - times[i] for i, n in enumerate(names)}
+        return rec
+
+    def _settled(self, q: np.ndarray, target: np.ndarray) -> bool:
+        return bool(np.all(np.abs(np.asarray(q) - np.asarray(target)) <= self.cfg.settle_tol_rad))
+
+    def _park(self, rec: ExecutionRecord) -> None:
+        """Move straight to the park pose (after a failure)."""
+        park = np.r_[np.radians(self.cfg.park_joints_deg), 0.0, 0.0]
+        lift = self.sim.observe().q.copy()
+        tip = self.arm.forward(lift[self._arm_idx])
+        q_up, ok = self.arm.inverse(np.array([tip[0], self.cfg.lift_height_m, tip[2]]))
+        steps = int(self.cfg.move_timeout_s / self.sim.control_dt)
+        if ok:
+            lift[self._arm_idx] = q_up
+            for _ in range(steps):
+                if self._settled(self.sim.track(lift).q, lift):
+                    break
+        for _ in range(steps):
+            if self._settled(self.sim.track(park).q, park):
+                break
+
+
+PITCH_RADIUS_M = 0.5  # a turn of the bucket counts as this radius times the angle along a path
+
+
+def _seg(path: np.ndarray) -> np.ndarray:
+    """Lengths of a pose polyline's segments: position, and pitch turned at PITCH_RADIUS_M [m]."""
+    d = np.diff(path, axis=0)
+    return np.sqrt(d[:, 0] ** 2 + d[:, 1] ** 2 + (PITCH_RADIUS_M * d[:, 2]) ** 2)
+
+
+def _length(path: np.ndarray) -> float:
+    return float(_seg(path).sum()) if len(path) > 1 else 0.0
+
+
+def _point_at(path: np.ndarray, s: float) -> np.ndarray:
+    """Pose at path length ``s`` along a polyline of poses (see :func:`_seg`)."""
+    seg = _seg(path)
+    cum = np.concatenate([[0.0], np.cumsum(seg)])
+    if cum[-1] <= 0:
+        return path[-1].copy()
+    return np.array([np.interp(s, cum, path[:, k]) for k in range(3)])
