@@ -74,6 +74,7 @@ class ExecutionRecord:
 
     @property
     def completed(self) -> bool:
+        """The dig ran to the park pose without a stall and every move settled in time."""
         return self.outcome == "completed"
 
     def path_error(self) -> float:
@@ -290,7 +291,8 @@ class DigExecutor:
                                     f"(largest joint error {np.degrees(err.max()):.1f} deg at "
                                     f"{self._names[int(np.argmax(err))]}); moving on")
             if step == "park" and (self._settled(q, target) or "step_timeout" in events):
-                rec.outcome = "stalled" if rec.stall else "completed"
+                late = any("did not settle" in w for w in rec.warnings)
+                rec.outcome = "stalled" if rec.stall else ("completed late" if late else "completed")
                 break
             if obs.time - t0 > max_time:
                 rec.outcome = f"timeout in step {engine.current(0).name!r}"
