@@ -26,6 +26,19 @@ def _cmd_demo(args: argparse.Namespace) -> int:
     return 0
 
 
+def _cmd_cycle(args: argparse.Namespace) -> int:
+    from excavsim.config import load_robot_config, load_scene_config
+    from excavsim.loop.cycle import format_cycle, run_cycle
+    from excavsim.world.simulation import Simulation
+
+    robot = load_robot_config(args.robot_config)
+    scene = load_scene_config(args.scene_config)
+    print(f"excavsim cycle: scan, map, plan, dig, settle, scan in {scene.soil} (seed {args.seed})")
+    sim = Simulation(robot, scene, seed=args.seed)
+    print(format_cycle(run_cycle(sim, seed=args.seed, progress=print)))
+    return 0
+
+
 def _cmd_bench(args: argparse.Namespace) -> int:
     from excavsim.bench import BENCHMARKS, run_benchmarks
 
@@ -143,6 +156,12 @@ def build_parser() -> argparse.ArgumentParser:
     demo.add_argument("--scene-config", metavar="YAML", help="scene configuration (default configs/scene.yaml)")
     demo.add_argument("--seed", type=int, default=0, help="episode seed (soil heterogeneity, sensor noise)")
     demo.set_defaults(func=_cmd_demo)
+
+    cycle = sub.add_parser("cycle", help="one cycle of the dig-scan-plan loop: scan, map, plan, dig, settle, scan")
+    cycle.add_argument("--robot-config", metavar="YAML", help="servo configuration (default configs/robot.yaml)")
+    cycle.add_argument("--scene-config", metavar="YAML", help="scene configuration (default configs/scene.yaml)")
+    cycle.add_argument("--seed", type=int, default=0, help="episode seed (soil, sensor noise, scanner drift)")
+    cycle.set_defaults(func=_cmd_cycle)
 
     bench = sub.add_parser("bench", help="run benchmarks and print one table of numbers and ratios")
     bench.add_argument("names", nargs="*", metavar="NAME", help="benchmarks to run (default: all)")

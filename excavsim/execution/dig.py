@@ -173,6 +173,7 @@ class DigExecutor:
         cursor: dict[str, float] = {}
         events: set[str] = set()
         target = sim.observe().q.copy()
+        target[[self._names.index(j) for j in constants.JOINTS[4:]]] = 0.0  # wrist yaw and roll stay at 0
         stall_since = None
         empty_since = None
         contact_ticks = 0
