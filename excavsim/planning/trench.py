@@ -3,8 +3,8 @@
 One dig is the trenching action (k, alpha, d1) of §3.4.1: enter the mapped surface at radial
 distance ``k``; **penetrate** a straight line at ``alpha`` below horizontal for ``d1`` with rake
 ``alpha + epsilon`` (§3.4.2.2); **drag** horizontally towards the robot for ``d2`` while the rake
-falls as ``max(zeta, rho_i - omega s)`` (eq. 1); **curl** about a centre ``r`` straight above the
-edge, turning the bucket to the end pitch, with the smallest radius of
+falls as ``max(zeta, rho_i - omega s)`` (eq. 1); **curl** about a centre behind the heel and
+above the blade, ``r`` from the edge (Fig. 16's admissible region), turning the bucket to the end pitch, with the smallest radius of
 ``curl_radii_m`` whose end pose is reachable (§3.4.2.4, Fig. 23). ``d2`` is the dependent
 variable: the longest drag on a ``sample_spacing_m`` grid that satisfies every constraint. It is
 bounded by the constraints along the drag, then found by trying the curl from that bound down in
@@ -184,16 +184,24 @@ class TrenchPlanner:
     def curl(self, start: np.ndarray, radius: np.ndarray) -> np.ndarray:
         """(n, M, 3) curl poses from drag end poses ``start`` (n, 3) about centres ``radius`` away.
 
-        The centre lies ``radius`` straight above the edge, so the edge leaves the drag horizontally
-        (the rotation centres of a horizontally moving edge lie on its vertical, §3.4.2.3) and
-        curves up; the bucket turns clockwise in (x, z) to the end pitch.
+        The bucket turns clockwise in (x, z) to the end pitch about a centre ``radius`` from the edge
+        along ``u = (b + z_t) / sqrt 2``, halfway between the blade's direction towards the heel
+        ``b = (cos rho, sin rho)`` and its normal into the bucket ``z_t = (-sin rho, cos rho)``.
+        Under that rotation a blade point ``s`` behind the edge moves along ``z_t`` at
+        ``(r u.b - s) omega``: the bottom moves away from the soil (the admissible centres of
+        Fig. 16) as long as ``r / sqrt 2`` exceeds the blade's length, hence radii from 0.35 m.
+        A centre straight above the edge pressed the heel into the cut and stalled the wrist in
+        the world.
         """
         rho0 = start[:, 2]
         turn = np.maximum(rho0 - math.radians(self.cfg.curl_end_pitch_deg), 0.0)
         frac = np.linspace(0.0, 1.0, self.cfg.curl_samples)
         th = turn[:, None] * frac[None, :]
-        cx = start[:, 0] + 0.0 * radius
-        cz = start[:, 1] + radius
+        # centre behind the heel along the blade and above it: u = (b + z_t) / sqrt 2
+        ux = (np.cos(rho0) - np.sin(rho0)) / math.sqrt(2.0)
+        uz = (np.sin(rho0) + np.cos(rho0)) / math.sqrt(2.0)
+        cx = start[:, 0] + radius * ux
+        cz = start[:, 1] + radius * uz
         vx, vz = start[:, 0] - cx, start[:, 1] - cz
         c, s = np.cos(th), np.sin(th)
         x = cx[:, None] + c * vx[:, None] + s * vz[:, None]  # clockwise rotation by th
