@@ -287,7 +287,7 @@ class PlannerConfig(_Strict):
     sample_spacing_m: float = Field(default=0.025, gt=0, le=0.2, description="trajectory sample spacing [m]")
     d2_max_m: float = Field(default=1.2, gt=0, le=3, description="longest drag considered [m]")
     curl_end_pitch_deg: float = Field(default=-30.0, ge=-120, le=60, description="pitch at the end of the curl")
-    curl_radii_m: list[float] = Field(default=[0.25, 0.3, 0.35, 0.4, 0.5, 0.6, 0.8], min_length=1,
+    curl_radii_m: list[float] = Field(default=[0.35, 0.4, 0.5, 0.6, 0.8], min_length=1,
                                       description="curl radii tried, smallest first (§3.4.2.4)")
     curl_samples: int = Field(default=10, ge=2, le=100, description="samples along the curl")
     curl_exit_pitch_deg: float = Field(
