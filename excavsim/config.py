@@ -343,6 +343,20 @@ class ExecutorConfig(_Strict):
     stall_torque_fraction: float = Field(default=0.97, gt=0, le=1, description="torque/limit that counts as saturated")
     stall_error_rad: float = Field(default=0.02, gt=0, le=1, description="tracking error that counts as lagging")
     stall_time_s: float = Field(default=0.5, gt=0, le=10, description="how long both must last to declare a stall")
+    compliance: str = Field(default="off", description="off | stiffness (§5.4) | impedance (DiMaio ch. 3.3.4)")
+    compliance_torque_ratio: float = Field(default=0.8, gt=0, le=1,
+                                           description="torque/limit of the most loaded joint above which the path yields")
+    compliance_gain_m_s: float = Field(default=0.5, gt=0, le=10,
+                                       description="how fast the path rises per unit of torque ratio above that [m/s]")
+    compliance_max_m: float = Field(default=0.15, ge=0, le=1, description="largest rise of the dig path [m]")
+    impedance_ref_n_s_per_m: float = Field(default=5000.0, gt=0, le=1e7,
+                                           description="soil force/velocity ratio that doubles the yield rate (impedance)")
+
+    @model_validator(mode="after")
+    def _compliance(self) -> ExecutorConfig:
+        if self.compliance not in ("off", "stiffness", "impedance"):
+            raise ValueError(f"compliance={self.compliance!r}; allowed: off, stiffness, impedance")
+        return self
 
 
 class SoilParams(_Strict):

@@ -96,7 +96,7 @@ def test_touch_down_finds_the_surface_when_the_map_is_biased(arm, reach_table, b
     assert rec.outcome in ("completed", "stalled")
 
 
-def test_in_stiffer_soil_with_a_weak_wrist_the_dig_stalls_and_ends_cleanly(arm, reach_table):
+def stiff_soil_run(arm, reach_table, compliance: str):
     """Planned with the nominal sand; the world's sand is 5x stiffer at 10 cm (cohesion 6.8 kPa adds
     c d N_c w = 408 N to eq. 8's 102 N) and the wrist relief is 500 N m."""
     robot = load_robot_config()
@@ -105,7 +105,32 @@ def test_in_stiffer_soil_with_a_weak_wrist_the_dig_stalls_and_ends_cleanly(arm, 
     stiff = get_soil("testbed_sand").model_copy(update={"cohesion_pa": 6800.0})
     sim = Simulation(robot=robot, soil=stiff, seed=0)  # seed 2's weaker patches let this dig through
     plan = planned_dig(sim, arm, reach_table, flat_map())
-    rec = DigExecutor(sim, arm, load_executor_config()).run(plan)
+    cfg = load_executor_config().model_copy(update={"compliance": compliance})
+    return sim, plan, DigExecutor(sim, arm, cfg).run(plan)
+
+
+@pytest.mark.parametrize("mode", ["stiffness", "impedance"])
+def test_with_compliance_the_same_dig_completes(arm, reach_table, mode):
+    """§5.4 / DiMaio: the path yields (rises) while a joint nears its limit, so the dig finishes."""
+    sim, plan, rec = stiff_soil_run(arm, reach_table, mode)
+    assert rec.outcome == "completed", (rec.outcome, rec.warnings)
+    assert rec.stall is None
+    rise = np.asarray(rec.compliance)
+    assert 0.01 < rise.max() <= load_executor_config().compliance_max_m
+    assert np.all(np.diff(rise) >= 0)  # the path only ever rises
+    assert rec.bucket_volume_m3 > 0.005
+
+
+def test_compliance_leaves_an_easy_dig_alone(arm, reach_table):
+    sim = Simulation(seed=0)
+    plan = planned_dig(sim, arm, reach_table, flat_map())
+    cfg = load_executor_config().model_copy(update={"compliance": "stiffness"})
+    rec = DigExecutor(sim, arm, cfg).run(plan)
+    assert rec.completed and max(rec.compliance) == 0.0  # the wrist stays below 80 % of 1000 N m
+
+
+def test_in_stiffer_soil_with_a_weak_wrist_the_dig_stalls_and_ends_cleanly(arm, reach_table):
+    sim, plan, rec = stiff_soil_run(arm, reach_table, "off")
     assert rec.outcome == "stalled"
     assert rec.stall["joint"] == "wrist_pitch_joint" and abs(rec.stall["torque"]) >= 0.97 * 500
     assert rec.stall["tip"][0] < plan.poses[0, 0]  # somewhere along the dig

@@ -11,8 +11,10 @@ executor raises (``contact``, ``path_done``, ``lifted``, ``empty``).
 :class:`DigExecutor` ticks the :class:`~excavsim.execution.script.ScriptEngine` at the control rate,
 turns Cartesian path commands into joint targets through IK, watches for **stalls** (a joint at its
 relief limit that lags its target for ``stall_time_s``): the dig is then stopped and the bucket
-backed out along the path it took, before lifting, dumping and parking as usual. No physical failure
-raises: the :class:`ExecutionRecord` says what happened. Compliance (§5.4) is not implemented yet.
+backed out along the path it took, before lifting, dumping and parking as usual. With compliance on
+(off by default) the remaining dig path rises while a joint nears its relief limit (see
+:meth:`DigExecutor._yield`), so a dig in soil stiffer than planned can still finish. No physical
+failure raises: the :class:`ExecutionRecord` says what happened.
 """
 
 from __future__ import annotations
@@ -71,6 +73,7 @@ class ExecutionRecord:
     planned_volume_m3: float = 0.0
     bucket_volume_m3: float = float("nan")  # truth: soil in the bucket at lift-out
     script_text: str = ""
+    compliance: list[float] = dataclasses.field(default_factory=list)  # rise of the dig path per tick [m]
 
     @property
     def completed(self) -> bool:
@@ -178,6 +181,7 @@ class DigExecutor:
         empty_since = None
         contact_ticks = 0
         lead_len = 0.0
+        rise = 0.0  # compliant rise of the remaining dig path [m]
         t0 = sim.data.time
         max_time = 8 * cfg.move_timeout_s
         obs = sim.observe()
@@ -244,6 +248,10 @@ class DigExecutor:
                     s = min(s + speed * sim.control_dt, _length(path))
                     cursor[cmd.path] = s
                     pose = _point_at(path, s)
+                    if cmd.path == "dig" and cfg.compliance != "off" and rec.stall is None and s >= lead_len:
+                        rise = self._yield(rise, obs, reading)
+                        pose = pose + np.array([0.0, rise, 0.0])
+                        rec.compliance.append(rise)
                     qp, ok = self.arm.inverse(pose)
                     if ok:
                         target[idx] = qp
@@ -307,6 +315,27 @@ class DigExecutor:
         times = [tr.time for tr in engine.transitions if tr.subscript == 0] + [obs.time]
         rec.phase_times = {n: times[i + 1] - times[i] for i, n in enumerate(names)}
         return rec
+
+    def _yield(self, rise: float, obs: Observation, reading) -> float:
+        """Compliant path modification (simplified §5.4): the remaining dig path rises while the most
+        loaded planar joint is above ``compliance_torque_ratio`` of its relief limit.
+
+        Eqs. 35-37 turn a force error into a path change through ``(J^T K)^-1``; the soil's push on
+        a raked blade points down and back, so yielding along it would deepen the cut. The change
+        that lowers every joint's load is a shallower cut, so the path rises at
+        ``gain x (ratio - threshold)``, up to ``compliance_max_m``, from the measured actuator torques
+        (the joint-space form the thesis mentions). In ``impedance`` mode the gain grows with the
+        soil's force/velocity ratio from the F/T and the tip speed (DiMaio ch. 3.3.4): the stiffer the
+        soil feels, the softer the bucket becomes.
+        """
+        cfg = self.cfg
+        ratio = float(np.max(np.abs(obs.actuator_force[self._arm_idx]) / self.sim.torque_limit[self._arm_idx]))
+        gain = cfg.compliance_gain_m_s
+        if cfg.compliance == "impedance":
+            v = float(np.linalg.norm((self.arm.jacobian(obs.q[self._arm_idx]) @ obs.qdot[self._arm_idx])[:2]))
+            gain *= 1.0 + float(np.linalg.norm(reading.force_tip)) / max(v, 0.01) / cfg.impedance_ref_n_s_per_m
+        rise += gain * max(ratio - cfg.compliance_torque_ratio, 0.0) * self.sim.control_dt
+        return min(rise, cfg.compliance_max_m)
 
     def _settled(self, q: np.ndarray, target: np.ndarray) -> bool:
         return bool(np.all(np.abs(np.asarray(q) - np.asarray(target)) <= self.cfg.settle_tol_rad))
