@@ -178,3 +178,14 @@ def test_scene_builder_uses_pymjcf_and_keeps_unprefixed_names():
     assert isinstance(root, mjcf.RootElement)
     assert root.find("joint", "wrist_pitch_joint") is not None
     assert root.find("site", "bucket_tip") is not None
+
+
+def test_the_planner_and_map_builder_import_no_simulator():
+    """DESIGN.md §2: planning (and what it consumes) knows nothing of MuJoCo or Rerun."""
+    import subprocess
+    import sys
+
+    code = ("import sys; import excavsim.planning.trench, excavsim.planning.anneal, excavsim.sensing.elevation; "
+            "bad = [m for m in ('mujoco', 'dm_control', 'rerun') if m in sys.modules]; print(bad); sys.exit(bool(bad))")
+    done = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True)
+    assert done.returncode == 0, done.stdout + done.stderr

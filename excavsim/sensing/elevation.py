@@ -28,7 +28,7 @@ import numpy as np
 
 from excavsim.config import ElevationMapConfig
 from excavsim.errors import ExcavsimError
-from excavsim.sensing.scanner import RangeImage, ScanGeometry
+from excavsim.sensing.images import RangeImage, ScanGeometry
 
 WALL_MARGIN_M = 0.03
 
