@@ -31,7 +31,8 @@ Model (and where it simplifies):
   ``K0 = 1 - sin phi``) and the strip-footing bearing capacity ``c N_c + gamma g p N_q +
   0.5 gamma g B N_gamma`` (Prandtl-Reissner-Vesic factors, not from the thesis), mobilized over
   ``bearing_mobilisation_m`` of travel into the soil; soil-tool friction ``tan(delta)`` opposes the
-  slip.
+  slip in the bucket's own plane only (not across its width), regularized so that its damping stays
+  below ``friction_mass_kg / dt``: forces are updated once per control step, explicitly.
 * **Settlement** runs every ``settle.interval_s`` on the cells changed since the last time, but only
   while the edge is out of the soil: the bucket holds up the faces it has just cut, and soil that
   slumped into the space the bucket occupies would have nowhere to go.
