@@ -39,6 +39,22 @@ def _cmd_cycle(args: argparse.Namespace) -> int:
     return 0
 
 
+def _cmd_trench(args: argparse.Namespace) -> int:
+    from excavsim.config import load_robot_config, load_scene_config, load_trench_goal
+    from excavsim.loop.episode import format_episode, run_episode
+    from excavsim.world.simulation import Simulation
+
+    if args.dig_budget < 1:
+        raise ExcavsimError(f"--dig-budget must be at least 1; given {args.dig_budget}")
+    robot = load_robot_config(args.robot_config)
+    scene = load_scene_config(args.scene_config)
+    goal = load_trench_goal(args.goal) if args.goal else None
+    print(f"excavsim trench: {args.dig_budget} digs at most in {scene.soil} (seed {args.seed})")
+    sim = Simulation(robot, scene, seed=args.seed)
+    print(format_episode(run_episode(sim, seed=args.seed, goal=goal, dig_budget=args.dig_budget, progress=print)))
+    return 0
+
+
 def _cmd_bench(args: argparse.Namespace) -> int:
     from excavsim.bench import BENCHMARKS, run_benchmarks
 
@@ -156,6 +172,14 @@ def build_parser() -> argparse.ArgumentParser:
     demo.add_argument("--scene-config", metavar="YAML", help="scene configuration (default configs/scene.yaml)")
     demo.add_argument("--seed", type=int, default=0, help="episode seed (soil heterogeneity, sensor noise)")
     demo.set_defaults(func=_cmd_demo)
+
+    trench = sub.add_parser("trench", help="dig a trench: scan, plan, dig, settle until done or out of digs")
+    trench.add_argument("--goal", metavar="YAML", help="trench goal (default configs/trenches/straight.yaml)")
+    trench.add_argument("--dig-budget", type=int, default=20, metavar="N", help="most digs to try (default 20)")
+    trench.add_argument("--robot-config", metavar="YAML", help="servo configuration (default configs/robot.yaml)")
+    trench.add_argument("--scene-config", metavar="YAML", help="scene configuration (default configs/scene.yaml)")
+    trench.add_argument("--seed", type=int, default=0, help="episode seed")
+    trench.set_defaults(func=_cmd_trench)
 
     cycle = sub.add_parser("cycle", help="one cycle of the dig-scan-plan loop: scan, map, plan, dig, settle, scan")
     cycle.add_argument("--robot-config", metavar="YAML", help="servo configuration (default configs/robot.yaml)")

@@ -9,6 +9,7 @@ true terrain. The full loop with its stopping rules, recording and campaigns is 
 
 from __future__ import annotations
 
+import dataclasses
 import math
 import time
 from collections.abc import Callable
@@ -50,30 +51,56 @@ def _scan(sim: Simulation, scanner: LaserScanner, cfg: SensingConfig):
     return emap, map_accuracy(emap, sim.soil.grid.surface_z, cals)
 
 
+@dataclasses.dataclass
+class Rig:
+    """Everything a loop needs around the Simulation: configurations, the robot's model of itself,
+    the scanner, and the planner with its nominal force predictor."""
+
+    goal: TrenchGoal
+    planner_cfg: PlannerConfig
+    executor_cfg: ExecutorConfig
+    sensing_cfg: SensingConfig
+    arm: PlanarArm
+    scanner: LaserScanner
+    planner: TrenchPlanner
+    width: float
+    capacity: float
+
+
+def make_rig(sim: Simulation, *, seed: int = 0, goal: TrenchGoal | None = None,
+             planner_cfg: PlannerConfig | None = None, executor_cfg: ExecutorConfig | None = None,
+             sensing_cfg: SensingConfig | None = None) -> Rig:
+    """Build the loop's pieces with the defaults from configs/ where none are given."""
+    goal = goal or load_trench_goal(constants.TRENCHES_DIR / "straight.yaml")
+    planner_cfg = planner_cfg or load_planner_config()
+    sensing_cfg = sensing_cfg or load_sensing_config()
+    arm = PlanarArm.from_model(sim.model)
+    scanner = LaserScanner(sim.model, sim.soil.grid, sensing_cfg.scanner, np.random.default_rng((seed, 7)))
+    nominal = get_soil(sim.scene.soil)
+    width = float(sim.model.numeric(constants.BUCKET_WIDTH_NUMERIC).data[0])
+    capacity = float(sim.model.numeric(constants.BUCKET_CAPACITY_NUMERIC).data[0])
+    planner = TrenchPlanner(arm, load_or_build(arm), sim.torque_limit[1:4], width, capacity, goal, planner_cfg,
+                            WedgePredictor(nominal, width), nominal.density_kg_m3)
+    return Rig(goal, planner_cfg, executor_cfg or load_executor_config(), sensing_cfg, arm, scanner, planner, width,
+               capacity)
+
+
 def run_cycle(sim: Simulation, *, seed: int = 0, goal: TrenchGoal | None = None,
               planner_cfg: PlannerConfig | None = None, executor_cfg: ExecutorConfig | None = None,
               sensing_cfg: SensingConfig | None = None, progress: Callable[[str], None] | None = None) -> dict:
     """Scan, map, plan, dig, settle and scan again; returns a summary dict (see :func:`format_cycle`)."""
     say = progress or (lambda _s: None)
-    goal = goal or load_trench_goal(constants.TRENCHES_DIR / "straight.yaml")
-    planner_cfg = planner_cfg or load_planner_config()
-    executor_cfg = executor_cfg or load_executor_config()
-    sensing_cfg = sensing_cfg or load_sensing_config()
     wall0 = time.perf_counter()
-    arm = PlanarArm.from_model(sim.model)
-    table = load_or_build(arm)
-    scanner = LaserScanner(sim.model, sim.soil.grid, sensing_cfg.scanner, np.random.default_rng((seed, 7)))
+    rig = make_rig(sim, seed=seed, goal=goal, planner_cfg=planner_cfg, executor_cfg=executor_cfg,
+                   sensing_cfg=sensing_cfg)
+    goal, executor_cfg, sensing_cfg, arm, scanner = rig.goal, rig.executor_cfg, rig.sensing_cfg, rig.arm, rig.scanner
     say("parking the arm out of the scanner's view")
     _park(sim, executor_cfg)
     say(f"scanning: {sensing_cfg.map.n_scans} range images")
     emap, acc0 = _scan(sim, scanner, sensing_cfg)
     say("  " + acc0.summary())
-    nominal = get_soil(sim.scene.soil)
-    width = float(sim.model.numeric(constants.BUCKET_WIDTH_NUMERIC).data[0])
-    capacity = float(sim.model.numeric(constants.BUCKET_CAPACITY_NUMERIC).data[0])
-    planner = TrenchPlanner(arm, table, sim.torque_limit[1:4], width, capacity, goal, planner_cfg,
-                            WedgePredictor(nominal, width), nominal.density_kg_m3)
-    plan = planner.plan(emap)
+    width = rig.width
+    plan = rig.planner.plan(emap)
     say(f"planned in {plan.seconds:.2f} s: {plan.reason}")
     heights0 = sim.soil.grid.heights.copy()
     record = None

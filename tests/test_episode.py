@@ -1,0 +1,36 @@
+"""A short trenching episode end to end, with its metrics and stopping rules."""
+
+from __future__ import annotations
+
+import numpy as np
+
+from excavsim.cli import main
+from excavsim.loop.episode import format_episode, run_episode
+from excavsim.world.simulation import Simulation
+
+
+def test_a_two_dig_episode_digs_measures_and_conserves():
+    sim = Simulation(seed=0)
+    res = run_episode(sim, seed=0, dig_budget=2)
+    assert len(res.digs) == 2 and res.reason == "dig budget of 2 spent"
+    assert 0.2 < res.removed_fraction < 1.0  # two bucketfuls of a ~92 l trench
+    assert all(d.bucket_m3 > 0.0 for d in res.digs) and all(d.planning_s > 0 for d in res.digs)
+    assert res.overdig_max_m < 0.1 and res.underdig_max_m > 0.05
+    assert abs(res.volume_change_m3) < 1e-12 * sim.soil.initial_volume
+    assert np.all(np.isfinite([d.cumulative_torque_nm_s for d in res.digs]))
+    assert "ended: dig budget" in format_episode(res)
+
+
+def test_an_episode_stops_when_no_dig_is_useful(tmp_path):
+    goal = tmp_path / "far.yaml"
+    goal.write_text("near_x_m: 3.6\nfar_x_m: 3.95\ndepth_m: 0.2\n")
+    sim = Simulation(seed=1)
+    from excavsim.config import load_trench_goal
+
+    res = run_episode(sim, seed=1, goal=load_trench_goal(goal), dig_budget=3)
+    assert res.digs == [] and res.reason.startswith("no dig of minimum utility")
+
+
+def test_cli_trench_refuses_a_bad_budget(capsys):
+    assert main(["trench", "--dig-budget", "0"]) == 2
+    assert "--dig-budget" in capsys.readouterr().err
