@@ -162,29 +162,30 @@ def _cmd_plan(args: argparse.Namespace) -> int:
     return 0
 
 
+def _world_options(parser: argparse.ArgumentParser) -> None:
+    """The options of every command that builds a Simulation: configurations and the episode seed."""
+    parser.add_argument("--robot-config", metavar="YAML", help="servo configuration (default configs/robot.yaml)")
+    parser.add_argument("--scene-config", metavar="YAML", help="scene configuration (default configs/scene.yaml)")
+    parser.add_argument("--seed", type=int, default=0, help="episode seed (soil, sensor noise, scanner drift)")
+
+
 def build_parser() -> argparse.ArgumentParser:
     """The argument parser of the ``excavsim`` command."""
     parser = argparse.ArgumentParser(prog="excavsim", description="MuJoCo testbed for robotic trenching.")
     sub = parser.add_subparsers(dest="command", required=True, metavar="COMMAND")
 
     demo = sub.add_parser("demo", help="one scripted dig into the soil, a dump, and settlement")
-    demo.add_argument("--robot-config", metavar="YAML", help="servo configuration (default configs/robot.yaml)")
-    demo.add_argument("--scene-config", metavar="YAML", help="scene configuration (default configs/scene.yaml)")
-    demo.add_argument("--seed", type=int, default=0, help="episode seed (soil heterogeneity, sensor noise)")
+    _world_options(demo)
     demo.set_defaults(func=_cmd_demo)
 
     trench = sub.add_parser("trench", help="dig a trench: scan, plan, dig, settle until done or out of digs")
     trench.add_argument("--goal", metavar="YAML", help="trench goal (default configs/trenches/straight.yaml)")
     trench.add_argument("--dig-budget", type=int, default=20, metavar="N", help="most digs to try (default 20)")
-    trench.add_argument("--robot-config", metavar="YAML", help="servo configuration (default configs/robot.yaml)")
-    trench.add_argument("--scene-config", metavar="YAML", help="scene configuration (default configs/scene.yaml)")
-    trench.add_argument("--seed", type=int, default=0, help="episode seed")
+    _world_options(trench)
     trench.set_defaults(func=_cmd_trench)
 
     cycle = sub.add_parser("cycle", help="one cycle of the dig-scan-plan loop: scan, map, plan, dig, settle, scan")
-    cycle.add_argument("--robot-config", metavar="YAML", help="servo configuration (default configs/robot.yaml)")
-    cycle.add_argument("--scene-config", metavar="YAML", help="scene configuration (default configs/scene.yaml)")
-    cycle.add_argument("--seed", type=int, default=0, help="episode seed (soil, sensor noise, scanner drift)")
+    _world_options(cycle)
     cycle.set_defaults(func=_cmd_cycle)
 
     bench = sub.add_parser("bench", help="run benchmarks and print one table of numbers and ratios")
