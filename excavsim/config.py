@@ -300,6 +300,11 @@ class PlannerConfig(_Strict):
                                     description="eq. 44: digs must sweep this fraction of capacity")
     min_volume_fraction: float = Field(default=0.1, ge=0, le=1, description="below this: no dig")
     shaping_tolerance_m: float = Field(default=0.005, ge=0, le=0.1)
+    fallback_clearance_m: float = Field(default=0.01, ge=0, le=0.2,
+                                        description="boundary-following digs stay this far above the goal [m]")
+    fallback_bottom_step_m: float = Field(default=0.1, gt=0, le=1, description="spacing of bottom fallback digs [m]")
+    fallback_min_volume_fraction: float = Field(default=0.02, ge=0, le=1,
+                                                description="a boundary dig must sweep this fraction of capacity")
     surface_tolerance_m: float = Field(default=0.01, ge=0, le=0.2)
     payload_com_tip_m: list[float] = Field(default=[-0.2, 0.12], min_length=2, max_length=2,
                                            description="centre of the load in the tip frame (x, z) [m]")

@@ -8,8 +8,10 @@ spent. Metrics per dig and per episode follow the issue: soil per dig (predicted
 efficiency (bucket / capacity), over- and under-dig against the goal on the true terrain, stalls,
 planning and simulated time, peak and cumulative torques, and why the episode ended.
 
-Not yet (issue #7): the boundary-following fallback digs, the Rerun recording, campaigns and the
-regression suite.
+When the planner's best dig is below the minimum utility, the boundary-following fallback of §7.2
+(:mod:`excavsim.planning.fallback`) is tried before the episode gives up. An
+:class:`EpisodeObserver` (the Rerun recorder, :mod:`excavsim.loop.record`) sees every scan, plan,
+control step and dig.
 """
 
 from __future__ import annotations
@@ -24,17 +26,48 @@ import numpy as np
 from excavsim.config import ExecutorConfig, PlannerConfig, SensingConfig, TrenchGoal
 from excavsim.execution.dig import DigExecutor, DigPlan
 from excavsim.loop.cycle import HOME, _goto, _park, _scan, make_rig
+from excavsim.planning import fallback
 from excavsim.planning.trench import goal_profile
 from excavsim.robot.kinematics import PlanarArm
 from excavsim.world.simulation import Simulation
 
 
+class EpisodeObserver:
+    """Hooks into an episode; a recorder overrides the ones it needs (every default does nothing).
+
+    Calls, in order: :meth:`started` once; per cycle :meth:`scanned`, then :meth:`planned` (with
+    the planner's :class:`~excavsim.planning.trench.PlanResult` and, when the fallback ran, the
+    chosen :class:`~excavsim.planning.fallback.FallbackDig` or None), :meth:`stepped` after every
+    control step of the dig and the moves around it, :meth:`dug` after the soil settled;
+    :meth:`finished` once at the end, also when the episode raised (then with None).
+    """
+
+    def started(self, sim: Simulation, rig, goal_mask: np.ndarray, goal_z: np.ndarray) -> None:
+        """The world and the loop's pieces before the first scan."""
+
+    def scanned(self, index: int, emap, accuracy) -> None:
+        """The elevation map of cycle ``index`` (1-based) and its accuracy against the truth."""
+
+    def planned(self, index: int, plan, fallback) -> None:
+        """The planner's result of cycle ``index`` and the fallback dig (None when not needed or none)."""
+
+    def stepped(self, sim: Simulation) -> None:
+        """After each control step."""
+
+    def dug(self, index: int, record, metrics: DigMetrics) -> None:
+        """The execution record and metrics of dig ``index``, after settlement."""
+
+    def finished(self, result: EpisodeResult | None) -> None:
+        """The episode's result (None when it ended with an error)."""
+
+
 @dataclasses.dataclass
 class DigMetrics:
-    """One dig of an episode."""
+    """One dig of an episode; ``kind`` is "planned" or "fallback: <boundary>" (§7.2)."""
 
     index: int
-    action: tuple[float, float, float, float]
+    kind: str
+    action: tuple[float, float, float, float] | None
     outcome: str
     predicted_m3: float
     bucket_m3: float
@@ -51,6 +84,7 @@ class EpisodeResult:
     """An episode's digs, its end, and the trench against the goal (true terrain)."""
 
     digs: list[DigMetrics]
+    end: str  # "done", "no_dig" or "budget"
     reason: str
     goal_m3: float
     removed_m3: float
@@ -94,9 +128,11 @@ def map_done(emap, goal: TrenchGoal, arm: PlanarArm, width: float, *, done_fract
 def run_episode(sim: Simulation, *, seed: int = 0, goal: TrenchGoal | None = None, dig_budget: int = 20,
                 done_fraction: float = 0.95, tolerance_m: float = 0.03, planner_cfg: PlannerConfig | None = None,
                 executor_cfg: ExecutorConfig | None = None, sensing_cfg: SensingConfig | None = None,
-                progress: Callable[[str], None] | None = None) -> EpisodeResult:
-    """Dig the trench: scan, plan, dig, settle, until done, no dig, or ``dig_budget`` digs."""
+                progress: Callable[[str], None] | None = None,
+                observer: EpisodeObserver | None = None) -> EpisodeResult:
+    """Dig the trench: scan, plan (or fall back), dig, settle, until done, no dig, or ``dig_budget`` digs."""
     say = progress or (lambda _s: None)
+    obs = observer or EpisodeObserver()
     wall0 = time.perf_counter()
     rig = make_rig(sim, seed=seed, goal=goal, planner_cfg=planner_cfg, executor_cfg=executor_cfg,
                    sensing_cfg=sensing_cfg)
@@ -107,47 +143,72 @@ def run_episode(sim: Simulation, *, seed: int = 0, goal: TrenchGoal | None = Non
     h0 = sim.soil.grid.heights.copy()
     v0 = sim.soil.initial_volume
     digs: list[DigMetrics] = []
-    reason = f"dig budget of {dig_budget} spent"
-    for i in range(dig_budget):
-        _park(sim, executor_cfg)
-        emap, acc = _scan(sim, scanner, sensing_cfg)
-        done, frac = map_done(emap, goal, arm, width, done_fraction=done_fraction, tolerance_m=tolerance_m,
-                              initial_z=goal.surface_z_m)
-        say(f"dig {i + 1}: map {100 * frac:.0f} % of the goal removed (map RMS {100 * acc.rms_m:.1f} cm)")
-        if done:
-            reason = f"trench done on the map: {100 * frac:.0f} % removed, every cell within {100 * tolerance_m:.0f} cm"
-            break
-        plan = planner.plan(emap)
-        if plan.action is None:
-            reason = f"no dig of minimum utility: {plan.reason}"
-            break
-        _goto(sim, HOME, executor_cfg)
-        t0 = sim.data.time
-        rec = executor.run(DigPlan(plan.poses, plan.phases, math.radians(goal.waist_deg), plan.volume_m3))
-        sim.settle_soil()
-        torques = np.asarray(rec.torques) if rec.torques else np.zeros((1, 6))
-        dt = 1.0 / executor.ft.rate_hz
-        metrics = DigMetrics(
-            index=i + 1, action=plan.action, outcome=rec.outcome, predicted_m3=plan.volume_m3,
-            bucket_m3=rec.bucket_volume_m3, efficiency=rec.bucket_volume_m3 / capacity,
-            stall_joint=rec.stall["joint"] if rec.stall else None, planning_s=plan.seconds,
-            sim_s=float(sim.data.time - t0), peak_torque_nm=np.abs(torques).max(axis=0),
-            cumulative_torque_nm_s=float(np.abs(torques).sum() * dt))
-        digs.append(metrics)
-        say(f"  {rec.outcome}: {1000 * plan.volume_m3:.1f} l planned, {1000 * rec.bucket_volume_m3:.1f} l dug"
-            + (f", stall at {metrics.stall_joint}" if metrics.stall_joint else ""))
-    h = sim.soil.grid.heights
-    removed = float(np.clip(h0 - h, 0, None)[mask].sum() * sim.soil.grid.cell_area)
-    goal_m3 = float(np.clip(h0 - z_goal, 0, None)[mask].sum() * sim.soil.grid.cell_area)
-    over = np.append(np.clip(z_goal - h, 0, None)[mask], 0.0)  # below the goal profile (0 if off the box)
-    under = np.append(np.clip(h - z_goal, 0, None)[mask], 0.0)  # soil still above it
-    return EpisodeResult(
-        digs=digs, reason=reason, goal_m3=goal_m3, removed_m3=removed, overdig_max_m=float(over.max()),
-        overdig_rms_m=float(np.sqrt(np.mean(over[:-1] ** 2))) if over.size > 1 else 0.0,
-        underdig_max_m=float(under.max()),
-        underdig_rms_m=float(np.sqrt(np.mean(under[:-1] ** 2))) if under.size > 1 else 0.0,
-        sim_time_s=float(sim.data.time),
-        wall_time_s=time.perf_counter() - wall0, volume_change_m3=sim.soil.volumes().total - v0)
+    end, reason = "budget", f"dig budget of {dig_budget} spent"
+    obs.started(sim, rig, mask, z_goal)
+    sim.step_hooks.append(obs.stepped)
+    result = None
+    try:
+        for i in range(dig_budget + 1):
+            _park(sim, executor_cfg)
+            emap, acc = _scan(sim, scanner, sensing_cfg)
+            obs.scanned(i + 1, emap, acc)
+            done, frac = map_done(emap, goal, arm, width, done_fraction=done_fraction, tolerance_m=tolerance_m,
+                                  initial_z=goal.surface_z_m)
+            say(f"dig {i + 1}: map {100 * frac:.0f} % of the goal removed (map RMS {100 * acc.rms_m:.1f} cm)")
+            if done:
+                end = "done"
+                reason = (f"trench done on the map: {100 * frac:.0f} % removed, every cell within "
+                          f"{100 * tolerance_m:.0f} cm")
+                break
+            if i == dig_budget:  # the last scan only checks whether the budget's digs finished the trench
+                break
+            plan = planner.plan(emap)
+            dig = None
+            if plan.action is None:
+                dig, why = fallback.choose(planner, emap)
+                obs.planned(i + 1, plan, dig)
+                if dig is None:
+                    end, reason = "no_dig", f"no dig of minimum utility ({plan.reason}), and no fallback: {why}"
+                    break
+                say(f"  planner: {plan.reason}; falling back to a {why}")
+                poses, phases, volume, kind, action = dig.poses, dig.phases, dig.volume_m3, "fallback: " + dig.label, None
+                planning_s = plan.seconds + dig.seconds
+            else:
+                obs.planned(i + 1, plan, None)
+                poses, phases, volume, kind, action = plan.poses, plan.phases, plan.volume_m3, "planned", plan.action
+                planning_s = plan.seconds
+            _goto(sim, HOME, executor_cfg)
+            t0 = sim.data.time
+            rec = executor.run(DigPlan(poses, phases, math.radians(goal.waist_deg), volume))
+            sim.settle_soil()
+            torques = np.asarray(rec.torques) if rec.torques else np.zeros((1, 6))
+            dt = 1.0 / executor.ft.rate_hz
+            metrics = DigMetrics(
+                index=i + 1, kind=kind, action=action, outcome=rec.outcome, predicted_m3=volume,
+                bucket_m3=rec.bucket_volume_m3, efficiency=rec.bucket_volume_m3 / capacity,
+                stall_joint=rec.stall["joint"] if rec.stall else None, planning_s=planning_s,
+                sim_s=float(sim.data.time - t0), peak_torque_nm=np.abs(torques).max(axis=0),
+                cumulative_torque_nm_s=float(np.abs(torques).sum() * dt))
+            digs.append(metrics)
+            obs.dug(i + 1, rec, metrics)
+            say(f"  {kind} {rec.outcome}: {1000 * volume:.1f} l planned, {1000 * rec.bucket_volume_m3:.1f} l dug"
+                + (f", stall at {metrics.stall_joint}" if metrics.stall_joint else ""))
+        h = sim.soil.grid.heights
+        removed = float(np.clip(h0 - h, 0, None)[mask].sum() * sim.soil.grid.cell_area)
+        goal_m3 = float(np.clip(h0 - z_goal, 0, None)[mask].sum() * sim.soil.grid.cell_area)
+        over = np.append(np.clip(z_goal - h, 0, None)[mask], 0.0)  # below the goal profile (0 if off the box)
+        under = np.append(np.clip(h - z_goal, 0, None)[mask], 0.0)  # soil still above it
+        result = EpisodeResult(
+            digs=digs, end=end, reason=reason, goal_m3=goal_m3, removed_m3=removed, overdig_max_m=float(over.max()),
+            overdig_rms_m=float(np.sqrt(np.mean(over[:-1] ** 2))) if over.size > 1 else 0.0,
+            underdig_max_m=float(under.max()),
+            underdig_rms_m=float(np.sqrt(np.mean(under[:-1] ** 2))) if under.size > 1 else 0.0,
+            sim_time_s=float(sim.data.time),
+            wall_time_s=time.perf_counter() - wall0, volume_change_m3=sim.soil.volumes().total - v0)
+        return result
+    finally:
+        sim.step_hooks.remove(obs.stepped)
+        obs.finished(result)
 
 
 def format_episode(res: EpisodeResult) -> str:
@@ -155,8 +216,12 @@ def format_episode(res: EpisodeResult) -> str:
     lines = ["", f"{'dig':>3} {'k m':>5} {'alpha':>5} {'d1 m':>5} {'d2 m':>5} {'plan l':>7} {'dug l':>6} "
                  f"{'eff':>5} {'outcome':<15} {'stall':<18} {'wrist peak':>10}"]
     for d in res.digs:
-        k, a, d1, d2 = d.action
-        lines.append(f"{d.index:>3} {k:5.2f} {math.degrees(a):5.0f} {d1:5.2f} {d2:5.2f} {1000 * d.predicted_m3:7.1f} "
+        if d.action is None:  # a boundary-following fallback dig
+            act = f"{d.kind[len('fallback: '):]:>23.23}"
+        else:
+            k, a, d1, d2 = d.action
+            act = f"{k:5.2f} {math.degrees(a):5.0f} {d1:5.2f} {d2:5.2f}"
+        lines.append(f"{d.index:>3} {act} {1000 * d.predicted_m3:7.1f} "
                      f"{1000 * d.bucket_m3:6.1f} {d.efficiency:5.2f} {d.outcome:<15} {d.stall_joint or '-':<18} "
                      f"{d.peak_torque_nm[3]:10.0f}")
     lines += ["", f"ended: {res.reason}",

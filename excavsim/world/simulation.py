@@ -16,6 +16,7 @@ the soil force plus the bucket's own weight and inertia, as a real wrist sensor 
 from __future__ import annotations
 
 import dataclasses
+from collections.abc import Callable
 
 import mujoco
 import numpy as np
@@ -90,6 +91,8 @@ class Simulation:
         self.torque_limit = self.model.actuator_forcerange[self._act, 1].copy()
         self.contact: SoilContact | None = None
         self.soil_enabled = True
+        # Called with the Simulation after every control step (recorders, live plots); read-only use.
+        self.step_hooks: list[Callable[[Simulation], None]] = []
 
     # -- sensing --------------------------------------------------------------------------------
     def observe(self) -> Observation:
@@ -132,6 +135,8 @@ class Simulation:
         mujoco.mj_step(self.model, d, self.substeps)
         if not (np.all(np.isfinite(d.qpos)) and np.all(np.isfinite(d.qvel))):
             raise ExcavsimError(f"the simulation diverged at t = {d.time:.3f} s (non-finite joint state)")
+        for hook in self.step_hooks:
+            hook(self)
         return self.observe()
 
     def track(self, target: np.ndarray) -> Observation:

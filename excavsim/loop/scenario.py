@@ -1,0 +1,155 @@
+"""Episode specifications: one trenching episode as data, shared by ``trench``, ``campaign`` and ``regress``.
+
+An :class:`EpisodeSpec` names the trench goal, the soil, the seed, the stopping rules and
+overrides of any configuration file (robot, scene, planner, executor, sensing), written as nested
+mappings merged over the defaults in ``configs/``. For example, a weaker wrist and a coarser
+planner grid::
+
+    name: weak-wrist
+    soil: lean_clay
+    seed: 3
+    robot: {joints: {wrist_pitch: {torque_limit_nm: 500}}}
+    planner: {grid: {k_step_m: 0.2}}
+
+:func:`run_spec` builds the world and runs the episode; :func:`episode_summary` flattens the result
+into a JSON-ready dict of numbers (the row a campaign writes and ``regress`` compares).
+"""
+
+from __future__ import annotations
+
+import copy
+import pathlib
+from collections.abc import Callable
+from typing import Any
+
+from pydantic import Field, model_validator
+
+from excavsim import constants
+from excavsim.config import (ConfigError, ExecutorConfig, PlannerConfig, RobotConfig, SceneConfig, SensingConfig,
+                             TrenchGoal, _Strict, get_soil, load_config, load_executor_config, load_planner_config,
+                             load_robot_config, load_scene_config, load_sensing_config, load_trench_goal,
+                             parse_config)
+
+
+class EpisodeSpec(_Strict):
+    """One trenching episode: goal, soil, seed, stopping rules and configuration overrides."""
+
+    name: str = Field(default="episode", description="label for logs and result files")
+    goal: str | TrenchGoal = Field(
+        default="straight", description="a trench of configs/trenches (by name), a YAML path, or the goal inline")
+    soil: str | None = Field(default=None, description="soil preset of configs/soils.yaml (default: the scene's)")
+    seed: int = Field(default=0, ge=0, description="episode seed (soil, sensor noise, scanner drift)")
+    dig_budget: int = Field(default=20, ge=1, le=1000, description="most digs to try")
+    done_fraction: float = Field(default=0.95, gt=0, le=1, description="goal volume fraction that counts as done")
+    tolerance_m: float = Field(default=0.03, gt=0, le=1, description="no map cell may stay this far above the goal")
+    robot: dict[str, Any] = Field(default_factory=dict, description="overrides of configs/robot.yaml")
+    scene: dict[str, Any] = Field(default_factory=dict, description="overrides of configs/scene.yaml")
+    planner: dict[str, Any] = Field(default_factory=dict, description="overrides of configs/planner.yaml")
+    executor: dict[str, Any] = Field(default_factory=dict, description="overrides of configs/executor.yaml")
+    sensing: dict[str, Any] = Field(default_factory=dict, description="overrides of configs/sensing.yaml")
+
+    @model_validator(mode="after")
+    def _check(self) -> EpisodeSpec:
+        if self.soil is not None:
+            get_soil(self.soil)  # raises with the allowed names
+        return self
+
+
+def merge(base: dict, overrides: dict, *, where: str = "") -> dict:
+    """``base`` with ``overrides`` merged in, recursively for nested mappings (a new dict).
+
+    Raises:
+        ConfigError: an override names a mapping field with a non-mapping value.
+    """
+    out = copy.deepcopy(base)
+    for key, value in overrides.items():
+        if isinstance(value, dict) and isinstance(out.get(key), dict):
+            out[key] = merge(out[key], value, where=f"{where}{key}.")
+        else:
+            if isinstance(out.get(key), dict):
+                raise ConfigError(f"override {where}{key}: expected a mapping of fields, got {value!r}")
+            out[key] = value
+    return out
+
+
+def _override(base, overrides: dict, model, label: str):
+    if not overrides:
+        return base
+    return parse_config(merge(base.model_dump(), overrides), model, source=f"{label} overrides")
+
+
+def load_spec(path: str | pathlib.Path) -> EpisodeSpec:
+    """Read and validate an episode specification YAML file."""
+    return load_config(path, EpisodeSpec)
+
+
+def resolve_goal(goal: str | TrenchGoal) -> TrenchGoal:
+    """A goal given by name (configs/trenches/NAME.yaml), by path, or inline."""
+    if isinstance(goal, TrenchGoal):
+        return goal
+    path = pathlib.Path(goal)
+    if path.suffix not in (".yaml", ".yml"):
+        path = constants.TRENCHES_DIR / f"{goal}.yaml"
+        if not path.exists():
+            names = sorted(p.stem for p in constants.TRENCHES_DIR.glob("*.yaml"))
+            raise ConfigError(f"unknown trench goal {goal!r}; give a YAML path or one of: {', '.join(names)}")
+    return load_trench_goal(path)
+
+
+class ResolvedSpec:
+    """The configurations an :class:`EpisodeSpec` stands for, with every override applied."""
+
+    def __init__(self, spec: EpisodeSpec):
+        self.spec = spec
+        self.goal: TrenchGoal = resolve_goal(spec.goal)
+        self.robot: RobotConfig = _override(load_robot_config(), spec.robot, RobotConfig, f"{spec.name}: robot")
+        scene = _override(load_scene_config(), spec.scene, SceneConfig, f"{spec.name}: scene")
+        self.scene: SceneConfig = scene.model_copy(update={"soil": spec.soil}) if spec.soil else scene
+        self.planner: PlannerConfig = _override(load_planner_config(), spec.planner, PlannerConfig,
+                                                f"{spec.name}: planner")
+        self.executor: ExecutorConfig = _override(load_executor_config(), spec.executor, ExecutorConfig,
+                                                  f"{spec.name}: executor")
+        self.sensing: SensingConfig = _override(load_sensing_config(), spec.sensing, SensingConfig,
+                                                f"{spec.name}: sensing")
+
+
+def run_spec(spec: EpisodeSpec, *, progress: Callable[[str], None] | None = None, observer=None):
+    """Build the world of ``spec`` and run its episode; returns the
+    :class:`~excavsim.loop.episode.EpisodeResult`."""
+    from excavsim.loop.episode import run_episode
+    from excavsim.world.simulation import Simulation
+
+    r = ResolvedSpec(spec)
+    sim = Simulation(r.robot, r.scene, seed=spec.seed)
+    return run_episode(sim, seed=spec.seed, goal=r.goal, dig_budget=spec.dig_budget,
+                       done_fraction=spec.done_fraction, tolerance_m=spec.tolerance_m, planner_cfg=r.planner,
+                       executor_cfg=r.executor, sensing_cfg=r.sensing, progress=progress, observer=observer)
+
+
+def episode_summary(res) -> dict[str, Any]:
+    """The episode's metrics as a flat dict of JSON numbers and strings (one campaign row).
+
+    Per-dig lists are reduced to totals, means and peaks; ``end`` is the stopping rule that fired
+    (``done``, ``no_dig`` or ``budget``), ``reason`` its full text.
+    """
+    digs = res.digs
+    n = len(digs)
+    peaks = [d.peak_torque_nm for d in digs]
+    joints = ("waist", "shoulder", "elbow", "wrist_pitch", "wrist_yaw", "wrist_roll")
+    out: dict[str, Any] = {
+        "end": res.end, "reason": res.reason, "digs": n, "fallback_digs": sum(d.kind != "planned" for d in digs),
+        "stalls": sum(d.stall_joint is not None for d in digs),
+        "goal_l": 1000 * res.goal_m3, "removed_l": 1000 * res.removed_m3, "removed_fraction": res.removed_fraction,
+        "dug_l_per_dig": 1000 * sum(d.bucket_m3 for d in digs) / n if n else 0.0,
+        "planned_l_per_dig": 1000 * sum(d.predicted_m3 for d in digs) / n if n else 0.0,
+        "efficiency": sum(d.efficiency for d in digs) / n if n else 0.0,
+        "overdig_max_cm": 100 * res.overdig_max_m, "overdig_rms_cm": 100 * res.overdig_rms_m,
+        "underdig_max_cm": 100 * res.underdig_max_m, "underdig_rms_cm": 100 * res.underdig_rms_m,
+        "planning_s": sum(d.planning_s for d in digs), "sim_s": res.sim_time_s, "wall_s": res.wall_time_s,
+        "cumulative_torque_knm_s": sum(d.cumulative_torque_nm_s for d in digs) / 1000,
+        "volume_change_m3": res.volume_change_m3,
+    }
+    for j, name in enumerate(joints[1:4], start=1):
+        out[f"peak_{name}_nm"] = max((float(p[j]) for p in peaks), default=0.0)
+    out["dug_l"] = [round(1000 * d.bucket_m3, 3) for d in digs]
+    return out

@@ -1,0 +1,161 @@
+"""Boundary-following fallback digs (000_a3ca905d8c6d92bf.txt §7.2).
+
+When the planner finds no dig of minimum utility, the thesis executes "a pre-planned set of
+actions": for trenching, the robot follows the boundaries of the trench. Here that set is built from
+the goal profile alone, offset up by ``fallback_clearance_m`` so that no dig cuts below the goal:
+
+* **far wall**: enter at the top of the far wall, follow it down (rake = wall angle + epsilon, as a
+  penetration, §3.4.2.2), then drag along the bottom with the rake of eq. 1, then curl;
+* **near wall**: drag along the bottom and rise up the near wall, the pitch turning to the curl's
+  end pitch at the top, so the bucket leaves the soil curled;
+* **bottom**: windows of the bottom drag that start every ``fallback_bottom_step_m`` from the far
+  corner, each followed by a curl.
+
+Each candidate keeps only its samples from the first one in the mapped soil and stops where the
+swept volume would exceed ``fill_fraction`` x capacity. The set is tried in that order (walls, then
+the bottom, each bottom window by its swept volume); the first candidate that sweeps at least
+``fallback_min_volume_fraction`` of the capacity and passes the planner's reachability and force
+constraints is the dig. No optimization: these are the thesis' pre-planned digs, checked, not chosen.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import math
+import time
+
+import numpy as np
+
+from excavsim.planning.trench import SurfaceProfile, TrenchPlanner
+from excavsim.sensing.elevation import ElevationMap
+
+
+@dataclasses.dataclass
+class FallbackDig:
+    """One boundary-following dig: its path, its label and its verdicts."""
+
+    label: str
+    poses: np.ndarray
+    phases: np.ndarray
+    volume_m3: float
+    peak_torque_ratio: float
+    reachable: bool
+    seconds: float = 0.0
+
+    @property
+    def feasible(self) -> bool:
+        return self.reachable and self.peak_torque_ratio <= 1.0
+
+
+def boundary_polyline(planner: TrenchPlanner) -> tuple[np.ndarray, np.ndarray]:
+    """Samples (N, 3) of (x, z, pitch) along the goal's boundary from the far top to the near top,
+    ``clearance`` above it, and the index of each corner (far bottom, near bottom)."""
+    g, cfg = planner.goal, planner.cfg
+    c = cfg.fallback_clearance_m
+    ds = cfg.sample_spacing_m
+    top, bottom = g.surface_z_m + c, g.surface_z_m - g.depth_m + c
+    far_run = (g.depth_m) / math.tan(math.radians(g.far_wall_deg))
+    near_run = (g.depth_m) / math.tan(math.radians(g.near_wall_deg))
+    corners = np.array([[g.far_x_m, top], [g.far_x_m - far_run, bottom], [g.near_x_m + near_run, bottom],
+                        [g.near_x_m, top]])
+    pts, idx = [corners[:1]], []
+    for a, b in zip(corners[:-1], corners[1:]):
+        n = max(1, int(math.ceil(np.linalg.norm(b - a) / ds)))
+        t = np.arange(1, n + 1) / n
+        pts.append(a + t[:, None] * (b - a))
+        idx.append(sum(len(p) for p in pts) - 1)
+    xz = np.concatenate(pts)
+    i_far, i_near = idx[0], idx[1]
+    eps, zeta = math.radians(cfg.epsilon_deg), math.radians(cfg.zeta_deg)
+    pitch = np.empty(len(xz))
+    pitch[: i_far + 1] = math.radians(g.far_wall_deg) + eps
+    s = np.linalg.norm(xz[i_far:i_near + 1] - xz[i_far], axis=1)
+    pitch[i_far:i_near + 1] = np.maximum(zeta, pitch[0] - math.radians(cfg.omega_deg_per_m) * s)
+    end = math.radians(cfg.curl_end_pitch_deg)
+    rise = np.linspace(0.0, 1.0, len(xz) - i_near)
+    pitch[i_near:] = pitch[i_near] + rise * (end - pitch[i_near])
+    return np.column_stack([xz, pitch]), np.array([i_far, i_near])
+
+
+def _with_curl(planner: TrenchPlanner, path: np.ndarray, phases: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Append the curl with the smallest reachable radius (Fig. 23), unless already curled."""
+    if path[-1, 2] <= math.radians(planner.cfg.curl_end_pitch_deg) + 1e-9:
+        return path, phases
+    radii = planner.cfg.curl_radii_m
+    ends = np.concatenate([planner.curl(path[-1:], np.array([r]))[:, -1] for r in radii])
+    ok, _ = planner._reach(ends[:, None, :])
+    r = radii[int(np.argmax(ok[:, 0]))] if ok.any() else radii[0]
+    curl = planner.curl(path[-1:], np.array([r]))[0][1:]
+    return np.concatenate([path, curl]), np.concatenate([phases, np.full(len(curl), 2, np.int8)])
+
+
+def candidates(planner: TrenchPlanner, emap: ElevationMap) -> list[FallbackDig]:
+    """The pre-planned boundary digs on this map, in the order they are tried (see the module docstring)."""
+    cfg = planner.cfg
+    surface = SurfaceProfile.from_map(emap, planner.arm, math.radians(planner.goal.waist_deg), planner.width)
+    line, (i_far, i_near) = boundary_polyline(planner)
+    phase = np.where(np.arange(len(line)) < i_far, 0, 1).astype(np.int8)
+    vmax = cfg.fill_fraction * planner.capacity
+    soil = line[:, 1] <= surface(line[:, 0]) + cfg.surface_tolerance_m
+    seg = np.concatenate([[0.0], planner._swept(line, surface)])  # volume swept reaching sample i
+
+    vmin = cfg.fallback_min_volume_fraction * planner.capacity
+    stride = 2
+
+    def window(a: int, b: int, label: str, *, keep_end: bool = False) -> FallbackDig | None:
+        """The longest part of line[a..b] (shortened from its start when ``keep_end``, else from its
+        end) that starts in the soil, fits the bucket and passes reachability and force."""
+        ins = np.nonzero(soil[a:b + 1])[0]
+        if ins.size == 0:
+            return None
+        a = a + int(ins[0])
+        if keep_end:
+            back = np.cumsum(seg[a + 1:b + 1][::-1])[::-1]  # volume from sample a + i to b
+            a = a + int(np.argmax(back <= vmax)) if np.any(back <= vmax) else b
+            tries = [(a_, b) for a_ in range(a, b, stride)]
+        else:
+            vol = np.cumsum(seg[a + 1:b + 1])
+            b = a + int(np.searchsorted(vol, vmax, side="right"))
+            tries = [(a, b_) for b_ in range(b, a, -stride)]
+        last = None
+        for a_, b_ in tries:
+            if not soil[a_]:
+                continue
+            path, ph = _with_curl(planner, line[a_:b_ + 1], phase[a_:b_ + 1])
+            last = _verdict(planner, label, path, ph, surface)
+            if last.volume_m3 < vmin or last.feasible:
+                break  # feasible, or too small to matter: shorter ones are smaller still
+        return last
+
+    out = [d for d in (window(0, len(line) - 1, "far wall"),
+                       window(i_far, len(line) - 1, "near wall", keep_end=True)) if d is not None]
+    step = max(1, int(round(cfg.fallback_bottom_step_m / cfg.sample_spacing_m)))
+    bottoms = [window(a, i_near, f"bottom from x {line[a, 0]:.2f} m") for a in range(i_far, i_near, step)]
+    out += sorted((d for d in bottoms if d is not None), key=lambda d: -d.volume_m3)
+    return out
+
+
+def _verdict(planner: TrenchPlanner, label: str, poses: np.ndarray, phases: np.ndarray,
+             surface: SurfaceProfile) -> FallbackDig:
+    vcum = np.concatenate([[0.0], np.cumsum(planner._swept(poses, surface))])
+    reach, _ = planner._reach(poses[None])
+    peak = math.inf
+    if reach.all():
+        depth = np.maximum(surface(poses[:, 0]) - poses[:, 1], 0.0)
+        _, _, ratio = planner._torque_ratio(poses, depth, vcum)
+        peak = float(ratio.max())
+    return FallbackDig(label, poses, phases, float(vcum[-1]), peak, bool(reach.all()))
+
+
+def choose(planner: TrenchPlanner, emap: ElevationMap) -> tuple[FallbackDig | None, str]:
+    """The first feasible boundary dig of minimum volume, or None with the reason."""
+    t0 = time.perf_counter()
+    cands = candidates(planner, emap)
+    vmin = planner.cfg.fallback_min_volume_fraction * planner.capacity
+    for dig in cands:
+        if dig.feasible and dig.volume_m3 >= vmin:
+            dig.seconds = time.perf_counter() - t0
+            return dig, f"boundary dig: {dig.label}"
+    why = (f"none of {len(cands)} boundary digs is reachable within the torque limits and sweeps "
+           f"{1000 * vmin:.1f} l") if cands else "no soil left above the boundary path"
+    return None, why
