@@ -46,12 +46,17 @@ class DigPlan:
         phases: (S,) 0 penetrate, 1 drag, 2 curl.
         waist: waist angle of the arm plane [rad].
         volume_m3: swept volume the planner predicted.
+        shift_bounds_m: (lowest, highest) vertical shift of the path by the touch-down offset [m].
+            The loop bounds it below by the path's clearance above the goal, so that a map error
+            never makes the executor cut below the goal; a boundary-following dig is not shifted
+            up either, since its job is the goal's shape, not the planned volume.
     """
 
     poses: np.ndarray
     phases: np.ndarray
     waist: float
     volume_m3: float
+    shift_bounds_m: tuple[float, float] = (-math.inf, math.inf)
 
 
 @dataclasses.dataclass
@@ -211,7 +216,7 @@ class DigExecutor:
                                if kind == "below" else "the map is low, or terrain interferes before the entry "
                                                        "(Fig. 105)"))
                     shifted = plan.poses.copy()
-                    shifted[:, 1] += rec.touch_offset_m
+                    shifted[:, 1] += float(np.clip(rec.touch_offset_m, *plan.shift_bounds_m))
                     # lead-in: back up clear of the soil, turn to the entry pitch in the air, go in
                     clear = shifted[0, 1] + 0.03
                     lead = np.array([tip, [tip[0], clear, tip[2]], [shifted[0, 0], clear, shifted[0, 2]]])

@@ -179,7 +179,9 @@ def run_episode(sim: Simulation, *, seed: int = 0, goal: TrenchGoal | None = Non
                 planning_s = plan.seconds
             _goto(sim, HOME, executor_cfg)
             t0 = sim.data.time
-            rec = executor.run(DigPlan(poses, phases, math.radians(goal.waist_deg), volume))
+            clearance = float(np.min(poses[:, 1] - goal_profile(goal, poses[:, 0])))
+            bounds = (-max(clearance, 0.0), 0.0 if dig is not None else math.inf)
+            rec = executor.run(DigPlan(poses, phases, math.radians(goal.waist_deg), volume, bounds))
             sim.settle_soil()
             torques = np.asarray(rec.torques) if rec.torques else np.zeros((1, 6))
             dt = 1.0 / executor.ft.rate_hz

@@ -14,8 +14,9 @@ the goal profile alone, offset up by ``fallback_clearance_m`` so that no dig cut
 Each candidate keeps only its samples from the first one in the mapped soil and stops where the
 swept volume would exceed ``fill_fraction`` x capacity. The set is tried in that order (walls, then
 the bottom, each bottom window by its swept volume); the first candidate that sweeps at least
-``fallback_min_volume_fraction`` of the capacity and passes the planner's reachability and force
-constraints is the dig. No optimization: these are the thesis' pre-planned digs, checked, not chosen.
+``fallback_min_volume_fraction`` of the capacity and passes the planner's shaping (its curl too),
+reachability and force constraints is the dig. A candidate that fails is shortened, two samples at
+a time, before it is given up. No optimization: these are the thesis' pre-planned digs, checked, not chosen.
 """
 
 from __future__ import annotations
@@ -26,7 +27,7 @@ import time
 
 import numpy as np
 
-from excavsim.planning.trench import SurfaceProfile, TrenchPlanner
+from excavsim.planning.trench import SurfaceProfile, TrenchPlanner, goal_profile
 from excavsim.sensing.elevation import ElevationMap
 
 
@@ -40,11 +41,13 @@ class FallbackDig:
     volume_m3: float
     peak_torque_ratio: float
     reachable: bool
+    shaping: bool
     seconds: float = 0.0
 
     @property
     def feasible(self) -> bool:
-        return self.reachable and self.peak_torque_ratio <= 1.0
+        """Within the goal (the curl included), reachable and within the torque limits."""
+        return self.shaping and self.reachable and self.peak_torque_ratio <= 1.0
 
 
 def boundary_polyline(planner: TrenchPlanner) -> tuple[np.ndarray, np.ndarray]:
@@ -144,7 +147,8 @@ def _verdict(planner: TrenchPlanner, label: str, poses: np.ndarray, phases: np.n
         depth = np.maximum(surface(poses[:, 0]) - poses[:, 1], 0.0)
         _, _, ratio = planner._torque_ratio(poses, depth, vcum)
         peak = float(ratio.max())
-    return FallbackDig(label, poses, phases, float(vcum[-1]), peak, bool(reach.all()))
+    shaping = bool(np.all(poses[:, 1] >= goal_profile(planner.goal, poses[:, 0]) - planner.cfg.shaping_tolerance_m))
+    return FallbackDig(label, poses, phases, float(vcum[-1]), peak, bool(reach.all()), shaping)
 
 
 def choose(planner: TrenchPlanner, emap: ElevationMap) -> tuple[FallbackDig | None, str]:
@@ -156,6 +160,6 @@ def choose(planner: TrenchPlanner, emap: ElevationMap) -> tuple[FallbackDig | No
         if dig.feasible and dig.volume_m3 >= vmin:
             dig.seconds = time.perf_counter() - t0
             return dig, f"boundary dig: {dig.label}"
-    why = (f"none of {len(cands)} boundary digs is reachable within the torque limits and sweeps "
-           f"{1000 * vmin:.1f} l") if cands else "no soil left above the boundary path"
+    why = (f"none of {len(cands)} boundary digs stays within the goal, is reachable within the torque limits "
+           f"and sweeps {1000 * vmin:.1f} l") if cands else "no soil left above the boundary path"
     return None, why
