@@ -55,6 +55,29 @@ def _cmd_trench(args: argparse.Namespace) -> int:
     return 0
 
 
+def _cmd_regress(args: argparse.Namespace) -> int:
+    import pathlib
+
+    from excavsim.loop.regress import REGRESS_DIR, format_changes, run_regress
+
+    directory = pathlib.Path(args.dir or REGRESS_DIR)
+    print(f"excavsim regress: golden scenarios of {directory}" + (" (rewriting the baseline)" if args.update else ""))
+    changes, _ = run_regress(directory, baseline_path=args.baseline, update=args.update, only=args.only or None)
+    print()
+    print(format_changes(changes, show_same=args.all))
+    bad = [c for c in changes if c.verdict in ("regression", "missing")]
+    if args.update:
+        print(f"baseline written: {pathlib.Path(args.baseline or directory / 'baseline.json')}")
+        return 0
+    if any(c.verdict == "new" for c in changes):
+        print("some scenarios or metrics have no baseline yet: run `excavsim regress --update` and commit it")
+    if bad:
+        print(f"REGRESSION: {len(bad)} metric(s) worse than the baseline beyond tolerance", file=sys.stderr)
+        return 1
+    print("no regression")
+    return 0
+
+
 def _cmd_bench(args: argparse.Namespace) -> int:
     from excavsim.bench import BENCHMARKS, run_benchmarks
 
@@ -187,6 +210,14 @@ def build_parser() -> argparse.ArgumentParser:
     cycle = sub.add_parser("cycle", help="one cycle of the dig-scan-plan loop: scan, map, plan, dig, settle, scan")
     _world_options(cycle)
     cycle.set_defaults(func=_cmd_cycle)
+
+    regress = sub.add_parser("regress", help="run the golden scenarios and compare their metrics with the baseline")
+    regress.add_argument("--dir", metavar="DIR", help="scenario directory (default configs/regress)")
+    regress.add_argument("--baseline", metavar="JSON", help="baseline file (default DIR/baseline.json)")
+    regress.add_argument("--update", action="store_true", help="rewrite the baseline from this run")
+    regress.add_argument("--only", nargs="*", metavar="NAME", help="run only these scenarios (file stems)")
+    regress.add_argument("--all", action="store_true", help="list unchanged metrics too")
+    regress.set_defaults(func=_cmd_regress)
 
     bench = sub.add_parser("bench", help="run benchmarks and print one table of numbers and ratios")
     bench.add_argument("names", nargs="*", metavar="NAME", help="benchmarks to run (default: all)")

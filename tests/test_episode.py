@@ -34,3 +34,18 @@ def test_an_episode_stops_when_no_dig_is_useful(tmp_path):
 def test_cli_trench_refuses_a_bad_budget(capsys):
     assert main(["trench", "--dig-budget", "0"]) == 2
     assert "--dig-budget" in capsys.readouterr().err
+
+
+def test_a_small_trench_is_finished_to_tolerance_and_the_same_seed_repeats_it_exactly():
+    from excavsim.loop.scenario import EpisodeSpec, episode_summary, run_spec
+
+    spec = EpisodeSpec(goal="small", seed=0, dig_budget=4,
+                       sensing={"map": {"n_scans": 2}, "scanner": {"n_azimuth": 100, "n_elevation": 100}},
+                       planner={"grid": {"k_min_m": 1.7, "k_max_m": 2.7, "alpha_step_deg": 10.0}})
+    runs = [episode_summary(run_spec(spec)) for _ in range(2)]
+    first = runs[0]
+    assert first["end"] == "done", first["reason"]
+    assert first["removed_fraction"] > 0.85 and first["overdig_max_cm"] < 3.0  # on the true terrain
+    assert abs(first["volume_change_m3"]) < 1e-12
+    timing = ("wall_s", "planning_s")
+    assert {k: v for k, v in runs[0].items() if k not in timing} == {k: v for k, v in runs[1].items() if k not in timing}

@@ -70,6 +70,13 @@ class ExecutionRecord:
     torques: list[np.ndarray] = dataclasses.field(default_factory=list)
     times: list[float] = dataclasses.field(default_factory=list)
     phase_times: dict[str, float] = dataclasses.field(default_factory=dict)
+    phase_starts: dict[str, float] = dataclasses.field(default_factory=dict)  # simulated time [s]
+
+    def in_soil_window(self) -> tuple[float, float]:
+        """Simulated time from touch-down to the end of the lift-out: when the soil loads the arm."""
+        start = self.phase_starts.get("touch-down", -math.inf)
+        ends = [self.phase_starts[n] + self.phase_times[n] for n in ("dig", "lift out") if n in self.phase_starts]
+        return start, max(ends, default=math.inf)
     touch_expected_z: float = float("nan")
     touch_found_z: float = float("nan")
     touch_offset_m: float = 0.0
@@ -319,6 +326,7 @@ class DigExecutor:
         names = [tr.name for tr in engine.transitions if tr.subscript == 0]
         times = [tr.time for tr in engine.transitions if tr.subscript == 0] + [obs.time]
         rec.phase_times = {n: times[i + 1] - times[i] for i, n in enumerate(names)}
+        rec.phase_starts = {n: times[i] for i, n in enumerate(names)}
         return rec
 
     def _yield(self, rise: float, obs: Observation, reading) -> float:

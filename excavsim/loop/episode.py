@@ -63,7 +63,11 @@ class EpisodeObserver:
 
 @dataclasses.dataclass
 class DigMetrics:
-    """One dig of an episode; ``kind`` is "planned" or "fallback: <boundary>" (§7.2)."""
+    """One dig of an episode; ``kind`` is "planned" or "fallback: <boundary>" (§7.2).
+
+    Peak and cumulative joint torques cover the soil-loaded part of the dig (touch-down to the end
+    of the lift-out), sampled at the F/T rate.
+    """
 
     index: int
     kind: str
@@ -183,7 +187,12 @@ def run_episode(sim: Simulation, *, seed: int = 0, goal: TrenchGoal | None = Non
             bounds = (-max(clearance, 0.0), 0.0 if dig is not None else math.inf)
             rec = executor.run(DigPlan(poses, phases, math.radians(goal.waist_deg), volume, bounds))
             sim.settle_soil()
-            torques = np.asarray(rec.torques) if rec.torques else np.zeros((1, 6))
+            # torques while the soil loads the arm (touch-down to lift-out); the moves through
+            # the air to the spoil and back are the servo's business, not the dig's
+            lo, hi = rec.in_soil_window()
+            tt = np.asarray(rec.times)
+            sel = (tt >= lo) & (tt <= hi) if rec.torques else np.zeros(0, bool)
+            torques = np.asarray(rec.torques)[sel] if sel.any() else np.zeros((1, 6))
             dt = 1.0 / executor.ft.rate_hz
             metrics = DigMetrics(
                 index=i + 1, kind=kind, action=action, outcome=rec.outcome, predicted_m3=volume,
