@@ -268,6 +268,50 @@ def bench_planner(*, n_loop: int = 150) -> list[Row]:
     ]
 
 
+def bench_episode(*, dig_budget: int = 20, seed: int = 0) -> list[Row]:
+    """The default trenching episode (straight trench, testbed sand, 20 digs at most) end to end.
+
+    Wall time and the simulated-to-wall ratio of the whole loop (parking, scanning, mapping,
+    planning, digging, settling), against stepping the bare arm through the same servo commands
+    with the soil off: the loop's overhead over MuJoCo alone. Targets (issue #7): <= 60 s on one
+    core for about 20 digs, >= 50x real time, within 3x of the bare arm.
+    """
+    from excavsim.loop.episode import EpisodeObserver
+    from excavsim.loop.scenario import EpisodeSpec, run_spec
+    from excavsim.world.simulation import Simulation
+
+    class Controls(EpisodeObserver):
+        def __init__(self):
+            self.ctrls: list[np.ndarray] = []
+
+        def stepped(self, sim):
+            self.ctrls.append(sim.data.ctrl.copy())
+
+    run_spec(EpisodeSpec(goal="small", dig_budget=1, seed=seed))  # warm-up: numba caches, reachability table
+    obs = Controls()
+    t0 = time.perf_counter()
+    res = run_spec(EpisodeSpec(goal="straight", dig_budget=dig_budget, seed=seed), observer=obs)
+    wall = time.perf_counter() - t0
+    bare = Simulation(seed=seed)
+    bare.soil_enabled = False
+    t0 = time.perf_counter()
+    for ctrl in obs.ctrls:
+        bare.data.ctrl[:] = ctrl
+        bare.step()
+    t_bare = time.perf_counter() - t0
+    planning = sum(d.planning_s for d in res.digs)
+    n = len(res.digs)
+    return [
+        ("episode: wall time", wall, "s", f"{n} digs ({sum(d.kind != 'planned' for d in res.digs)} fallback), "
+                                         f"{100 * res.removed_fraction:.0f} % removed, ended {res.end}; target <= 60 s"),
+        ("episode: wall time per dig", wall / max(n, 1), "s", "scan + map + plan + dig + settle"),
+        ("episode: simulated / wall", res.sim_time_s / wall, "x", f"{res.sim_time_s:.0f} s simulated; target >= 50"),
+        ("episode: bare arm, same commands", res.sim_time_s / t_bare, "x", "simulated / wall, soil off, no loop"),
+        ("episode: wall / bare-arm stepping", wall / t_bare, "x", "loop overhead over MuJoCo alone; target <= 3"),
+        ("episode: planning share", planning / wall, "fraction", f"{planning:.1f} s planning"),
+    ]
+
+
 BENCHMARKS: dict[str, Callable[[], list[Row]]] = {
     "step": bench_step_rate,
     "kinematics": bench_kinematics,
@@ -277,6 +321,7 @@ BENCHMARKS: dict[str, Callable[[], list[Row]]] = {
     "soil": bench_soil_coupling,
     "sensing": bench_sensing,
     "planner": bench_planner,
+    "episode": bench_episode,
 }
 
 

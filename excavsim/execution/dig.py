@@ -29,6 +29,7 @@ from excavsim.config import ExecutorConfig
 from excavsim.errors import ExcavsimError
 from excavsim.execution.script import (Command, Script, ScriptEngine, Sense, Step, SubScript, all_of, always, any_of,
                                        event, reached)
+from excavsim.robot.fast import arm_params, ik_torques
 from excavsim.robot.kinematics import PlanarArm
 from excavsim.sensing.ft import ForceSensor
 from excavsim.world.simulation import Observation, Simulation
@@ -169,6 +170,25 @@ class DigExecutor:
         self._arm_idx = [names.index(j) for j in ARM]
         self._waist_idx = names.index(WAIST)
         self._names = names
+        # compiled elbow-up IK for the one pose of each control step (equal to PlanarArm.inverse)
+        self._ik_params = arm_params(arm)
+        self._ik_buf = (np.zeros((1, 3)), np.zeros((1, 3)), np.zeros(1), np.zeros((1, 3)), np.zeros(1, bool),
+                        np.zeros((1, 3)))
+        self._geometry: dict[int, tuple[np.ndarray, np.ndarray]] = {}
+
+    def _inverse(self, pose: np.ndarray) -> tuple[np.ndarray, bool]:
+        poses, wrench, payload, q, ok, tau = self._ik_buf
+        poses[0] = pose
+        ik_torques(self._ik_params, poses, wrench, payload, np.zeros(2), False, q, ok, tau)
+        return q[0].copy(), bool(ok[0])
+
+    def _cum(self, path: np.ndarray) -> np.ndarray:
+        """Cumulative length along ``path`` (cached per path array while it is in use)."""
+        hit = self._geometry.get(id(path))
+        if hit is None or hit[0] is not path:
+            hit = (path, np.concatenate([[0.0], np.cumsum(_seg(path))]))
+            self._geometry[id(path)] = hit
+        return hit[1]
 
     def run(self, plan: DigPlan) -> ExecutionRecord:
         """Execute ``plan``; never raises for a physical failure (the record's ``outcome`` says)."""
@@ -257,17 +277,18 @@ class DigExecutor:
                     path = paths[cmd.path]
                     s = cursor.get(cmd.path, 0.0)
                     speed = cfg.touch_speed_m_s if cmd.path == "touchdown" else cfg.path_speed_m_s
-                    s = min(s + speed * sim.control_dt, _length(path))
+                    cum = self._cum(path)
+                    s = min(s + speed * sim.control_dt, float(cum[-1]))
                     cursor[cmd.path] = s
-                    pose = _point_at(path, s)
+                    pose = _point_at(path, s, cum)
                     if cmd.path == "dig" and cfg.compliance != "off" and rec.stall is None and s >= lead_len:
                         rise = self._yield(rise, obs, reading)
                         pose = pose + np.array([0.0, rise, 0.0])
                         rec.compliance.append(rise)
-                    qp, ok = self.arm.inverse(pose)
+                    qp, ok = self._inverse(pose)
                     if ok:
                         target[idx] = qp
-                    if s >= _length(path) and self._settled(q[idx], target[idx]):
+                    if s >= cum[-1] and self._settled(q[idx], target[idx]):
                         events.add(f"path_done:{cmd.path}")
                 elif cmd.targets:
                     target[idx] = cmd.targets
@@ -383,10 +404,11 @@ def _length(path: np.ndarray) -> float:
     return float(_seg(path).sum()) if len(path) > 1 else 0.0
 
 
-def _point_at(path: np.ndarray, s: float) -> np.ndarray:
-    """Pose at path length ``s`` along a polyline of poses (see :func:`_seg`)."""
-    seg = _seg(path)
-    cum = np.concatenate([[0.0], np.cumsum(seg)])
+def _point_at(path: np.ndarray, s: float, cum: np.ndarray | None = None) -> np.ndarray:
+    """Pose at path length ``s`` along a polyline of poses (see :func:`_seg`); ``cum`` is the
+    cumulative length along it when already known."""
+    if cum is None:
+        cum = np.concatenate([[0.0], np.cumsum(_seg(path))])
     if cum[-1] <= 0:
         return path[-1].copy()
     return np.array([np.interp(s, cum, path[:, k]) for k in range(3)])
