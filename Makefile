@@ -20,8 +20,9 @@ $(STAMP_DEV): pyproject.toml | $(PY)
 	$(PY) -m pip install --quiet -e ".[dev]"
 	touch $@ $(STAMP_RUN)
 
+# one default trenching episode, headless, recorded for the Rerun viewer (`excavsim replay runs/demo.rrd`)
 demo: $(STAMP_RUN)
-	$(VENV)/bin/excavsim demo
+	$(VENV)/bin/excavsim trench --record runs/demo.rrd
 
 test: $(STAMP_DEV)
 	$(PY) -m pytest -q

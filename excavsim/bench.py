@@ -269,7 +269,7 @@ def bench_planner(*, n_loop: int = 150) -> list[Row]:
 
 
 def bench_episode(*, dig_budget: int = 20, seed: int = 0) -> list[Row]:
-    """The default trenching episode (straight trench, testbed sand, 20 digs at most) end to end.
+    """The default trenching episode (the sand trench, testbed sand, 20 digs at most) end to end.
 
     Wall time and the simulated-to-wall ratio of the whole loop (parking, scanning, mapping,
     planning, digging, settling), against stepping the bare arm through the same servo commands
@@ -290,7 +290,7 @@ def bench_episode(*, dig_budget: int = 20, seed: int = 0) -> list[Row]:
     run_spec(EpisodeSpec(goal="small", dig_budget=1, seed=seed))  # warm-up: numba caches, reachability table
     obs = Controls()
     t0 = time.perf_counter()
-    res = run_spec(EpisodeSpec(goal="straight", dig_budget=dig_budget, seed=seed), observer=obs)
+    res = run_spec(EpisodeSpec(goal="sand", dig_budget=dig_budget, seed=seed), observer=obs)
     wall = time.perf_counter() - t0
     bare = Simulation(seed=seed)
     bare.soil_enabled = False

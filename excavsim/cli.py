@@ -40,18 +40,36 @@ def _cmd_cycle(args: argparse.Namespace) -> int:
 
 
 def _cmd_trench(args: argparse.Namespace) -> int:
-    from excavsim.config import load_robot_config, load_scene_config, load_trench_goal
-    from excavsim.loop.episode import format_episode, run_episode
-    from excavsim.world.simulation import Simulation
+    from excavsim.loop.episode import format_episode
+    from excavsim.loop.scenario import EpisodeSpec, load_spec, run_spec
 
-    if args.dig_budget < 1:
+    spec = load_spec(args.spec) if args.spec else EpisodeSpec()
+    given = {"goal": args.goal, "soil": args.soil, "dig_budget": args.dig_budget, "seed": args.seed}
+    if args.dig_budget is not None and args.dig_budget < 1:
         raise ExcavsimError(f"--dig-budget must be at least 1; given {args.dig_budget}")
-    robot = load_robot_config(args.robot_config)
-    scene = load_scene_config(args.scene_config)
-    goal = load_trench_goal(args.goal) if args.goal else None
-    print(f"excavsim trench: {args.dig_budget} digs at most in {scene.soil} (seed {args.seed})")
-    sim = Simulation(robot, scene, seed=args.seed)
-    print(format_episode(run_episode(sim, seed=args.seed, goal=goal, dig_budget=args.dig_budget, progress=print)))
+    spec = EpisodeSpec.model_validate({**spec.model_dump(), **{k: v for k, v in given.items() if v is not None}})
+    observer = None
+    if args.record:
+        from excavsim.record import RerunRecorder
+
+        if not args.record.endswith(".rrd"):
+            raise ExcavsimError(f"--record must name an .rrd file; given {args.record!r}")
+        observer = RerunRecorder(args.record)
+    goal = spec.goal if isinstance(spec.goal, str) else (spec.goal.name or "inline goal")
+    print(f"excavsim trench: {goal} trench, {spec.dig_budget} digs at most, soil {spec.soil or 'of the scene'}, "
+          f"seed {spec.seed}")
+    result = run_spec(spec, progress=print, observer=observer, robot_path=args.robot_config,
+                      scene_path=args.scene_config)
+    print(format_episode(result))
+    if args.record:
+        print(f"recorded to {args.record}; replay it with: excavsim replay {args.record}")
+    return 0
+
+
+def _cmd_replay(args: argparse.Namespace) -> int:
+    from excavsim.record import replay
+
+    replay(args.file, dry_run=args.dry_run)
     return 0
 
 
@@ -85,6 +103,19 @@ def _cmd_bench(args: argparse.Namespace) -> int:
     if unknown:
         raise ExcavsimError(f"unknown benchmark(s) {unknown}; available: {sorted(BENCHMARKS)}")
     run_benchmarks(args.names or None)
+    return 0
+
+
+def _cmd_campaign(args: argparse.Namespace) -> int:
+    from excavsim.loop.campaign import load_campaign, run_campaign
+
+    spec = load_campaign(args.campaign)
+    out = args.out or f"runs/campaigns/{spec.name}"
+    report = run_campaign(spec, out, workers=args.workers, resume=args.resume, ray_address=args.ray, progress=print)
+    if report.errors:
+        print(f"{report.errors} of {len(report.rows)} episodes failed: see their 'error' in {out}/episodes",
+              file=sys.stderr)
+        return 1
     return 0
 
 
@@ -202,10 +233,22 @@ def build_parser() -> argparse.ArgumentParser:
     demo.set_defaults(func=_cmd_demo)
 
     trench = sub.add_parser("trench", help="dig a trench: scan, plan, dig, settle until done or out of digs")
-    trench.add_argument("--goal", metavar="YAML", help="trench goal (default configs/trenches/straight.yaml)")
-    trench.add_argument("--dig-budget", type=int, default=20, metavar="N", help="most digs to try (default 20)")
-    _world_options(trench)
+    trench.add_argument("--spec", metavar="YAML", help="an episode specification (goal, soil, seed, budget, "
+                                                       "configuration overrides; e.g. configs/regress/small_sand.yaml)")
+    trench.add_argument("--goal", metavar="NAME|YAML",
+                        help="trench goal: a name of configs/trenches (sand, straight, small) or a YAML file (default sand)")
+    trench.add_argument("--soil", metavar="NAME", help="soil preset of configs/soils.yaml (default: the scene's)")
+    trench.add_argument("--dig-budget", type=int, metavar="N", help="most digs to try (default 20)")
+    trench.add_argument("--record", metavar="FILE.rrd", help="record the episode to a Rerun file (see `replay`)")
+    trench.add_argument("--robot-config", metavar="YAML", help="servo configuration (default configs/robot.yaml)")
+    trench.add_argument("--scene-config", metavar="YAML", help="scene configuration (default configs/scene.yaml)")
+    trench.add_argument("--seed", type=int, help="episode seed (default 0)")
     trench.set_defaults(func=_cmd_trench)
+
+    replay = sub.add_parser("replay", help="open a recorded episode (.rrd) in the Rerun viewer")
+    replay.add_argument("file", metavar="FILE.rrd", help="a recording written by `excavsim trench --record`")
+    replay.add_argument("--dry-run", action="store_true", help="only print the viewer command")
+    replay.set_defaults(func=_cmd_replay)
 
     cycle = sub.add_parser("cycle", help="one cycle of the dig-scan-plan loop: scan, map, plan, dig, settle, scan")
     _world_options(cycle)
@@ -222,6 +265,17 @@ def build_parser() -> argparse.ArgumentParser:
     bench = sub.add_parser("bench", help="run benchmarks and print one table of numbers and ratios")
     bench.add_argument("names", nargs="*", metavar="NAME", help="benchmarks to run (default: all)")
     bench.set_defaults(func=_cmd_bench)
+
+    campaign = sub.add_parser("campaign", help="run a grid of trenching episodes in parallel; summary table and plots")
+    campaign.add_argument("campaign", metavar="CAMPAIGN.yaml",
+                          help="campaign file (e.g. configs/campaigns/example.yaml)")
+    campaign.add_argument("--out", metavar="DIR", help="output directory (default runs/campaigns/NAME)")
+    campaign.add_argument("--workers", type=int, metavar="N", help="parallel processes (default: the CPU count)")
+    campaign.add_argument("--resume", action="store_true", help="run only the episodes that have no result in DIR")
+    campaign.add_argument("--ray", nargs="?", const="local", metavar="ADDRESS",
+                          help="run on Ray: alone for a local instance, or 'auto' / HOST:PORT for a running cluster "
+                               "(pip install 'excavsim[ray]')")
+    campaign.set_defaults(func=_cmd_campaign)
 
     validate = sub.add_parser("validate", help="check a configuration file and report every problem")
     validate.add_argument("kind", choices=["robot", "scene", "soils", "sensing"], help="what the file configures")

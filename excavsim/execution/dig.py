@@ -266,6 +266,7 @@ class DigExecutor:
             if engine.current(0).name == "touch-down" and cursor.get("touchdown", 0.0) >= _length(paths["touchdown"]):
                 if self._settled(q, target):
                     rec.outcome = "no contact"
+                    rec.bucket_volume_m3 = float(sim.truth.volumes.bucket)  # nothing dug
                     rec.warnings.append(f"no contact within {100 * cfg.touch_search_m:.0f} cm below the map")
                     self._park(rec)
                     break

@@ -10,7 +10,7 @@ planning and simulated time, peak and cumulative torques, and why the episode en
 
 When the planner's best dig is below the minimum utility, the boundary-following fallback of §7.2
 (:mod:`excavsim.planning.fallback`) is tried before the episode gives up. An
-:class:`EpisodeObserver` (the Rerun recorder, :mod:`excavsim.loop.record`) sees every scan, plan,
+:class:`EpisodeObserver` (the Rerun recorder, :mod:`excavsim.record`) sees every scan, plan,
 control step and dig.
 """
 

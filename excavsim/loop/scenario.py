@@ -36,7 +36,7 @@ class EpisodeSpec(_Strict):
 
     name: str = Field(default="episode", description="label for logs and result files")
     goal: str | TrenchGoal = Field(
-        default="straight", description="a trench of configs/trenches (by name), a YAML path, or the goal inline")
+        default="sand", description="a trench of configs/trenches (by name), a YAML path, or the goal inline")
     soil: str | None = Field(default=None, description="soil preset of configs/soils.yaml (default: the scene's)")
     seed: int = Field(default=0, ge=0, description="episode seed (soil, sensor noise, scanner drift)")
     dig_budget: int = Field(default=20, ge=1, le=1000, description="most digs to try")
@@ -99,11 +99,13 @@ def resolve_goal(goal: str | TrenchGoal) -> TrenchGoal:
 class ResolvedSpec:
     """The configurations an :class:`EpisodeSpec` stands for, with every override applied."""
 
-    def __init__(self, spec: EpisodeSpec):
+    def __init__(self, spec: EpisodeSpec, *, robot_path: str | pathlib.Path | None = None,
+                 scene_path: str | pathlib.Path | None = None):
         self.spec = spec
         self.goal: TrenchGoal = resolve_goal(spec.goal)
-        self.robot: RobotConfig = _override(load_robot_config(), spec.robot, RobotConfig, f"{spec.name}: robot")
-        scene = _override(load_scene_config(), spec.scene, SceneConfig, f"{spec.name}: scene")
+        self.robot: RobotConfig = _override(load_robot_config(robot_path), spec.robot, RobotConfig,
+                                            f"{spec.name}: robot")
+        scene = _override(load_scene_config(scene_path), spec.scene, SceneConfig, f"{spec.name}: scene")
         self.scene: SceneConfig = scene.model_copy(update={"soil": spec.soil}) if spec.soil else scene
         self.planner: PlannerConfig = _override(load_planner_config(), spec.planner, PlannerConfig,
                                                 f"{spec.name}: planner")
@@ -113,13 +115,19 @@ class ResolvedSpec:
                                                 f"{spec.name}: sensing")
 
 
-def run_spec(spec: EpisodeSpec, *, progress: Callable[[str], None] | None = None, observer=None):
+def run_spec(spec: EpisodeSpec, *, progress: Callable[[str], None] | None = None, observer=None,
+             robot_path: str | pathlib.Path | None = None, scene_path: str | pathlib.Path | None = None):
     """Build the world of ``spec`` and run its episode; returns the
-    :class:`~excavsim.loop.episode.EpisodeResult`."""
+    :class:`~excavsim.loop.episode.EpisodeResult`.
+
+    Args:
+        robot_path, scene_path: base configuration files the spec's overrides apply to (default
+            configs/robot.yaml and configs/scene.yaml).
+    """
     from excavsim.loop.episode import run_episode
     from excavsim.world.simulation import Simulation
 
-    r = ResolvedSpec(spec)
+    r = ResolvedSpec(spec, robot_path=robot_path, scene_path=scene_path)
     sim = Simulation(r.robot, r.scene, seed=spec.seed)
     return run_episode(sim, seed=spec.seed, goal=r.goal, dig_budget=spec.dig_budget,
                        done_fraction=spec.done_fraction, tolerance_m=spec.tolerance_m, planner_cfg=r.planner,

@@ -1,0 +1,228 @@
+"""Campaigns: grid expansion, stable ids, clear errors, parallel runs that survive a kill and resume."""
+
+from __future__ import annotations
+
+import csv
+import json
+import os
+import signal
+import subprocess
+import sys
+import time
+
+import pytest
+import yaml
+
+from excavsim import constants
+from excavsim.cli import main
+from excavsim.errors import ConfigError, ExcavsimError
+from excavsim.loop import campaign as cmp
+from excavsim.loop.scenario import ResolvedSpec, resolve_goal
+
+TINY_YAML = constants.CONFIGS_DIR / "campaigns" / "tiny.yaml"
+TINY_BASE = {
+    "goal": "small", "dig_budget": 1,
+    "sensing": {"map": {"n_scans": 1}, "scanner": {"n_azimuth": 60, "n_elevation": 60}},
+    "planner": {"grid": {"k_min_m": 1.8, "k_max_m": 2.6, "k_step_m": 0.2, "alpha_step_deg": 15.0, "d1_step_m": 0.04}},
+}
+
+
+def _strict_json(path):
+    """Parse a result file as strict JSON (NaN or Infinity would not be JSON)."""
+    def refuse(token):
+        raise ValueError(f"{path}: non-JSON constant {token}")
+
+    return json.loads(path.read_text(), parse_constant=refuse)
+
+
+def _summary_ids(out):
+    with open(out / "summary.csv", newline="") as f:
+        return [row["id"] for row in csv.DictReader(f)]
+
+
+def test_the_grid_expands_to_its_cartesian_product_with_stable_ids():
+    data = {"name": "g", "base": TINY_BASE, "grid": {
+        "soil": ["testbed_sand", "lean_clay"], "robot.joints.wrist_pitch.torque_limit_nm": [500, 1000],
+        "planner.objective": ["volume", "lexicographic"], "seed": [0, 1, 2]}}
+    spec = cmp.parse_campaign(data)
+    episodes = cmp.expand_grid(spec)
+    assert len(episodes) == 2 * 2 * 2 * 3 and len({e.id for e in episodes}) == len(episodes)
+    assert [e.id for e in episodes] == [e.id for e in cmp.expand_grid(cmp.parse_campaign(data))]
+    first = episodes[0]
+    assert first.params == {"soil": "testbed_sand", "robot.joints.wrist_pitch.torque_limit_nm": 500,
+                            "planner.objective": "volume", "seed": 0}
+    resolved = ResolvedSpec(first.spec)
+    assert resolved.robot.joints.wrist_pitch.torque_limit_nm == 500 and resolved.planner.objective == "volume"
+    assert resolved.scene.soil == "testbed_sand" and first.spec.seed == 0
+    assert resolved.planner.grid.k_step_m == 0.2  # the base's overrides survive the grid's
+    assert first.id.startswith("testbed_sand-torque_limit_nm500-volume-seed0-")
+    # The id hashes the spec as written (sha256, not Python's salted hash): pinned across versions.
+    tiny = cmp.expand_grid(cmp.load_campaign(TINY_YAML))
+    assert [e.id for e in tiny] == ["seed0-c0a3876c9b", "seed1-1cc21bd3a5", "seed2-3ecfd50299", "seed3-81f00c9260"]
+
+
+def test_a_dotted_goal_key_varies_the_named_goal():
+    spec = cmp.parse_campaign({"name": "depth", "base": {"goal": "small"}, "grid": {"goal.depth_m": [0.1, 0.2]}})
+    goals = [ResolvedSpec(e.spec).goal for e in cmp.expand_grid(spec)]
+    small = resolve_goal("small")
+    assert [g.depth_m for g in goals] == [0.1, 0.2] and all(g.near_x_m == small.near_x_m for g in goals)
+
+
+@pytest.mark.parametrize(("grid", "expected"), [
+    ({"soil": ["testbed_sand", "moon_dust"]}, ["'soil'", "moon_dust", "testbed_sand"]),
+    ({"robot.joints.wrist_ptch.torque_limit_nm": [500]}, ["robot.joints.wrist_ptch", "wrist_ptch", "unknown field"]),
+    ({"sed": [0, 1]}, ["'sed'", "not an episode field", "seed"]),
+    ({"seed.x": [0]}, ["'seed.x'", "single value"]),
+    ({"seed": []}, ["grid.seed", "at least 1"]),
+    ({"seed": [1, 1]}, ["same episode twice"]),
+    ({"planner.objective": ["speed"]}, ["planner.objective", "speed"]),
+])
+def test_a_bad_campaign_names_the_key_the_value_and_the_fix(tmp_path, grid, expected):
+    path = tmp_path / "bad.yaml"
+    path.write_text(yaml.safe_dump({"name": "bad", "base": {"goal": "small"}, "grid": grid}))
+    with pytest.raises(ConfigError) as err:
+        cmp.load_campaign(path)
+    message = str(err.value)
+    assert str(path) in message and all(e in message for e in expected), message
+
+
+def test_the_cli_reports_a_bad_campaign_with_status_2(tmp_path, capsys):
+    path = tmp_path / "bad.yaml"
+    path.write_text("name: bad\nbase: {goal: small}\ngrid: {soil: [moon_dust]}\n")
+    assert main(["campaign", str(path), "--out", str(tmp_path / "out")]) == 2
+    assert "moon_dust" in capsys.readouterr().err
+
+
+def test_an_out_dir_with_results_is_refused_without_resume(tmp_path, capsys):
+    out = tmp_path / "out"
+    (out / "episodes").mkdir(parents=True)
+    (out / "episodes" / "seed0-c0a3876c9b.json").write_text("{}")
+    with pytest.raises(ExcavsimError, match="--resume"):
+        cmp.run_campaign(cmp.load_campaign(TINY_YAML), out, progress=None)
+    assert main(["campaign", str(TINY_YAML), "--out", str(out)]) == 2
+    assert "already holds 1 episode result" in capsys.readouterr().err
+
+
+def test_a_failing_episode_becomes_an_error_record(monkeypatch):
+    def explode(spec, **_):
+        raise RuntimeError("the soil box caught fire")
+
+    monkeypatch.setattr(cmp, "run_spec", explode)
+    ep = cmp.expand_grid(cmp.load_campaign(TINY_YAML))[0]
+    rec = cmp.run_episode_task(cmp._task(ep, constants.REPO_ROOT, record=False))
+    assert rec["status"] == "error" and rec["error"] == "RuntimeError: the soil box caught fire"
+    assert rec["summary"] is None and "explode" in rec["traceback"] and rec["id"] == ep.id
+    json.dumps(rec, allow_nan=False)
+
+
+def test_record_passes_a_recorder_of_the_episode_file(monkeypatch, tmp_path):
+    import types
+
+    made = []
+
+    class FakeRecorder:
+        def __init__(self, path):
+            made.append(path)
+
+    seen = []
+    monkeypatch.setitem(sys.modules, "excavsim.record", types.SimpleNamespace(RerunRecorder=FakeRecorder))
+    monkeypatch.setattr(cmp, "run_spec", lambda spec, *, progress, observer: seen.append(observer))
+    monkeypatch.setattr(cmp, "episode_summary", lambda _r: {"digs": 0})
+    ep = cmp.expand_grid(cmp.load_campaign(TINY_YAML))[1]
+    rec = cmp.run_episode_task(cmp._task(ep, tmp_path, record=True))
+    assert rec["status"] == "ok" and rec["recording"] == f"recordings/{ep.id}.rrd"
+    assert made == [tmp_path.resolve() / "recordings" / f"{ep.id}.rrd"] and isinstance(seen[0], FakeRecorder)
+
+
+def test_a_complete_out_dir_is_summarized_without_running_anything(tmp_path):
+    spec = cmp.parse_campaign({"name": "fake", "base": {"goal": "small"},
+                               "grid": {"soil": ["testbed_sand", "lean_clay"], "seed": [0, 1]}})
+    episodes = cmp.expand_grid(spec)
+    (tmp_path / "episodes").mkdir()
+    for i, ep in enumerate(episodes):
+        ok = i != 3
+        summary = {"end": "done" if i == 0 else "budget", "digs": 2 + i, "dug_l_per_dig": 10.0 + i,
+                   "removed_fraction": 0.5 + 0.1 * i, "dug_l": [1.0, 2.0]}
+        rec = {"id": ep.id, "status": "ok" if ok else "error", "summary": summary if ok else None,
+               "error": None if ok else "ExcavsimError: diverged\ndetails"}
+        (tmp_path / "episodes" / f"{ep.id}.json").write_text(json.dumps(rec))
+    lines = []
+    report = cmp.run_campaign(spec, tmp_path, resume=True, progress=lines.append)
+    assert report.ran == 0 and report.errors == 1
+    assert _summary_ids(tmp_path) == [e.id for e in episodes]
+    with open(tmp_path / "summary.csv", newline="") as f:
+        rows = list(csv.DictReader(f))
+    assert [r["soil"] for r in rows] == ["testbed_sand", "testbed_sand", "lean_clay", "lean_clay"]
+    assert rows[3]["status"] == "error" and rows[3]["error"] == "ExcavsimError: diverged" and rows[3]["digs"] == ""
+    assert "dug_l" not in rows[0]  # per-dig lists stay in the episode files
+    assert {p.name for p in report.plots} == {"by_soil.png"}
+    assert all(p.stat().st_size > 10_000 for p in report.plots)
+    table = next(line for line in lines if line.startswith("soil"))
+    assert "lean_clay" in table and "l/dig" in table
+    assert (tmp_path / "campaign.yaml").exists()
+
+
+def test_a_killed_campaign_resumes_without_duplicates_or_gaps(tmp_path):
+    """Four tiny episodes on two processes, killed (SIGKILL, whole process group) after the first
+    result is written, then resumed: every episode ends with exactly one result, and the results
+    written before the kill are left as they were."""
+    out = tmp_path / "out"
+    ep_dir = out / "episodes"
+    cmd = [sys.executable, "-m", "excavsim.cli", "campaign", str(TINY_YAML), "--out", str(out), "--workers", "2"]
+    with open(tmp_path / "first.log", "w") as log:
+        proc = subprocess.Popen(cmd, stdout=log, stderr=subprocess.STDOUT, cwd=constants.REPO_ROOT,
+                                start_new_session=True)
+        try:
+            deadline = time.monotonic() + 180
+            while not (ep_dir.exists() and any(ep_dir.glob("*.json"))):
+                assert proc.poll() is None, f"ended before the kill: {(tmp_path / 'first.log').read_text()}"
+                assert time.monotonic() < deadline, "no episode finished in 180 s"
+                time.sleep(0.02)
+        finally:
+            os.killpg(proc.pid, signal.SIGKILL)  # the CLI, its forkserver and its workers
+            proc.wait()
+    before = {p.name: (p.stat().st_mtime_ns, p.read_bytes()) for p in ep_dir.glob("*.json")}
+    assert 1 <= len(before) < 4
+
+    resumed = subprocess.run([*cmd, "--resume"], capture_output=True, text=True, cwd=constants.REPO_ROOT,
+                             timeout=300)
+    assert resumed.returncode == 0, resumed.stdout + resumed.stderr
+    assert f"{len(before)} already done, {4 - len(before)} to run" in resumed.stdout
+    ids = [e.id for e in cmp.expand_grid(cmp.load_campaign(TINY_YAML))]
+    files = sorted(p.name for p in ep_dir.iterdir())
+    assert files == sorted(f"{i}.json" for i in ids)  # no duplicate, no gap, no temporary file left
+    for i in ids:
+        rec = _strict_json(ep_dir / f"{i}.json")
+        assert rec["id"] == i and rec["status"] == "ok" and rec["summary"]["digs"] == 1
+    assert {p.name: (p.stat().st_mtime_ns, p.read_bytes()) for p in ep_dir.glob("*.json")
+            if p.name in before} == before
+    assert _summary_ids(out) == ids
+    assert sum(line.startswith("[") for line in resumed.stdout.splitlines()) == 4 - len(before)
+
+
+def test_without_ray_the_error_names_the_extra(monkeypatch, tmp_path):
+    monkeypatch.setitem(sys.modules, "ray", None)  # import ray raises ImportError
+    with pytest.raises(ExcavsimError, match=r"pip install 'excavsim\[ray\]'"):
+        cmp.run_campaign(cmp.load_campaign(TINY_YAML), tmp_path, ray_address="local", progress=None)
+    assert not (tmp_path / "episodes").exists()
+
+
+def test_a_campaign_runs_on_ray(tmp_path):
+    ray = pytest.importorskip("ray", reason="Ray is an optional extra (pip install 'excavsim[ray]')")
+    if not hasattr(ray, "remote"):
+        pytest.skip("a folder named ray shadows the package; Ray is not installed")
+    spec = cmp.parse_campaign({"name": "ray", "base": TINY_BASE, "grid": {"seed": [0, 1]}})
+    report = cmp.run_campaign(spec, tmp_path, workers=2, ray_address="local", progress=None)
+    assert report.ran == 2 and report.errors == 0
+    assert _summary_ids(tmp_path) == [e.id for e in report.episodes]
+    assert all(_strict_json(tmp_path / "episodes" / f"{e.id}.json")["summary"]["digs"] == 1
+               for e in report.episodes)
+
+
+def test_progress_lines_count_and_tolerate_numbers_that_were_not_finite():
+    rec = {"id": "a", "status": "ok", "wall_s": 3.0,
+           "summary": {"end": "budget", "digs": 12, "dug_l_per_dig": None, "removed_fraction": 0.85}}
+    assert cmp._progress_line(2, 8, rec, 75.0) == "[2/8] a: budget after 12 digs, ? l/dig, 85 % removed (3 s); " \
+                                                 "ETA 1 min 15 s"
+    err = {"id": "b", "status": "error", "error": "ExcavsimError: diverged\ntraceback", "wall_s": 1.0}
+    assert cmp._progress_line(8, 8, err, 0.0) == "[8/8] b: ERROR ExcavsimError: diverged"
