@@ -119,6 +119,16 @@ def _cmd_campaign(args: argparse.Namespace) -> int:
     return 0
 
 
+def _cmd_learn(args: argparse.Namespace) -> int:
+    from excavsim.loop.learn import run_learn
+
+    print(f"excavsim learn: force predictors learned from simulated digs (§5.2); results in {args.out}")
+    run_learn(soil=args.soil, digs=args.digs, seed=args.seed, out=args.out, dataset=args.dataset, folds=args.folds,
+              split=args.split, compare=args.compare, episodes=args.episodes, dig_budget=args.dig_budget,
+              wrist_limit=args.wrist_limit, method=args.method, forgetting=args.forgetting)
+    return 0
+
+
 def _cmd_validate(args: argparse.Namespace) -> int:
     from excavsim.config import RobotConfig, SceneConfig, SensingConfig, SoilsFile, load_config
 
@@ -294,6 +304,29 @@ def build_parser() -> argparse.ArgumentParser:
     plan.add_argument("--out", metavar="DIR", default="runs/plan", help="where the figures go (default runs/plan)")
     plan.add_argument("--no-figures", action="store_true", help="only print the plan (pruned search, faster)")
     plan.set_defaults(func=_cmd_plan)
+
+    learn = sub.add_parser("learn", help="learn to predict soil forces: data from digs, Tables 4-5, Fig. 81, "
+                                         "nominal vs learned in the loop")
+    learn.add_argument("--soil", metavar="NAME", help="soil preset of configs/soils.yaml (default: the scene's)")
+    learn.add_argument("--digs", type=int, default=30, metavar="N", help="digs to collect (default 30)")
+    learn.add_argument("--seed", type=int, default=0, metavar="N", help="seeds the soil beds, actions and folds")
+    learn.add_argument("--out", metavar="DIR", default="runs/learn", help="output directory (default runs/learn)")
+    learn.add_argument("--dataset", metavar="FILE",
+                       help="force data set (.parquet, .csv, .npz): loaded if it exists, else built and saved there")
+    learn.add_argument("--folds", type=int, default=10, metavar="N", help="cross-validation folds (default 10)")
+    learn.add_argument("--split", choices=["samples", "digs", "both"], default="both",
+                       help="cross-validate over shuffled samples (the thesis), whole digs, or both (default)")
+    learn.add_argument("--compare", action="store_true",
+                       help="also run episodes planned with the nominal wedge model and with learned predictors")
+    learn.add_argument("--episodes", type=int, default=2, metavar="N", help="episodes per predictor (default 2)")
+    learn.add_argument("--dig-budget", type=int, default=6, metavar="N", help="digs per episode (default 6)")
+    learn.add_argument("--wrist-limit", type=float, metavar="NM",
+                       help="wrist pitch torque limit in the comparison [N m] (default: configs/robot.yaml)")
+    learn.add_argument("--method", default="global", metavar="NAME",
+                       help="learned predictor in the comparison: global, global_rls, nn3, lwr, lwr_scaled, net")
+    learn.add_argument("--forgetting", type=float, default=1.0, metavar="F",
+                       help="forgetting factor of eq. 22 for a global regression in the comparison (default 1)")
+    learn.set_defaults(func=_cmd_learn)
     return parser
 
 

@@ -44,7 +44,7 @@ import numpy as np
 
 from excavsim.config import PlannerConfig, TrenchGoal
 from excavsim.errors import ExcavsimError
-from excavsim.planning.predictor import ForcePredictor
+from excavsim.planning.predictor import DigContext, ForcePredictor, trajectory_progress
 from excavsim.robot.fast import arm_params, ik_torques
 from excavsim.robot.kinematics import PlanarArm
 from excavsim.robot.reachability import ReachabilityTable
@@ -150,6 +150,7 @@ class TrenchPlanner:
         self.density = float(density)
         self._arm_params = arm_params(arm)
         self._load_tip = np.asarray(config.payload_com_tip_m, dtype=float)
+        self._eps = math.radians(config.epsilon_deg)
         g = config.grid
         self.grid_k = _steps(g.k_min_m, g.k_max_m, g.k_step_m)
         self.grid_alpha = np.radians(_steps(g.alpha_min_deg, g.alpha_max_deg, g.alpha_step_deg))
@@ -240,11 +241,13 @@ class TrenchPlanner:
             ok[ok] = oki
         return ok.reshape(poses.shape[:-1]), q.reshape(poses.shape)
 
-    def _torque_ratio(self, poses: np.ndarray, depth: np.ndarray, volume: np.ndarray
+    def _torque_ratio(self, poses: np.ndarray, depth: np.ndarray, volume: np.ndarray,
+                      progress: np.ndarray | None = None, surface: SurfaceProfile | None = None
                       ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """Predicted forces, static joint torques (eq. 28) and the largest torque/limit ratio per
-        sample; ``inf`` ratio where a pose is unreachable."""
-        f = self.predictor.predict(depth, poses[..., 2], volume)
+        sample; ``inf`` ratio where a pose is unreachable. ``progress`` (..., 4) and ``surface``
+        reach the predictor in its :class:`DigContext` (see :func:`trajectory_progress`)."""
+        f = self.predictor.predict(depth, poses[..., 2], volume, DigContext(poses, progress, surface))
         shape = poses.shape[:-1]
         wrench = np.concatenate([f.reshape(-1, 2), np.zeros((f[..., 0].size, 1))], axis=-1)
         _, ok, tau = self._ik(poses.reshape(-1, 3), wrench, (self.density * volume).reshape(-1))
@@ -337,7 +340,8 @@ class TrenchPlanner:
             steps = self._swept(poses, surface)
             vcum = np.concatenate([[0.0], np.cumsum(steps)])
             depth = np.maximum(surface(poses[:, 0]) - poses[:, 1], 0.0)
-            forces, torques, _ = self._torque_ratio(poses, depth, vcum)
+            prog = trajectory_progress(poses, phases, self._eps)
+            forces, torques, _ = self._torque_ratio(poses, depth, vcum, prog, surface)
             vol = float(res["volume"][c])
         return PlanResult(
             action=action, reason=reason, utility=utility, volume_m3=vol, poses=poses, phases=phases, forces=forces,
@@ -395,7 +399,8 @@ class TrenchPlanner:
         force = False
         if reachable:
             depth = np.maximum(surface(poses[:, 0]) - poses[:, 1], 0.0)
-            _, _, ratio = self._torque_ratio(poses, depth, vcum)
+            prog = trajectory_progress(poses, phases, self._eps)
+            _, _, ratio = self._torque_ratio(poses, depth, vcum, prog, surface)
             force = bool(ratio.max() <= 1.0)
         return {"shaping": shaping, "sensible": bool(in_soil.all() and exit_ok),
                 "volume": bool(vcum[-1] <= cfg.fill_fraction * self.capacity), "reachability": reachable,
@@ -415,7 +420,8 @@ class TrenchPlanner:
         cum = np.zeros(m)
         sel = reach if prune else np.ones(m, bool)
         if sel.any():
-            _, tau, ratio = self._torque_ratio(pen[sel], depth[sel], vcum[sel])
+            _, tau, ratio = self._torque_ratio(pen[sel], depth[sel], vcum[sel],
+                                               trajectory_progress(pen[sel], 0, self._eps), surface)
             peak[sel] = ratio.max(axis=1)
             cum[sel] = (np.nan_to_num(np.abs(tau)).sum(axis=-1)[:, 1:] * self._step_len(pen[sel])).sum(axis=1)
         return {"shape": shape, "sense": sense, "reach": reach, "force": peak <= 1.0, "peak": peak, "cum": cum,
@@ -441,7 +447,7 @@ class TrenchPlanner:
         vcum = np.concatenate([np.zeros((line.shape[0], 1)), np.cumsum(steps, axis=1)], axis=1)
         reach_i = self._reach(line)[0]
         depth = np.maximum(surface(line[..., 0]) - line[..., 1], 0.0)
-        _, tau, ratio = self._torque_ratio(line, depth, vcum)
+        _, tau, ratio = self._torque_ratio(line, depth, vcum, trajectory_progress(line, 0, self._eps), surface)
         tsum = np.nan_to_num(np.abs(tau)).sum(axis=-1)
         cum_i = np.concatenate([np.zeros((line.shape[0], 1)), np.cumsum(tsum[:, 1:] * ds, axis=1)], axis=1)
         # per cell: line samples 0 .. c-1 lie before d1, then the end point at d1
@@ -455,7 +461,8 @@ class TrenchPlanner:
         seg = np.stack([prev, end], axis=1)
         v_end = vcum[li, last] + self._swept(seg, surface)[:, 0]
         end_reach = self._reach(end[:, None, :])[0][:, 0]
-        _, tau_e, ratio_e = self._torque_ratio(end, np.maximum(surface(end[:, 0]) - end[:, 1], 0.0), v_end)
+        _, tau_e, ratio_e = self._torque_ratio(end, np.maximum(surface(end[:, 0]) - end[:, 1], 0.0), v_end,
+                                               np.stack([k, alpha, d1, np.zeros_like(d1)], axis=-1), surface)
         peak_line = np.maximum.accumulate(np.where(np.isfinite(ratio), ratio, np.inf), axis=1)
         shape = cumall(shape_i)[li, last] & (end[:, 1] >= goal_profile(self.goal, end[:, 0]) - cfg.shaping_tolerance_m)
         sense = cumall(sense_i)[li, last] & (end[:, 1] <= surface(end[:, 0]) + cfg.surface_tolerance_m)
@@ -506,9 +513,10 @@ class TrenchPlanner:
         ratio_d = np.full((m, n_j), np.inf)
         absum_d = np.zeros((m, n_j))
         stage["force_samples"] = int(fsel.sum()) + pen_info["samples"]
+        prog_d = trajectory_progress(drag, 1, self._eps, start=trajectory_progress(pen, 0, self._eps)[:, -1])
         if fsel.any():
             depth_d = np.maximum(surface(drag[..., 0]) - drag[..., 1], 0.0)
-            _, tau, ratio = self._torque_ratio(drag[fsel], depth_d[fsel], v_cum[fsel])
+            _, tau, ratio = self._torque_ratio(drag[fsel], depth_d[fsel], v_cum[fsel], prog_d[fsel], surface)
             ratio_d[fsel] = ratio
             absum_d[fsel] = np.nan_to_num(np.abs(tau)).sum(axis=-1)
         d_force = ratio_d <= 1.0
@@ -525,7 +533,7 @@ class TrenchPlanner:
 
         def try_curl(cells: np.ndarray, jj: np.ndarray) -> np.ndarray:
             stage["curl_evaluations"] += len(cells)
-            ok, r, extra = self._curl_ok(drag[cells, jj], surface, v_cum[cells, jj], vmax)
+            ok, r, extra = self._curl_ok(drag[cells, jj], surface, v_cum[cells, jj], vmax, prog_d[cells, jj])
             better = ok & (jj > best_j[cells])
             win = cells[better]
             best_j[win] = jj[better]
@@ -572,7 +580,8 @@ class TrenchPlanner:
     def _step_len(poses: np.ndarray) -> np.ndarray:
         return np.linalg.norm(np.diff(poses[..., :2], axis=-2), axis=-1)
 
-    def _curl_ok(self, start: np.ndarray, surface: SurfaceProfile, v_before: np.ndarray, vmax: float):
+    def _curl_ok(self, start: np.ndarray, surface: SurfaceProfile, v_before: np.ndarray, vmax: float,
+                 progress: np.ndarray | None = None):
         """Smallest reachable curl radius per start pose and whether that curl passes every constraint."""
         cfg = self.cfg
         n = start.shape[0]
@@ -606,7 +615,8 @@ class TrenchPlanner:
         reach_ok, _ = self._reach(poses)
         reach_ok = reach_ok.all(axis=1)
         depth = np.maximum(surface(poses[..., 0]) - poses[..., 1], 0.0)
-        _, tau, ratio = self._torque_ratio(poses, depth, vol)
+        prog = None if progress is None else trajectory_progress(poses, 2, self._eps, start=progress[h])
+        _, tau, ratio = self._torque_ratio(poses, depth, vol, prog, surface)
         force_ok = ratio.max(axis=1) <= 1.0
         ok[h] = shape_ok & sense_ok & vol_ok & reach_ok & force_ok
         extra["volume"][h] = vol[:, -1] - v_before[h]
