@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import numpy as np
+import pytest
 
 from excavsim.cli import main
 from excavsim.loop.episode import format_episode, run_episode
@@ -49,3 +50,27 @@ def test_a_small_trench_is_finished_to_tolerance_and_the_same_seed_repeats_it_ex
     assert abs(first["volume_change_m3"]) < 1e-12
     timing = ("wall_s", "planning_s")
     assert {k: v for k, v in runs[0].items() if k not in timing} == {k: v for k, v in runs[1].items() if k not in timing}
+
+
+def test_an_episode_spec_can_plan_with_a_predictor_learned_online():
+    from excavsim.config import ConfigError
+    from excavsim.learning.adapter import LearnedForcePredictor
+    from excavsim.loop.episode import EpisodeObserver
+    from excavsim.loop.scenario import EpisodeSpec, run_spec
+
+    with pytest.raises(ConfigError, match="unknown predictor 'oracle'; allowed: wedge, global"):
+        EpisodeSpec(predictor="oracle")
+
+    class Seen(EpisodeObserver):
+        def started(self, sim, rig, goal_mask, goal_z):
+            self.predictor = rig.planner.predictor
+
+        def dug(self, index, record, metrics):
+            self.dug_l = metrics.bucket_m3 * 1000
+
+    seen = Seen()
+    spec = EpisodeSpec(goal="small", dig_budget=1, predictor="global",
+                       sensing={"map": {"n_scans": 1}, "scanner": {"n_azimuth": 60, "n_elevation": 60}},
+                       planner={"grid": {"k_min_m": 1.8, "k_max_m": 2.6, "k_step_m": 0.2, "alpha_step_deg": 15.0}})
+    run_spec(spec, observer=seen)
+    assert isinstance(seen.predictor, LearnedForcePredictor) and seen.dug_l > 0

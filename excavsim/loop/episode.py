@@ -61,6 +61,37 @@ class EpisodeObserver:
         """The episode's result (None when it ended with an error)."""
 
 
+class ObserverGroup(EpisodeObserver):
+    """Several observers of one episode (a recorder and a learner, say), called in order."""
+
+    def __init__(self, *observers: EpisodeObserver):
+        self.observers = [o for o in observers if o is not None]
+
+    def started(self, sim, rig, goal_mask, goal_z):
+        for o in self.observers:
+            o.started(sim, rig, goal_mask, goal_z)
+
+    def scanned(self, index, emap, accuracy):
+        for o in self.observers:
+            o.scanned(index, emap, accuracy)
+
+    def planned(self, index, plan, fallback):
+        for o in self.observers:
+            o.planned(index, plan, fallback)
+
+    def stepped(self, sim):
+        for o in self.observers:
+            o.stepped(sim)
+
+    def dug(self, index, record, metrics):
+        for o in self.observers:
+            o.dug(index, record, metrics)
+
+    def finished(self, result):
+        for o in self.observers:
+            o.finished(result)
+
+
 @dataclasses.dataclass
 class DigMetrics:
     """One dig of an episode; ``kind`` is "planned" or "fallback: <boundary>" (§7.2).

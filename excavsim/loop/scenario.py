@@ -47,11 +47,19 @@ class EpisodeSpec(_Strict):
     planner: dict[str, Any] = Field(default_factory=dict, description="overrides of configs/planner.yaml")
     executor: dict[str, Any] = Field(default_factory=dict, description="overrides of configs/executor.yaml")
     sensing: dict[str, Any] = Field(default_factory=dict, description="overrides of configs/sensing.yaml")
+    predictor: str = Field(
+        default="wedge", description="the planner's force predictor: wedge (nominal, eq. 8) or a learning method "
+                                     "of excavsim.learning.predictors.METHODS, learned online from this episode's digs")
 
     @model_validator(mode="after")
     def _check(self) -> EpisodeSpec:
         if self.soil is not None:
             get_soil(self.soil)  # raises with the allowed names
+        if self.predictor != "wedge":
+            from excavsim.learning.predictors import METHODS
+
+            if self.predictor not in METHODS:
+                raise ConfigError(f"unknown predictor {self.predictor!r}; allowed: wedge, {', '.join(METHODS)}")
         return self
 
 
@@ -124,10 +132,14 @@ def run_spec(spec: EpisodeSpec, *, progress: Callable[[str], None] | None = None
         robot_path, scene_path: base configuration files the spec's overrides apply to (default
             configs/robot.yaml and configs/scene.yaml).
     """
-    from excavsim.loop.episode import run_episode
+    from excavsim.loop.episode import ObserverGroup, run_episode
     from excavsim.world.simulation import Simulation
 
     r = ResolvedSpec(spec, robot_path=robot_path, scene_path=scene_path)
+    if spec.predictor != "wedge":  # learned online, from scratch, from this episode's digs (§5.2, issue #8)
+        from excavsim.loop.online import OnlineLearning
+
+        observer = ObserverGroup(OnlineLearning(spec.predictor, progress=progress), observer)
     sim = Simulation(r.robot, r.scene, seed=spec.seed)
     return run_episode(sim, seed=spec.seed, goal=r.goal, dig_budget=spec.dig_budget,
                        done_fraction=spec.done_fraction, tolerance_m=spec.tolerance_m, planner_cfg=r.planner,
