@@ -55,6 +55,10 @@ def _cmd_trench(args: argparse.Namespace) -> int:
         if not args.record.endswith(".rrd"):
             raise ExcavsimError(f"--record must name an .rrd file; given {args.record!r}")
         observer = RerunRecorder(args.record)
+    if args.save_maps:
+        from excavsim.loop.episode import MapWriter, ObserverGroup
+
+        observer = ObserverGroup(observer, MapWriter(args.save_maps))
     goal = spec.goal if isinstance(spec.goal, str) else (spec.goal.name or "inline goal")
     print(f"excavsim trench: {goal} trench, {spec.dig_budget} digs at most, soil {spec.soil or 'of the scene'}, "
           f"seed {spec.seed}")
@@ -63,6 +67,9 @@ def _cmd_trench(args: argparse.Namespace) -> int:
     print(format_episode(result))
     if args.record:
         print(f"recorded to {args.record}; replay it with: excavsim replay {args.record}")
+    if args.save_maps:
+        print(f"scanned maps saved in {args.save_maps} (map_NN.npz); plan on one with: "
+              f"excavsim plan --map {args.save_maps}/map_02.npz")
     return 0
 
 
@@ -147,14 +154,16 @@ def _cmd_plan(args: argparse.Namespace) -> int:
     import numpy as np
 
     from excavsim import constants
-    from excavsim.config import get_soil, load_planner_config, load_robot_config, load_trench_goal
+    from excavsim.config import get_soil, load_planner_config, load_robot_config
     from excavsim.planning.predictor import WedgePredictor
     from excavsim.planning.trench import SurfaceProfile, TrenchPlanner
     from excavsim.robot.kinematics import PlanarArm
     from excavsim.robot.reachability import load_or_build
     from excavsim.sensing.elevation import ElevationMap
 
-    goal = load_trench_goal(args.goal or constants.TRENCHES_DIR / "straight.yaml")
+    from excavsim.loop.scenario import resolve_goal
+
+    goal = resolve_goal(args.goal or "straight")
     config = load_planner_config(args.planner_config)
     robot = load_robot_config(args.robot_config)
     soil = get_soil(args.soil)
@@ -250,6 +259,7 @@ def build_parser() -> argparse.ArgumentParser:
     trench.add_argument("--soil", metavar="NAME", help="soil preset of configs/soils.yaml (default: the scene's)")
     trench.add_argument("--dig-budget", type=int, metavar="N", help="most digs to try (default 20)")
     trench.add_argument("--record", metavar="FILE.rrd", help="record the episode to a Rerun file (see `replay`)")
+    trench.add_argument("--save-maps", metavar="DIR", help="save every scanned elevation map (for `plan --map`)")
     trench.add_argument("--robot-config", metavar="YAML", help="servo configuration (default configs/robot.yaml)")
     trench.add_argument("--scene-config", metavar="YAML", help="scene configuration (default configs/scene.yaml)")
     trench.add_argument("--seed", type=int, help="episode seed (default 0)")
@@ -293,7 +303,8 @@ def build_parser() -> argparse.ArgumentParser:
     validate.set_defaults(func=_cmd_validate)
 
     plan = sub.add_parser("plan", help="plan one dig of a trench on an elevation map, print it and draw figures")
-    plan.add_argument("--goal", metavar="YAML", help="trench goal (default configs/trenches/straight.yaml)")
+    plan.add_argument("--goal", metavar="NAME|YAML",
+                      help="trench goal: a name of configs/trenches or a YAML file (default straight)")
     plan.add_argument("--map", metavar="NPZ", help="elevation map written by excavsim (default: flat 0.5 m sand)")
     plan.add_argument("--planner-config", metavar="YAML", help="planner configuration (default configs/planner.yaml)")
     plan.add_argument("--robot-config", metavar="YAML", help="torque limits (default configs/robot.yaml)")

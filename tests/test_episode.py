@@ -74,3 +74,21 @@ def test_an_episode_spec_can_plan_with_a_predictor_learned_online():
                        planner={"grid": {"k_min_m": 1.8, "k_max_m": 2.6, "k_step_m": 0.2, "alpha_step_deg": 15.0}})
     run_spec(spec, observer=seen)
     assert isinstance(seen.predictor, LearnedForcePredictor) and seen.dug_l > 0
+
+
+def test_cli_trench_runs_a_spec_saves_its_maps_and_plan_reads_one(tmp_path, capsys):
+    import yaml
+
+    spec = tmp_path / "tiny.yaml"
+    spec.write_text(yaml.safe_dump({
+        "name": "tiny", "goal": "small", "dig_budget": 1,
+        "sensing": {"map": {"n_scans": 1}, "scanner": {"n_azimuth": 60, "n_elevation": 60}},
+        "planner": {"grid": {"k_min_m": 1.8, "k_max_m": 2.6, "k_step_m": 0.2, "alpha_step_deg": 15.0}}}))
+    maps = tmp_path / "maps"
+    assert main(["trench", "--spec", str(spec), "--seed", "2", "--save-maps", str(maps)]) == 0
+    out = capsys.readouterr().out
+    assert "small trench, 1 digs at most" in out and "seed 2" in out and "ended:" in out
+    assert sorted(p.name for p in maps.iterdir()) == ["map_01.npz", "map_02.npz"]  # before and after the dig
+    assert main(["plan", "--map", str(maps / "map_02.npz"), "--goal", "small",
+                 "--no-figures"]) == 0
+    assert "action" in capsys.readouterr().out

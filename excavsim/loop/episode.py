@@ -92,6 +92,24 @@ class ObserverGroup(EpisodeObserver):
             o.finished(result)
 
 
+class MapWriter(EpisodeObserver):
+    """Saves every scanned elevation map as ``DIR/map_<cycle>.npz`` (for ``excavsim plan --map``)."""
+
+    def __init__(self, directory):
+        import pathlib
+
+        self.directory = pathlib.Path(directory)
+        self.paths: list = []
+
+    def started(self, sim, rig, goal_mask, goal_z):
+        self.directory.mkdir(parents=True, exist_ok=True)
+
+    def scanned(self, index, emap, accuracy):
+        path = self.directory / f"map_{index:02d}.npz"
+        emap.save(path)
+        self.paths.append(path)
+
+
 @dataclasses.dataclass
 class DigMetrics:
     """One dig of an episode; ``kind`` is "planned" or "fallback: <boundary>" (§7.2).
