@@ -124,12 +124,13 @@ def format_table(spec: CampaignSpec, rows: list[dict[str, Any]]) -> str:
         vals = [r[key] for r in rs if r["status"] == "ok" and r.get(key) is not None]
         return f"{scale * sum(vals) / len(vals):.1f}" if vals else "-"
 
-    header = [k.rsplit(".", 1)[-1] for k in keys] + ["episodes", "errors", "done", "l/dig", "digs", "removed %"]
+    header = [k.rsplit(".", 1)[-1] for k in keys] + ["episodes", "errors", "done", "l/dig", "digs", "stalls",
+                                                      "removed %"]
     lines = []
     for values, rs in groups.items():
         lines.append([str(v) for v in values] + [str(len(rs)), str(sum(r["status"] != "ok" for r in rs)),
                                                  str(sum(_outcome(r) == "done" for r in rs)),
-                                                 mean(rs, "dug_l_per_dig"), mean(rs, "digs"),
+                                                 mean(rs, "dug_l_per_dig"), mean(rs, "digs"), mean(rs, "stalls"),
                                                  mean(rs, "removed_fraction", 100.0)])
     widths = [max(len(c) for c in col) for col in zip(header, *lines)]
     fmt = "  ".join(f"{{:<{w}}}" if i < len(keys) else f"{{:>{w}}}" for i, w in enumerate(widths))
