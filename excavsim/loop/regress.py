@@ -81,7 +81,9 @@ def load_baseline(path: pathlib.Path) -> dict:
 
 def write_baseline(path: pathlib.Path, results: dict[str, dict]) -> None:
     """Write the baseline atomically (a temporary file renamed over the old one)."""
-    keep = {name: {k: v for k, v in row.items() if k in METRICS or k in INFO} for name, row in results.items()}
+    # wall-clock times are machine-dependent: printed by a run, never stored in the baseline
+    stored = set(METRICS) | {"end", "sim_s"}
+    keep = {name: {k: v for k, v in row.items() if k in stored} for name, row in results.items()}
     fd, tmp = tempfile.mkstemp(dir=path.parent, prefix=".baseline-", suffix=".json")
     with os.fdopen(fd, "w") as fh:
         json.dump(keep, fh, indent=2, sort_keys=True)
