@@ -24,7 +24,9 @@ $(STAMP_DEV): pyproject.toml | $(PY)
 demo: $(STAMP_RUN)
 	$(VENV)/bin/excavsim trench --record runs/demo.rrd
 
+# the layer contracts of pyproject.toml (import-linter), then the tests
 test: $(STAMP_DEV)
+	$(VENV)/bin/lint-imports
 	$(PY) -m pytest -q
 
 bench: $(STAMP_RUN)

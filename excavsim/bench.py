@@ -6,6 +6,7 @@
 
 from __future__ import annotations
 
+import math
 import time
 from collections.abc import Callable
 
@@ -62,9 +63,9 @@ def bench_kinematics(*, n: int = 100_000) -> list[Row]:
     """Vectorized FK, IK and Jacobian throughput, and the ratio to a per-pose Python loop."""
     import mujoco
 
-    from excavsim.robot.kinematics import PlanarArm
+    from excavsim.robot.extract import arm_from_model
 
-    arm = PlanarArm.from_model(mujoco.MjModel.from_xml_path(str(constants.SCENE_XML)))
+    arm = arm_from_model(mujoco.MjModel.from_xml_path(str(constants.SCENE_XML)))
     rng = np.random.default_rng(0)
     q = rng.uniform(arm.lower, arm.upper, (n, 3))
     poses = arm.forward(q)
@@ -85,10 +86,10 @@ def bench_reachability(*, n: int = 1_000_000) -> list[Row]:
     """Reachability table: build time, lookups per second, and the speed-up over exact IK."""
     import mujoco
 
-    from excavsim.robot.kinematics import PlanarArm
+    from excavsim.robot.extract import arm_from_model
     from excavsim.robot.reachability import ReachabilityTable
 
-    arm = PlanarArm.from_model(mujoco.MjModel.from_xml_path(str(constants.SCENE_XML)))
+    arm = arm_from_model(mujoco.MjModel.from_xml_path(str(constants.SCENE_XML)))
     t0 = time.perf_counter()
     table = ReachabilityTable.build(arm)
     t_build = time.perf_counter() - t0
@@ -108,10 +109,10 @@ def bench_reachability(*, n: int = 1_000_000) -> list[Row]:
 def bench_soil_coupling() -> list[Row]:
     """Real-time factor of the demo dig with the soil coupled, and the cost ratio to the bare arm.
 
-    The demo dig (about 25 s simulated: penetrate, drag, curl, lift, swing, dump, return) runs once
-    with the soil; its servo commands are recorded and replayed on a fresh simulation with the soil
+    The demo (``excavsim demo``: park, scan, one hand-picked dig, dump, settle, scan) runs once with
+    the soil; its servo commands are recorded and replayed on a fresh simulation with the soil
     switched off, so both runs step MuJoCo through the same control sequence. Only
-    ``Simulation.step`` is timed; the first run also compiles the numba kernels, so a warm-up dig
+    ``Simulation.step`` is timed; the first run also compiles the numba kernels, so a warm-up demo
     runs first.
     """
     from excavsim.loop.demo import run_demo
@@ -132,7 +133,9 @@ def bench_soil_coupling() -> list[Row]:
 
     run_demo(Simulation(seed=0))  # warm-up: numba compilation and caches
     sim = Recorder(seed=0)
-    summary = run_demo(sim)
+    t0 = time.perf_counter()
+    result = run_demo(sim)
+    wall = time.perf_counter() - t0
     bare = Simulation(seed=0)
     bare.soil_enabled = False
     t0 = time.perf_counter()
@@ -140,29 +143,95 @@ def bench_soil_coupling() -> list[Row]:
         bare.step(ctrl)
     t_bare = time.perf_counter() - t0
     sim_time = len(sim.ctrls) * sim.control_dt
+    dug = sum(d.bucket_m3 for d in result.digs)
     return [
         ("dig with soil: real-time factor (Simulation.step)", sim_time / sim.step_time, "x",
          f"{sim_time:.1f} s simulated, {len(sim.ctrls)} control steps"),
         ("dig without soil: real-time factor", sim_time / t_bare, "x", "same control sequence replayed"),
         ("soil coupling cost ratio", sim.step_time / t_bare, "x", "with soil / without; target <= 2"),
         ("soil step cost", (sim.step_time - t_bare) / len(sim.ctrls) * 1e6, "us/step",
-         f"extra per control step (soil kernel, settlement, applied wrench); dug {1000 * summary['dug_m3']:.1f} l"),
-        ("demo dig end to end (IK + servo + soil)", summary["realtime_factor"], "x", "real-time factor"),
+         f"extra per control step (soil kernel, settlement, applied wrench); dug {1000 * dug:.1f} l"),
+        ("demo end to end (scan, IK, servo, soil)", result.sim_time_s / wall, "x", "real-time factor"),
     ]
 
 
-def bench_settle() -> list[Row]:
-    """Settlement of a freshly cut trench (see excavsim.world.settle)."""
-    from excavsim.world.settle import bench_settle as run
+def _trench_field(cell_size_m: float = 0.025) -> tuple[np.ndarray, tuple[int, int, int, int]]:
+    """The benchmark field: 121 x 121 cells flat at 0.5 m with a 1.2 x 0.3 x 0.4 m trench, and its cells."""
+    heights = np.full((121, 121), 0.5)
+    rows, cols = (30, 30 + round(1.2 / cell_size_m)), (54, 54 + round(0.3 / cell_size_m))
+    heights[rows[0]:rows[1], cols[0]:cols[1]] -= 0.4
+    return heights, (*rows, *cols)
 
-    return run()
+
+def bench_settle(*, repeats: int = 7) -> list[Row]:
+    """Settlement speed on the trench of Fig. 6 and the speed-up of a region settle after a small dig.
+
+    Times are the best of ``repeats`` runs on fresh copies, with numba compilation done beforehand.
+    """
+    from excavsim.world.settle import SettleResult, settle
+
+    cell, repose, tol = 0.025, math.radians(30.0), 1e-3
+    w = settle.__kwdefaults__["over_relaxation"]
+    settle(_trench_field(cell)[0], cell, repose)  # compile (or load the cache) outside the timing
+
+    def timed(field: np.ndarray, **kwargs) -> tuple[float, SettleResult, np.ndarray]:
+        copies = [field.copy() for _ in range(repeats)]
+        results = []
+        seconds = _best_of(lambda: results.append(settle(copies[len(results)], cell, repose, **kwargs)), repeats)
+        return seconds, results[-1], copies[-1]
+
+    trench, (r0, r1, c0, c1) = _trench_field(cell)
+    t_trench, res, settled = timed(trench)
+    volume_error = float(abs(settled.sum() - trench.sum()) / trench.sum())
+    # Mirror asymmetry about the trench centre lines (the window symmetric about them).
+    sym = settled[:r0 + r1, :c0 + c1]
+    asymmetry = float(max(np.abs(sym - sym[::-1]).max(), np.abs(sym - sym[:, ::-1]).max()))
+
+    # A 0.3 x 0.3 x 0.1 m hole dug into the settled field, on flat ground beside the trench.
+    hole = settled.copy()
+    n = round(0.3 / cell)
+    region = (90, 90 + n, 20, 20 + n)
+    hole[region[0]:region[1], region[2]:region[3]] -= 0.1
+    t_region, res_region, after_region = timed(hole, region=region)
+    t_whole, res_whole, after_whole = timed(hole)
+    same = "identical result" if np.array_equal(after_region, after_whole) else "results differ"
+    return [
+        ("settle trench 121x121 (2.5 cm, 30 deg)", t_trench * 1e3, "ms", f"w {w}, tolerance {tol * 1e3:g} mm"),
+        ("settle trench sweeps", res.iterations, "sweeps", f"moved {res.moved_volume_m3 * 1e3:.0f} L"),
+        ("settle trench residual excess", res.residual_excess_m * 1e3, "mm", f"converged {res.converged}"),
+        ("settle trench volume error", volume_error, "relative", "walls at the border"),
+        ("settle trench mirror asymmetry", asymmetry * 1e3, "mm", "sweep order breaks symmetry"),
+        ("settle 0.3 m hole, region", t_region * 1e3, "ms", f"{res_region.iterations} sweeps, {same}"),
+        ("settle 0.3 m hole, whole grid", t_whole * 1e3, "ms", f"{res_whole.iterations} sweeps"),
+        ("settle region / whole grid", t_whole / t_region, "x speed-up", "same hole in a settled field"),
+    ]
 
 
-def bench_wedge() -> list[Row]:
-    """Wedge-model evaluations (see excavsim.world.wedge)."""
-    from excavsim.world.wedge import bench_wedge as run
+def bench_wedge(*, n: int = 1_000_000, soil_name: str = "testbed_sand") -> list[Row]:
+    """Wedge-force throughput with the table and with the exact beta*, and the table build time."""
+    from excavsim.config import get_soil
+    from excavsim.mechanics.wedge import WedgeTable, wedge_force
 
-    return run()
+    soil = get_soil(soil_name)
+    t0 = time.perf_counter()
+    table = WedgeTable.for_soil(soil)
+    t_build = time.perf_counter() - t0
+    rng = np.random.default_rng(0)
+    depth = rng.uniform(0.0, 0.3, n)
+    rake = rng.uniform(math.radians(10.0), math.radians(90.0), n)
+
+    def best_of(fn) -> float:
+        return _best_of(fn, 3)
+
+    t_table = best_of(lambda: wedge_force(depth, rake, soil, 0.3, table=table))
+    t_exact = best_of(lambda: wedge_force(depth, rake, soil, 0.3))
+    note = f"batch of {n}, {soil_name}, rake 10-90 deg, depth 0-0.3 m"
+    return [
+        ("wedge table build", t_build, "s", f"{table.rake.size} rakes, {math.degrees(table.rake_step):.2g} deg step"),
+        ("wedge force, table lookup", n / t_table, "evals/s", note),
+        ("wedge force, exact beta*", n / t_exact, "evals/s", note),
+        ("wedge table / exact", t_exact / t_table, "x speed-up", "same inputs"),
+    ]
 
 
 def bench_sensing() -> list[Row]:
@@ -171,7 +240,7 @@ def bench_sensing() -> list[Row]:
 
     from excavsim.config import load_sensing_config
     from excavsim.sensing.elevation import build_map, map_accuracy
-    from excavsim.sensing.scanner import LaserScanner
+    from excavsim.world.scanner import LaserScanner
     from excavsim.world.simulation import Simulation
 
     cfg = load_sensing_config()
@@ -223,14 +292,15 @@ def bench_planner(*, n_loop: int = 150) -> list[Row]:
     import mujoco
 
     from excavsim.config import get_soil, load_planner_config, load_robot_config, load_trench_goal
+    from excavsim.handoff.goal import SurfaceProfile
+    from excavsim.handoff.maps import ElevationMap
     from excavsim.planning.predictor import WedgePredictor
-    from excavsim.planning.trench import SurfaceProfile, TrenchPlanner
-    from excavsim.robot.kinematics import PlanarArm
+    from excavsim.planning.trench import TrenchPlanner
+    from excavsim.robot.extract import arm_from_model
     from excavsim.robot.reachability import load_or_build
-    from excavsim.sensing.elevation import ElevationMap
 
     model = mujoco.MjModel.from_xml_path(str(constants.SCENE_XML))
-    arm = PlanarArm.from_model(model)
+    arm = arm_from_model(model)
     table = load_or_build(arm)
     robot = load_robot_config()
     limits = np.array([robot.joints.shoulder.torque_limit_nm, robot.joints.elbow.torque_limit_nm,
@@ -276,7 +346,8 @@ def bench_episode(*, dig_budget: int = 20, seed: int = 0) -> list[Row]:
     with the soil off: the loop's overhead over MuJoCo alone. Targets (issue #7): <= 60 s on one
     core for about 20 digs, >= 50x real time, within 3x of the bare arm.
     """
-    from excavsim.loop.episode import EpisodeObserver, run_episode
+    from excavsim.handoff.episode import EpisodeObserver
+    from excavsim.loop.episode import run_episode
     from excavsim.loop.scenario import EpisodeSpec, ResolvedSpec, run_spec
     from excavsim.world.simulation import Simulation
 

@@ -13,34 +13,36 @@ from excavsim.errors import ExcavsimError
 
 
 def _cmd_demo(args: argparse.Namespace) -> int:
+    import math
+
     from excavsim.config import load_robot_config, load_scene_config
-    from excavsim.loop.demo import format_summary, run_demo
+    from excavsim.handoff.episode import format_episode
+    from excavsim.loop.demo import DEMO_ACTION, run_demo
     from excavsim.world.simulation import Simulation
 
     robot = load_robot_config(args.robot_config)
     scene = load_scene_config(args.scene_config)
-    print(f"excavsim demo: T3 arm digs one hand-written dig into {scene.soil}, dumps to spoil, the soil settles")
+    k, alpha, d1, d2 = DEMO_ACTION
+    print(f"excavsim demo: one hand-picked dig into {scene.soil} (k {k:.2f} m, alpha {math.degrees(alpha):.0f} deg, "
+          f"d1 {d1:.2f} m, d2 {d2:.2f} m): scan, dig, dump, settle, scan (seed {args.seed})")
     sim = Simulation(robot, scene, seed=args.seed)
-    summary = run_demo(sim, progress=print)
-    print(format_summary(summary))
+    print(format_episode(run_demo(sim, seed=args.seed, progress=print)))
     return 0
 
 
 def _cmd_cycle(args: argparse.Namespace) -> int:
-    from excavsim.config import load_robot_config, load_scene_config
-    from excavsim.loop.cycle import format_cycle, run_cycle
-    from excavsim.world.simulation import Simulation
+    from excavsim.handoff.episode import format_episode
+    from excavsim.loop.scenario import EpisodeSpec, run_spec
 
-    robot = load_robot_config(args.robot_config)
-    scene = load_scene_config(args.scene_config)
-    print(f"excavsim cycle: scan, map, plan, dig, settle, scan in {scene.soil} (seed {args.seed})")
-    sim = Simulation(robot, scene, seed=args.seed)
-    print(format_cycle(run_cycle(sim, seed=args.seed, progress=print)))
+    spec = EpisodeSpec(name="cycle", dig_budget=1, seed=args.seed)
+    print(f"excavsim cycle: park, scan, plan, dig, settle, scan: one dig of the {spec.goal} trench (seed {args.seed})")
+    result = run_spec(spec, progress=print, robot_path=args.robot_config, scene_path=args.scene_config)
+    print(format_episode(result))
     return 0
 
 
 def _cmd_trench(args: argparse.Namespace) -> int:
-    from excavsim.loop.episode import format_episode
+    from excavsim.handoff.episode import format_episode
     from excavsim.loop.scenario import EpisodeSpec, load_spec, run_spec
 
     spec = load_spec(args.spec) if args.spec else EpisodeSpec()
@@ -56,7 +58,8 @@ def _cmd_trench(args: argparse.Namespace) -> int:
             raise ExcavsimError(f"--record must name an .rrd file; given {args.record!r}")
         observer = RerunRecorder(args.record)
     if args.save_maps:
-        from excavsim.loop.episode import MapWriter, ObserverGroup
+        from excavsim.handoff.episode import ObserverGroup
+        from excavsim.loop.episode import MapWriter
 
         observer = ObserverGroup(observer, MapWriter(args.save_maps))
     goal = spec.goal if isinstance(spec.goal, str) else (spec.goal.name or "inline goal")
@@ -118,7 +121,11 @@ def _cmd_campaign(args: argparse.Namespace) -> int:
 
     spec = load_campaign(args.campaign)
     out = args.out or f"runs/campaigns/{spec.name}"
-    report = run_campaign(spec, out, workers=args.workers, resume=args.resume, ray_address=args.ray, progress=print)
+    recorder = None
+    if spec.record:
+        from excavsim.record import RerunRecorder as recorder
+    report = run_campaign(spec, out, workers=args.workers, resume=args.resume, ray_address=args.ray,
+                          recorder=recorder, progress=print)
     if report.errors:
         print(f"{report.errors} of {len(report.rows)} episodes failed: see their 'error' in {out}/episodes",
               file=sys.stderr)
@@ -155,13 +162,13 @@ def _cmd_plan(args: argparse.Namespace) -> int:
 
     from excavsim import constants
     from excavsim.config import get_soil, load_planner_config, load_robot_config
-    from excavsim.planning.predictor import WedgePredictor
-    from excavsim.planning.trench import SurfaceProfile, TrenchPlanner
-    from excavsim.robot.kinematics import PlanarArm
-    from excavsim.robot.reachability import load_or_build
-    from excavsim.sensing.elevation import ElevationMap
-
+    from excavsim.handoff.goal import SurfaceProfile
+    from excavsim.handoff.maps import ElevationMap
     from excavsim.loop.scenario import resolve_goal
+    from excavsim.planning.predictor import WedgePredictor
+    from excavsim.planning.trench import TrenchPlanner
+    from excavsim.robot.extract import arm_from_model
+    from excavsim.robot.reachability import load_or_build
 
     goal = resolve_goal(args.goal or "straight")
     config = load_planner_config(args.planner_config)
@@ -179,7 +186,7 @@ def _cmd_plan(args: argparse.Namespace) -> int:
     limits = np.array([joints.shoulder.torque_limit_nm, joints.elbow.torque_limit_nm, wrist])
 
     model = mujoco.MjModel.from_xml_path(str(constants.SCENE_XML))
-    arm = PlanarArm.from_model(model)
+    arm = arm_from_model(model)
     width = float(model.numeric(constants.BUCKET_WIDTH_NUMERIC).data[0])
     capacity = float(model.numeric(constants.BUCKET_CAPACITY_NUMERIC).data[0])
     print(f"excavsim plan: trench {goal.name or args.goal!r} on {map_label}, soil {args.soil}, "
@@ -247,7 +254,7 @@ def build_parser() -> argparse.ArgumentParser:
     parser = argparse.ArgumentParser(prog="excavsim", description="MuJoCo testbed for robotic trenching.")
     sub = parser.add_subparsers(dest="command", required=True, metavar="COMMAND")
 
-    demo = sub.add_parser("demo", help="one scripted dig into the soil, a dump, and settlement")
+    demo = sub.add_parser("demo", help="one hand-picked dig through the loop: scan, dig, dump, settle, scan")
     _world_options(demo)
     demo.set_defaults(func=_cmd_demo)
 
@@ -270,7 +277,7 @@ def build_parser() -> argparse.ArgumentParser:
     replay.add_argument("--dry-run", action="store_true", help="only print the viewer command")
     replay.set_defaults(func=_cmd_replay)
 
-    cycle = sub.add_parser("cycle", help="one cycle of the dig-scan-plan loop: scan, map, plan, dig, settle, scan")
+    cycle = sub.add_parser("cycle", help="one cycle of the loop: an episode of one dig of the default trench")
     _world_options(cycle)
     cycle.set_defaults(func=_cmd_cycle)
 

@@ -22,13 +22,13 @@ from excavsim.errors import ConfigError
 M = TypeVar("M", bound=BaseModel)
 
 
-class _Strict(BaseModel):
+class StrictModel(BaseModel):
     """Base for config sections: no unknown fields, no type coercion, no NaN or infinity, frozen."""
 
     model_config = ConfigDict(extra="forbid", strict=True, allow_inf_nan=False, frozen=True)
 
 
-class JointServo(_Strict):
+class JointServo(StrictModel):
     """One hydraulic joint servo (an ``intvelocity`` actuator in t3.xml).
 
     The set-point moves at most at ``velocity_limit_deg_s`` (pump flow); the torque
@@ -46,7 +46,7 @@ class JointServo(_Strict):
         return math.radians(self.velocity_limit_deg_s)
 
 
-class JointServos(_Strict):
+class JointServos(StrictModel):
     """The six servos of the T3, by actuator name."""
 
     waist: JointServo
@@ -61,7 +61,7 @@ class JointServos(_Strict):
         return {name: getattr(self, name) for name in constants.ACTUATORS}
 
 
-class RobotConfig(_Strict):
+class RobotConfig(StrictModel):
     """``configs/robot.yaml``: servo limits and gains of the T3 and the control rate."""
 
     control_rate_hz: float = Field(gt=0, le=2000, description="rate at which set-point rates are commanded [Hz]")
@@ -71,7 +71,7 @@ class RobotConfig(_Strict):
     joints: JointServos
 
 
-class SettleConfig(_Strict):
+class SettleConfig(StrictModel):
     """Settlement of the soil surface (excavsim.world.settle)."""
 
     tolerance_m: float = Field(default=1e-3, gt=0, le=0.05, description="largest slope excess left [m]")
@@ -81,7 +81,7 @@ class SettleConfig(_Strict):
     )
 
 
-class SoilTruthConfig(_Strict):
+class SoilTruthConfig(StrictModel):
     """What the static wedge model misses: truth-only terms of the world's soil (DESIGN.md §1).
 
     The planner's nominal model is eq. 8 alone; the world adds these so that predictions are
@@ -113,7 +113,7 @@ class SoilTruthConfig(_Strict):
         return self
 
 
-class BucketSoilConfig(_Strict):
+class BucketSoilConfig(StrictModel):
     """How the bucket holds, spills and dumps soil, and the contact constants of the soil model."""
 
     heaped_capacity_factor: float = Field(
@@ -152,7 +152,7 @@ class BucketSoilConfig(_Strict):
         return self
 
 
-class SceneConfig(_Strict):
+class SceneConfig(StrictModel):
     """``configs/scene.yaml``: how the scene is composed, and the soil in the box."""
 
     soil_cell_size_m: float = Field(
@@ -182,7 +182,7 @@ class SceneConfig(_Strict):
         return int(round(3.0 / self.soil_cell_size_m)) + 1
 
 
-class ScannerConfig(_Strict):
+class ScannerConfig(StrictModel):
     """The laser range scanner (000_a3ca905d8c6d92bf.txt §7.1.2) and its errors."""
 
     n_azimuth: int = Field(default=200, ge=4, le=4000, description="rays across the image")
@@ -210,7 +210,7 @@ class ScannerConfig(_Strict):
     target_rays: int = Field(default=3, ge=1, le=15, description="rays per side of the patch aimed at each target")
 
 
-class ElevationMapConfig(_Strict):
+class ElevationMapConfig(StrictModel):
     """How scans become an elevation map (§7.1.2)."""
 
     cell_size_m: float = Field(default=0.05, ge=0.01, le=0.5, description="map cell size [m]")
@@ -218,13 +218,13 @@ class ElevationMapConfig(_Strict):
     calibrate: bool = Field(default=True, description="fit scale and offset to the surveyed targets every scan")
 
 
-class ForceSensorConfig(_Strict):
+class ForceSensorConfig(StrictModel):
     """The wrist F/T sensor as the robot reads it (§7.1.3)."""
 
     rate_hz: float = Field(default=10.0, gt=0, le=1000, description="sample rate of F/T readings [Hz]")
 
 
-class SensingConfig(_Strict):
+class SensingConfig(StrictModel):
     """``configs/sensing.yaml``: scanner, elevation map and F/T sensor."""
 
     scanner: ScannerConfig = ScannerConfig()
@@ -232,7 +232,7 @@ class SensingConfig(_Strict):
     force_sensor: ForceSensorConfig = ForceSensorConfig()
 
 
-class TrenchGoal(_Strict):
+class TrenchGoal(StrictModel):
     """``configs/trenches/*.yaml``: a trench to dig, as a 2-D profile in the arm plane (§3.4, Fig. 37).
 
     The arm plane is set by ``waist_deg``; x is the radial distance from the waist axis. The trench
@@ -257,7 +257,7 @@ class TrenchGoal(_Strict):
         return self
 
 
-class PlannerGrid(_Strict):
+class PlannerGrid(StrictModel):
     """The discretized action space (k, alpha, d1) of the trenching action (§3.4.1, ch. 6)."""
 
     k_min_m: float = Field(default=1.4, gt=0, le=4)
@@ -278,7 +278,7 @@ class PlannerGrid(_Strict):
         return self
 
 
-class PlannerConfig(_Strict):
+class PlannerConfig(StrictModel):
     """``configs/planner.yaml``: the trenching action's rules, the search grid and the objective."""
 
     epsilon_deg: float = Field(default=10.0, ge=0, le=45, description="rake = alpha + epsilon while penetrating")
@@ -320,7 +320,7 @@ class PlannerConfig(_Strict):
         return self
 
 
-class ExecutorConfig(_Strict):
+class ExecutorConfig(StrictModel):
     """``configs/executor.yaml``: numbers of the trenching dig script (execution.dig)."""
 
     approach_height_m: float = Field(default=0.12, gt=0, le=1, description="start of touch-down above the map [m]")
@@ -341,8 +341,6 @@ class ExecutorConfig(_Strict):
     dump_pose: list[float] = Field(default=[1.7, 1.3, 100.0], min_length=3, max_length=3,
                                    description="tip (x m, z m, pitch deg) to dump at")
     empty_force_n: float = Field(default=40.0, gt=0, le=1e4, description="F/T force below which the bucket is empty")
-    park_joints_deg: list[float] = Field(default=[149.0, 68.8, -137.5, -34.4], min_length=4, max_length=4,
-                                         description="waist, shoulder, elbow, wrist pitch when parked [deg]")
     settle_tol_rad: float = Field(default=0.01, gt=0, le=1, description="joint error that counts as reached")
     move_timeout_s: float = Field(default=20.0, gt=0, le=600, description="longest any one move may take")
     stall_torque_fraction: float = Field(default=0.97, gt=0, le=1, description="torque/limit that counts as saturated")
@@ -364,7 +362,7 @@ class ExecutorConfig(_Strict):
         return self
 
 
-class SoilParams(_Strict):
+class SoilParams(StrictModel):
     """Mohr-Coulomb soil and soil-tool parameters (000_a3ca905d8c6d92bf.txt §5.1.1, eq. 2, Table 1).
 
     Shear strength is ``tau = c + sigma tan(phi)``; the tool face has friction angle ``delta`` and
@@ -395,7 +393,7 @@ class SoilParams(_Strict):
         return math.radians(self.repose_angle_deg)
 
 
-class SoilsFile(_Strict):
+class SoilsFile(StrictModel):
     """``configs/soils.yaml``: named soil presets."""
 
     soils: dict[str, SoilParams] = Field(min_length=1)

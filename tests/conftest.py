@@ -10,6 +10,7 @@ import mujoco  # noqa: E402
 import pytest  # noqa: E402
 
 from excavsim import constants  # noqa: E402
+from excavsim.robot.extract import arm_from_model
 from excavsim.robot.kinematics import PlanarArm  # noqa: E402
 
 
@@ -21,7 +22,7 @@ def mj_model() -> mujoco.MjModel:
 
 @pytest.fixture(scope="session")
 def arm(mj_model) -> PlanarArm:
-    return PlanarArm.from_model(mj_model)
+    return arm_from_model(mj_model)
 
 
 @pytest.fixture(scope="session")

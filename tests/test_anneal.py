@@ -8,10 +8,10 @@ import pytest
 from excavsim import constants
 from excavsim.config import TrenchGoal, get_soil, load_planner_config, load_robot_config, load_trench_goal
 from excavsim.errors import ExcavsimError
+from excavsim.handoff.maps import ElevationMap
 from excavsim.planning.anneal import AnnealOptions, CellEvaluator, anneal
 from excavsim.planning.predictor import WedgePredictor
 from excavsim.planning.trench import TrenchPlanner
-from excavsim.sensing.elevation import ElevationMap
 
 STRAIGHT = constants.TRENCHES_DIR / "straight.yaml"
 

@@ -5,6 +5,7 @@ from __future__ import annotations
 import csv
 import json
 import os
+import pickle
 import signal
 import subprocess
 import sys
@@ -109,29 +110,42 @@ def test_a_failing_episode_becomes_an_error_record(monkeypatch):
 
     monkeypatch.setattr(cmp, "run_spec", explode)
     ep = cmp.expand_grid(cmp.load_campaign(TINY_YAML))[0]
-    rec = cmp.run_episode_task(cmp._task(ep, constants.REPO_ROOT, record=False))
+    rec = cmp.run_episode_task(cmp._task(ep, constants.REPO_ROOT, None))
     assert rec["status"] == "error" and rec["error"] == "RuntimeError: the soil box caught fire"
     assert rec["summary"] is None and "explode" in rec["traceback"] and rec["id"] == ep.id
     json.dumps(rec, allow_nan=False)
 
 
+class FakeRecorder:
+    """A picklable stand-in for the Rerun recorder: remembers the paths it was made for."""
+
+    made: list = []
+
+    def __init__(self, path):
+        FakeRecorder.made.append(path)
+
+
 def test_record_passes_a_recorder_of_the_episode_file(monkeypatch, tmp_path):
-    import types
-
-    made = []
-
-    class FakeRecorder:
-        def __init__(self, path):
-            made.append(path)
-
+    """The caller hands the recorder to the campaign (loop never imports record); the worker makes
+    one per episode, for that episode's file."""
+    FakeRecorder.made = []
     seen = []
-    monkeypatch.setitem(sys.modules, "excavsim.record", types.SimpleNamespace(RerunRecorder=FakeRecorder))
     monkeypatch.setattr(cmp, "run_spec", lambda spec, *, progress, observer: seen.append(observer))
     monkeypatch.setattr(cmp, "episode_summary", lambda _r: {"digs": 0})
     ep = cmp.expand_grid(cmp.load_campaign(TINY_YAML))[1]
-    rec = cmp.run_episode_task(cmp._task(ep, tmp_path, record=True))
+    task = cmp._task(ep, tmp_path, FakeRecorder)
+    assert pickle.loads(pickle.dumps(task))["recorder"] is FakeRecorder  # it travels to worker processes
+    rec = cmp.run_episode_task(task)
     assert rec["status"] == "ok" and rec["recording"] == f"recordings/{ep.id}.rrd"
-    assert made == [tmp_path.resolve() / "recordings" / f"{ep.id}.rrd"] and isinstance(seen[0], FakeRecorder)
+    assert FakeRecorder.made == [tmp_path.resolve() / "recordings" / f"{ep.id}.rrd"]
+    assert isinstance(seen[0], FakeRecorder)
+
+
+def test_record_without_a_recorder_is_refused_before_anything_runs(tmp_path):
+    spec = cmp.parse_campaign({"name": "rec", "base": {"goal": "small", "dig_budget": 1}, "record": True})
+    with pytest.raises(ExcavsimError, match="record: true but no recorder"):
+        cmp.run_campaign(spec, tmp_path / "out", progress=None)
+    assert not list((tmp_path / "out" / "episodes").glob("*.json"))
 
 
 def test_a_complete_out_dir_is_summarized_without_running_anything(tmp_path):

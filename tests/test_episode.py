@@ -6,7 +6,8 @@ import numpy as np
 import pytest
 
 from excavsim.cli import main
-from excavsim.loop.episode import format_episode, run_episode
+from excavsim.handoff.episode import format_episode
+from excavsim.loop.episode import run_episode
 from excavsim.world.simulation import Simulation
 
 
@@ -54,8 +55,8 @@ def test_a_small_trench_is_finished_to_tolerance_and_the_same_seed_repeats_it_ex
 
 def test_an_episode_spec_can_plan_with_a_predictor_learned_online():
     from excavsim.config import ConfigError
+    from excavsim.handoff.episode import EpisodeObserver
     from excavsim.learning.adapter import LearnedForcePredictor
-    from excavsim.loop.episode import EpisodeObserver
     from excavsim.loop.scenario import EpisodeSpec, run_spec
 
     with pytest.raises(ConfigError, match="unknown predictor 'oracle'; allowed: wedge, global"):

@@ -5,14 +5,17 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from excavsim.config import get_soil, load_executor_config, load_planner_config, load_robot_config, load_trench_goal
 from excavsim import constants
-from excavsim.execution.dig import DigExecutor, DigPlan
+from excavsim.config import get_soil, load_executor_config, load_planner_config, load_robot_config, load_trench_goal
+from excavsim.execution.dig import DigExecutor
 from excavsim.execution.script import (Command, Script, ScriptEngine, Sense, Step, SubScript, after, all_of, always,
                                        event, force_above, joint_above, reached)
+from excavsim.handoff.dig import DigPlan
+from excavsim.handoff.maps import ElevationMap
+from excavsim.loop.rig import bucket_witness
 from excavsim.planning.predictor import WedgePredictor
 from excavsim.planning.trench import TrenchPlanner
-from excavsim.sensing.elevation import ElevationMap
+from excavsim.sensing.ft import ForceSensor
 from excavsim.world.simulation import Simulation
 
 JOINTS = list(constants.JOINTS)
@@ -53,6 +56,11 @@ def test_engine_triggers_fire_in_order_on_a_synthetic_stream():
     assert "when shoulder_joint > 0.4 -> go to 57.3 deg" in engine.script.describe()
 
 
+def run_dig(sim, arm, cfg, plan):
+    """Execute ``plan`` as the loop does: F/T at the tip, the model's park pose, the bucket measured at lift-out."""
+    return DigExecutor(sim, arm, cfg, ForceSensor(sim.model), sim.index.park).run(plan, on_phase=bucket_witness(sim))
+
+
 def flat_map(z=0.5):
     return ElevationMap(0.55, -1.5, 0.05, np.full((60, 60), z), np.ones((60, 60), bool), 0.0)
 
@@ -70,7 +78,7 @@ def planned_dig(sim, arm, table, emap, soil="testbed_sand"):
 def flat_run(arm, reach_table):
     sim = Simulation(seed=0)
     plan = planned_dig(sim, arm, reach_table, flat_map())
-    rec = DigExecutor(sim, arm, load_executor_config()).run(plan)
+    rec = run_dig(sim, arm, load_executor_config(), plan)
     return sim, plan, rec
 
 
@@ -90,7 +98,7 @@ def test_touch_down_finds_the_surface_when_the_map_is_biased(arm, reach_table, b
     """§7.1.3: the offset between planned and found contact estimates the map's error."""
     sim = Simulation(seed=1)
     plan = planned_dig(sim, arm, reach_table, flat_map(0.5 + bias))
-    rec = DigExecutor(sim, arm, load_executor_config()).run(plan)
+    rec = run_dig(sim, arm, load_executor_config(), plan)
     assert rec.touch_offset_m == pytest.approx(-bias, abs=0.03)
     assert rec.planned_path[0, 1] == pytest.approx(plan.poses[0, 1] + rec.touch_offset_m)  # the dig moved
     assert rec.outcome in ("completed", "stalled")
@@ -106,7 +114,7 @@ def stiff_soil_run(arm, reach_table, compliance: str):
     sim = Simulation(robot=robot, soil=stiff, seed=0)  # seed 2's weaker patches let this dig through
     plan = planned_dig(sim, arm, reach_table, flat_map())
     cfg = load_executor_config().model_copy(update={"compliance": compliance})
-    return sim, plan, DigExecutor(sim, arm, cfg).run(plan)
+    return sim, plan, run_dig(sim, arm, cfg, plan)
 
 
 @pytest.mark.parametrize("mode", ["stiffness", "impedance"])
@@ -125,7 +133,7 @@ def test_compliance_leaves_an_easy_dig_alone(arm, reach_table):
     sim = Simulation(seed=0)
     plan = planned_dig(sim, arm, reach_table, flat_map())
     cfg = load_executor_config().model_copy(update={"compliance": "stiffness"})
-    rec = DigExecutor(sim, arm, cfg).run(plan)
+    rec = run_dig(sim, arm, cfg, plan)
     assert rec.completed and max(rec.compliance) == 0.0  # the wrist stays below 80 % of 1000 N m
 
 

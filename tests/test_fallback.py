@@ -10,18 +10,19 @@ import pytest
 
 from excavsim import constants
 from excavsim.config import get_soil, load_planner_config, load_robot_config, load_trench_goal
+from excavsim.handoff.goal import goal_profile
+from excavsim.handoff.maps import ElevationMap
 from excavsim.planning import fallback
 from excavsim.planning.predictor import WedgePredictor
-from excavsim.planning.trench import TrenchPlanner, goal_profile
-from excavsim.robot.kinematics import PlanarArm
+from excavsim.planning.trench import TrenchPlanner
+from excavsim.robot.extract import arm_from_model
 from excavsim.robot.reachability import load_or_build
-from excavsim.sensing.elevation import ElevationMap
 
 
 @pytest.fixture(scope="module")
 def setup():
     model = mujoco.MjModel.from_xml_path(str(constants.SCENE_XML))
-    arm = PlanarArm.from_model(model)
+    arm = arm_from_model(model)
     table = load_or_build(arm)
     width = float(model.numeric(constants.BUCKET_WIDTH_NUMERIC).data[0])
     capacity = float(model.numeric(constants.BUCKET_CAPACITY_NUMERIC).data[0])

@@ -16,9 +16,11 @@ import pytest
 from excavsim import constants
 from excavsim.config import ForceSensorConfig, SceneConfig, load_scene_config
 from excavsim.errors import ExcavsimError, ModelError
+from excavsim.handoff.observation import Observation
+from excavsim.robot.extract import arm_from_model
 from excavsim.robot.kinematics import PlanarArm
 from excavsim.sensing.ft import ForceSensor, FTReading, environment_wrench
-from excavsim.world.simulation import Observation, Simulation
+from excavsim.world.simulation import Simulation
 
 SURFACE = 0.5  # configs/scene.yaml initial fill [m]
 
@@ -88,7 +90,7 @@ def test_reading_equals_a_known_wrench_applied_to_the_bucket(still_sim, pose, wa
     sim = still_sim
     m, d = sim.model, sim.data
     sensor = ForceSensor(m)
-    target = joint_target(PlanarArm.from_model(m), pose, waist=waist, yaw=yaw, roll=roll)
+    target = joint_target(arm_from_model(m), pose, waist=waist, yaw=yaw, roll=roll)
     hold(sim, target)
     assert abs(d.qpos[m.joint(constants.JOINTS[3]).qposadr[0]]) > 0.1  # wrist pitch really bent
     force = np.array([250.0, -80.0, -300.0])
@@ -114,7 +116,7 @@ def test_reading_equals_a_known_wrench_applied_to_the_bucket(still_sim, pose, wa
 def test_reading_is_zero_without_an_applied_force(still_sim, pose, waist, yaw, roll):
     """Gravity compensation: the bucket's own weight (28 kg at its centre of mass) is removed."""
     sim = still_sim
-    target = joint_target(PlanarArm.from_model(sim.model), pose, waist=waist, yaw=yaw, roll=roll)
+    target = joint_target(arm_from_model(sim.model), pose, waist=waist, yaw=yaw, roll=roll)
     obs = hold(sim, target)
     assert np.linalg.norm(obs.ft_force) > 200.0  # the raw reading carries the weight (274.7 N)
     r = ForceSensor(sim.model).reading(obs)
@@ -139,7 +141,7 @@ def test_drag_in_sand_reads_the_wedge_force_backwards_and_out_of_the_blade():
     """
     sim = Simulation(scene=quiet_scene(), seed=3)
     m, d = sim.model, sim.data
-    arm = PlanarArm.from_model(m)
+    arm = arm_from_model(m)
     sensor = ForceSensor(m)
     b, tip = m.body(constants.BUCKET_BODY).id, m.site(constants.BUCKET_TIP_SITE).id
     pitch, z = math.radians(30), SURFACE - 0.1

@@ -9,7 +9,8 @@ from dm_control import mjcf
 
 from excavsim import constants
 from excavsim.errors import ModelError
-from excavsim.robot.kinematics import PlanarArm, wrap_angle
+from excavsim.robot.extract import arm_from_model
+from excavsim.robot.kinematics import wrap_angle
 
 
 def _random_arm_q(model: mujoco.MjModel, rng, n: int) -> np.ndarray:
@@ -120,7 +121,7 @@ def test_extraction_works_on_a_pymjcf_attached_model_with_prefixed_names(arm):
     root.attach(t3)
     physics = mjcf.Physics.from_mjcf_model(root)
     assert "t3/shoulder_joint" in physics.named.model.jnt_range.axes.row.names
-    attached = PlanarArm.from_model(physics)
+    attached = arm_from_model(physics)
     np.testing.assert_allclose(attached.links, arm.links, atol=1e-12)
     np.testing.assert_allclose(attached.shoulder_xz, arm.shoulder_xz, atol=1e-12)
     np.testing.assert_allclose(attached.link_masses, arm.link_masses)
@@ -129,7 +130,7 @@ def test_extraction_works_on_a_pymjcf_attached_model_with_prefixed_names(arm):
 def test_extraction_rejects_a_model_without_the_arm():
     model = mujoco.MjModel.from_xml_string("<mujoco><worldbody><geom size='1'/></worldbody></mujoco>")
     with pytest.raises(ModelError, match="waist_joint"):
-        PlanarArm.from_model(model)
+        arm_from_model(model)
 
 
 def test_extraction_rejects_a_non_planar_wrist():
@@ -137,4 +138,4 @@ def test_extraction_rejects_a_non_planar_wrist():
     root.find("joint", "elbow_joint").axis = [0, -1, 0.2]  # tilted: no longer parallel to the shoulder
     model = mjcf.Physics.from_mjcf_model(root).model.ptr
     with pytest.raises(ModelError, match="elbow_joint"):
-        PlanarArm.from_model(model)
+        arm_from_model(model)

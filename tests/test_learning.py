@@ -14,6 +14,9 @@ import pytest
 
 from excavsim import constants
 from excavsim.config import get_soil, load_planner_config, load_trench_goal
+from excavsim.handoff.forces import DigContext, trajectory_progress
+from excavsim.handoff.goal import SurfaceProfile
+from excavsim.handoff.maps import ElevationMap
 from excavsim.learning.adapter import LearnedForcePredictor
 from excavsim.learning.bases import MECHANICS, NAIVE, REDUCED, Basis
 from excavsim.learning.dataset import ForceDataset, path_progress
@@ -21,10 +24,9 @@ from excavsim.learning.encoding import Terrain
 from excavsim.learning.evaluate import cross_validate, magnitude
 from excavsim.learning.predictors import (METHODS, GlobalRegression, LocallyWeightedRegression, NearestNeighbours,
                                           NeuralNet, WedgeModel, make_model)
-from excavsim.planning.predictor import DigContext, WedgePredictor, trajectory_progress
-from excavsim.planning.trench import SurfaceProfile, TrenchPlanner
-from excavsim.sensing.elevation import ElevationMap
-from excavsim.world.wedge import G_M_S2, tip_to_plane
+from excavsim.mechanics.wedge import G_M_S2, tip_to_plane
+from excavsim.planning.predictor import WedgePredictor
+from excavsim.planning.trench import TrenchPlanner
 
 DATA = pathlib.Path(__file__).parent / "data" / "learning_digs.npz"
 SAND = get_soil("testbed_sand")

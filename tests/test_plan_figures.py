@@ -11,10 +11,11 @@ from excavsim import constants
 from excavsim.cli import main
 from excavsim.config import PlannerGrid, get_soil, load_planner_config, load_trench_goal
 from excavsim.errors import ExcavsimError
+from excavsim.handoff.goal import SurfaceProfile
+from excavsim.handoff.maps import ElevationMap
 from excavsim.planning import figures
 from excavsim.planning.predictor import WedgePredictor
-from excavsim.planning.trench import SurfaceProfile, TrenchPlanner
-from excavsim.sensing.elevation import ElevationMap
+from excavsim.planning.trench import TrenchPlanner
 
 PNG_SIGNATURE = b"\x89PNG\r\n\x1a\n"
 LIMITS = np.array([25000.0, 12000.0, 1000.0])  # configs/robot.yaml: shoulder, elbow, wrist pitch

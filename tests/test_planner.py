@@ -9,9 +9,10 @@ import pytest
 
 from excavsim import constants
 from excavsim.config import TrenchGoal, get_soil, load_planner_config, load_trench_goal
+from excavsim.handoff.goal import SurfaceProfile, goal_profile
+from excavsim.handoff.maps import ElevationMap
 from excavsim.planning.predictor import WedgePredictor
-from excavsim.planning.trench import SurfaceProfile, TrenchPlanner, goal_profile
-from excavsim.sensing.elevation import ElevationMap
+from excavsim.planning.trench import TrenchPlanner
 
 LIMITS = np.array([25000.0, 12000.0, 1000.0])  # configs/robot.yaml: shoulder, elbow, wrist pitch
 WIDTH, CAPACITY = 0.3, 0.0203981  # models/t3/t3.xml numerics
@@ -160,7 +161,7 @@ def test_bad_planner_inputs_are_refused(arm, reach_table):
 
     with pytest.raises(ExcavsimError, match="torque_limits"):
         make_planner(arm, reach_table, limits=np.array([1.0, -2.0, 3.0]))
-    from excavsim.config import parse_config, PlannerConfig
+    from excavsim.config import PlannerConfig, parse_config
 
     with pytest.raises(ConfigError, match="objective"):
         parse_config({"objective": "fastest"}, PlannerConfig, source="test")

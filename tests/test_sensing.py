@@ -10,10 +10,10 @@ import pytest
 
 from excavsim.config import ElevationMapConfig, ScannerConfig, load_sensing_config
 from excavsim.errors import ExcavsimError
-from excavsim.sensing import raycast
-from excavsim.sensing.elevation import (ElevationMap, build_map, calibrate, map_accuracy, median_ranges,
-                                        true_cell_heights)
-from excavsim.sensing.scanner import LaserScanner, RangeImage
+from excavsim.handoff.maps import ElevationMap, RangeImage
+from excavsim.sensing.elevation import build_map, calibrate, map_accuracy, median_ranges, true_cell_heights
+from excavsim.world import raycast
+from excavsim.world.scanner import LaserScanner
 from excavsim.world.settle import settle
 from excavsim.world.simulation import Simulation
 

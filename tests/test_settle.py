@@ -7,7 +7,8 @@ import math
 import numpy as np
 import pytest
 
-from excavsim.world.settle import bench_settle, max_slope_excess, settle
+from excavsim.bench import bench_settle
+from excavsim.world.settle import max_slope_excess, settle
 
 CELL = 0.025  # [m], the soil grid of configs/scene.yaml
 REPOSE = math.radians(30.0)  # testbed sand, Fig. 6

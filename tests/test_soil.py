@@ -15,11 +15,12 @@ import pytest
 
 from excavsim import constants
 from excavsim.config import SceneConfig, get_soil, load_scene_config
-from excavsim.robot.kinematics import PlanarArm
+from excavsim.mechanics.bearing import bearing_factors
+from excavsim.mechanics.wedge import wedge_force
+from excavsim.robot.extract import arm_from_model
 from excavsim.world.bucket import BucketGeometry
 from excavsim.world.simulation import Simulation
-from excavsim.world.soil import SoilModel, bearing_factors
-from excavsim.world.wedge import wedge_force
+from excavsim.world.soil import SoilModel
 
 SURFACE = 0.5  # configs/scene.yaml initial fill [m]
 
@@ -38,7 +39,7 @@ class Driver:
 
     def __init__(self, sim: Simulation):
         self.sim = sim
-        self.arm = PlanarArm.from_model(sim.model)
+        self.arm = arm_from_model(sim.model)
         self.q_prev: np.ndarray | None = None
 
     def place(self, pose, waist: float = 0.0, dt: float | None = None):
@@ -132,7 +133,7 @@ def test_horizontal_drag_matches_the_wedge_model(depth):
     f = np.array([c.cutting_force for c in steady])
     soil = sim.soil.soil
     # Surcharge: 30 % of the load in the bucket (configs/scene.yaml); compare per step.
-    from excavsim.world.wedge import surcharge_force
+    from excavsim.mechanics.wedge import surcharge_force
     loads = np.cumsum([0.0] + [c.cut_volume_m3 for c in contacts])  # load before each step
     expect = np.array([wedge_force(depth, rake, soil, sim.soil.bucket.width) + surcharge_force(0.3 * v, rake, soil)
                        for v in loads[len(contacts) // 2:len(contacts)]]).ravel()
@@ -290,7 +291,7 @@ def test_rocks_push_the_edge_back(tmp_path):
 def test_simulation_is_deterministic_for_a_seed():
     def run(seed):
         sim = Simulation(seed=seed)
-        arm = PlanarArm.from_model(sim.model)
+        arm = arm_from_model(sim.model)
         obs = []
         for i in range(150):
             pose = np.array([2.2 - 0.002 * i, 0.62 - 0.0015 * i, math.radians(45)])

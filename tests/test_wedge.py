@@ -13,21 +13,9 @@ import pytest
 from scipy.optimize import minimize_scalar
 
 from excavsim.config import get_soil
-from excavsim.world.wedge import (
-    G_M_S2,
-    WedgeError,
-    WedgeTable,
-    blade_axes,
-    critical_beta,
-    force_angle,
-    n_factors,
-    surcharge_force,
-    tip_to_plane,
-    wedge_denominator,
-    wedge_factors,
-    wedge_force,
-    wedge_force_components,
-)
+from excavsim.mechanics.wedge import (G_M_S2, WedgeError, WedgeTable, blade_axes, critical_beta, force_angle,
+                                      n_factors, surcharge_force, tip_to_plane, wedge_denominator, wedge_factors,
+                                      wedge_force, wedge_force_components)
 
 SOILS = ("testbed_sand", "sandy_loam", "dry_sand", "heavy_clay", "lean_clay")
 DEG = math.pi / 180.0

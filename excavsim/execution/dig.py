@@ -19,8 +19,8 @@ failure raises: the :class:`ExecutionRecord` says what happened.
 
 from __future__ import annotations
 
-import dataclasses
 import math
+from collections.abc import Callable
 
 import numpy as np
 
@@ -29,82 +29,14 @@ from excavsim.config import ExecutorConfig
 from excavsim.errors import ExcavsimError
 from excavsim.execution.script import (Command, Script, ScriptEngine, Sense, Step, SubScript, all_of, always, any_of,
                                        event, reached)
+from excavsim.handoff.dig import DigPlan, ExecutionRecord
+from excavsim.handoff.observation import Observation, Servos
 from excavsim.robot.fast import arm_params, ik_torques
 from excavsim.robot.kinematics import PlanarArm
 from excavsim.sensing.ft import ForceSensor
-from excavsim.world.simulation import Observation, Simulation
 
 ARM = ("shoulder_joint", "elbow_joint", "wrist_pitch_joint")
 WAIST = "waist_joint"
-
-
-@dataclasses.dataclass(frozen=True)
-class DigPlan:
-    """What the executor needs from a plan: the tip path in the arm plane and where it is.
-
-    Attributes:
-        poses: (S, 3) planned tip poses (x, z, pitch) [m, m, rad] from entry to the end of the curl.
-        phases: (S,) 0 penetrate, 1 drag, 2 curl.
-        waist: waist angle of the arm plane [rad].
-        volume_m3: swept volume the planner predicted.
-        shift_bounds_m: (lowest, highest) vertical shift of the path by the touch-down offset [m].
-            The loop bounds it below by the path's clearance above the goal, so that a map error
-            never makes the executor cut below the goal; a boundary-following dig is not shifted
-            up either, since its job is the goal's shape, not the planned volume.
-    """
-
-    poses: np.ndarray
-    phases: np.ndarray
-    waist: float
-    volume_m3: float
-    shift_bounds_m: tuple[float, float] = (-math.inf, math.inf)
-
-
-@dataclasses.dataclass
-class ExecutionRecord:
-    """What happened during one dig (sensor-level, plus the soil in the bucket as privileged truth)."""
-
-    outcome: str = "running"
-    planned_path: np.ndarray | None = None
-    executed_path: list[np.ndarray] = dataclasses.field(default_factory=list)
-    ft: list[tuple[float, np.ndarray]] = dataclasses.field(default_factory=list)
-    torques: list[np.ndarray] = dataclasses.field(default_factory=list)
-    times: list[float] = dataclasses.field(default_factory=list)
-    phase_times: dict[str, float] = dataclasses.field(default_factory=dict)
-    phase_starts: dict[str, float] = dataclasses.field(default_factory=dict)  # simulated time [s]
-
-    def in_soil_window(self) -> tuple[float, float]:
-        """Simulated time from touch-down to the end of the lift-out: when the soil loads the arm."""
-        start = self.phase_starts.get("touch-down", -math.inf)
-        ends = [self.phase_starts[n] + self.phase_times[n] for n in ("dig", "lift out") if n in self.phase_starts]
-        return start, max(ends, default=math.inf)
-    touch_expected_z: float = float("nan")
-    touch_found_z: float = float("nan")
-    touch_offset_m: float = 0.0
-    warnings: list[str] = dataclasses.field(default_factory=list)
-    stall: dict | None = None
-    planned_volume_m3: float = 0.0
-    bucket_volume_m3: float = float("nan")  # truth: soil in the bucket at lift-out
-    script_text: str = ""
-    compliance: list[float] = dataclasses.field(default_factory=list)  # rise of the dig path per tick [m]
-
-    @property
-    def completed(self) -> bool:
-        """The dig ran to the park pose without a stall and every move settled in time."""
-        return self.outcome == "completed"
-
-    def path_error(self) -> float:
-        """Largest distance of the executed tip path (dig phase) from the planned path [m]."""
-        if self.planned_path is None or not self.executed_path:
-            return float("nan")
-        plan = self.planned_path[:, :2]
-        ex = np.asarray(self.executed_path)[:, :2]
-        # distance of each executed point to the planned polyline
-        a, b = plan[:-1], plan[1:]
-        ab = b - a
-        t = np.clip(np.einsum("nij,ij->ni", ex[:, None, :] - a[None], ab) / np.maximum((ab * ab).sum(1), 1e-12), 0, 1)
-        d = np.linalg.norm(ex[:, None, :] - (a[None] + t[..., None] * ab[None]), axis=-1)
-        return float(d.min(axis=1).max())
 
 
 def touch_pitch(plan: DigPlan, arm: PlanarArm, cfg: ExecutorConfig) -> float:
@@ -119,8 +51,9 @@ def touch_pitch(plan: DigPlan, arm: PlanarArm, cfg: ExecutorConfig) -> float:
     return float(entry[2])
 
 
-def dig_script(plan: DigPlan, arm: PlanarArm, cfg: ExecutorConfig) -> Script:
-    """The trenching dig script with this plan's numbers (see the module docstring)."""
+def dig_script(plan: DigPlan, arm: PlanarArm, cfg: ExecutorConfig, park: np.ndarray) -> Script:
+    """The trenching dig script with this plan's numbers (see the module docstring); ``park`` (6,)
+    is the model's park keyframe [rad]."""
     entry = plan.poses[0]
     above = np.array([entry[0], entry[1] + cfg.approach_height_m, touch_pitch(plan, arm, cfg)])
     q_above, ok = arm.inverse(above)
@@ -129,7 +62,7 @@ def dig_script(plan: DigPlan, arm: PlanarArm, cfg: ExecutorConfig) -> Script:
     if not ok or not ok_dump:
         raise ExcavsimError(f"dig script: the pose above the entry {above.round(3)} or the dump pose "
                             f"{cfg.dump_pose} is out of reach")
-    park = np.radians(cfg.park_joints_deg)
+    park = np.asarray(park, dtype=float)[:4]
     tol = cfg.settle_tol_rad
     late = event("step_timeout")  # a move that does not settle in time does not hang the dig
     at_above = any_of(all_of(*(reached(j, tol) for j in (WAIST,) + ARM)), late)
@@ -156,16 +89,19 @@ class DigExecutor:
     """Runs one planned dig in the simulation (see the module docstring).
 
     Args:
-        sim: the world.
+        sim: the servos and sensors it drives (the world's Simulation, seen as :class:`Servos`).
         arm: the robot's planar kinematics.
         cfg: the script's numbers.
+        ft: the wrist F/T sensor reporting at the bucket tip.
+        park: (6,) joint angles of the park pose, the model's keyframe [rad].
     """
 
-    def __init__(self, sim: Simulation, arm: PlanarArm, cfg: ExecutorConfig):
+    def __init__(self, sim: Servos, arm: PlanarArm, cfg: ExecutorConfig, ft: ForceSensor, park: np.ndarray):
         self.sim = sim
         self.arm = arm
         self.cfg = cfg
-        self.ft = ForceSensor(sim.model)
+        self.ft = ft
+        self.park = np.asarray(park, dtype=float)
         names = list(constants.JOINTS)
         self._arm_idx = [names.index(j) for j in ARM]
         self._waist_idx = names.index(WAIST)
@@ -190,12 +126,22 @@ class DigExecutor:
             self._geometry[id(path)] = hit
         return hit[1]
 
-    def run(self, plan: DigPlan) -> ExecutionRecord:
-        """Execute ``plan``; never raises for a physical failure (the record's ``outcome`` says)."""
+    def run(self, plan: DigPlan, *, on_phase: Callable[[str, ExecutionRecord], None] | None = None
+            ) -> ExecutionRecord:
+        """Execute ``plan``; never raises for a physical failure (the record's ``outcome`` says).
+
+        Args:
+            plan: the dig.
+            on_phase: called with each step name of the arm's script as it starts, and with
+                "no contact" when the touch-down finds nothing, together with the record so far:
+                the loop measures the world there (the soil in the bucket at lift-out), which the
+                executor itself never reads.
+        """
         cfg = self.cfg
         sim = self.sim
+        announce = on_phase or (lambda _name, _rec: None)
         rec = ExecutionRecord(planned_volume_m3=plan.volume_m3)
-        script = dig_script(plan, self.arm, cfg)
+        script = dig_script(plan, self.arm, cfg, self.park)
         rec.script_text = script.describe()
         engine = ScriptEngine(script)
         entry = plan.poses[0]
@@ -214,7 +160,7 @@ class DigExecutor:
         contact_ticks = 0
         lead_len = 0.0
         rise = 0.0  # compliant rise of the remaining dig path [m]
-        t0 = sim.data.time
+        t0 = sim.time
         max_time = 8 * cfg.move_timeout_s
         obs = sim.observe()
         phase_start: dict[str, float] = {}
@@ -256,7 +202,8 @@ class DigExecutor:
                 if tr.name == "lift out":
                     end = self.arm.forward(q[self._arm_idx])
                     paths["lift"] = np.array([end, [end[0], max(cfg.lift_height_m, end[1]), end[2]]])
-                    rec.bucket_volume_m3 = float(sim.truth.volumes.bucket)
+                if tr.subscript == 0:
+                    announce(tr.name, rec)
             # contact: the F/T force stays above the threshold for a few samples once the descent runs
             if engine.current(0).name == "touch-down" and obs.time - phase_start["touch-down"] > 0.3:
                 contact_ticks = contact_ticks + 1 if np.linalg.norm(reading.force_tip) > cfg.touch_force_n else 0
@@ -266,7 +213,7 @@ class DigExecutor:
             if engine.current(0).name == "touch-down" and cursor.get("touchdown", 0.0) >= _length(paths["touchdown"]):
                 if self._settled(q, target):
                     rec.outcome = "no contact"
-                    rec.bucket_volume_m3 = float(sim.truth.volumes.bucket)  # nothing dug
+                    announce("no contact", rec)
                     rec.warnings.append(f"no contact within {100 * cfg.touch_search_m:.0f} cm below the map")
                     self._park(rec)
                     break
@@ -377,7 +324,7 @@ class DigExecutor:
 
     def _park(self, rec: ExecutionRecord) -> None:
         """Move straight to the park pose (after a failure)."""
-        park = np.r_[np.radians(self.cfg.park_joints_deg), 0.0, 0.0]
+        park = self.park
         lift = self.sim.observe().q.copy()
         tip = self.arm.forward(lift[self._arm_idx])
         q_up, ok = self.arm.inverse(np.array([tip[0], self.cfg.lift_height_m, tip[2]]))

@@ -23,10 +23,10 @@ from __future__ import annotations
 import numpy as np
 
 from excavsim.errors import ExcavsimError
+from excavsim.handoff.forces import DigContext, ForcePredictor
 from excavsim.learning.encoding import Terrain, encode, infer_progress
 from excavsim.learning.predictors import ForceModel
-from excavsim.planning.predictor import DigContext, ForcePredictor
-from excavsim.world.wedge import G_M_S2, tip_to_plane
+from excavsim.mechanics.wedge import G_M_S2, tip_to_plane
 
 
 class LearnedForcePredictor:

@@ -28,8 +28,8 @@ from collections.abc import Iterable
 import numpy as np
 
 from excavsim.errors import ExcavsimError
+from excavsim.handoff.forces import trajectory_progress
 from excavsim.learning.encoding import FEATURE_COLUMNS, Samples, Terrain, encode
-from excavsim.planning.predictor import trajectory_progress
 
 TARGET_COLUMNS = ("fx", "fz")
 ID_COLUMNS = ("dig", "t")

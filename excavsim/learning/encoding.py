@@ -35,10 +35,10 @@ from collections.abc import Callable, Mapping
 import numpy as np
 
 from excavsim.errors import ExcavsimError
-from excavsim.planning.predictor import trajectory_progress
-from excavsim.planning.trench import SurfaceProfile
+from excavsim.handoff.forces import trajectory_progress
+from excavsim.handoff.goal import SurfaceProfile
+from excavsim.handoff.maps import ElevationMap
 from excavsim.robot.kinematics import PlanarArm
-from excavsim.sensing.elevation import ElevationMap
 
 N_AHEAD = 5  # l_1 .. l_5
 N_ACROSS = 3  # c_1 .. c_3

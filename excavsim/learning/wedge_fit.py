@@ -10,8 +10,7 @@ from scipy.optimize import least_squares
 from excavsim.config import SoilParams
 from excavsim.learning.encoding import Samples
 from excavsim.learning.model import ForceModel, check_forces
-from excavsim.planning.predictor import MIN_RAKE
-from excavsim.world.wedge import G_M_S2, critical_beta, n_factors, wedge_denominator
+from excavsim.mechanics.wedge import G_M_S2, MIN_RAKE_RAD, critical_beta, n_factors, wedge_denominator
 
 # Bounds of (c [Pa], phi [rad], delta [rad], gamma [N/m^3]) for the fit.
 WEDGE_BOUNDS = ((0.0, math.radians(10.0), math.radians(5.0), 5.0e3),
@@ -66,7 +65,7 @@ class WedgeModel(ForceModel):
         """Tip-frame forces (..., 2) for parameters ``theta`` = (c, phi, delta, gamma) and inputs (..., 3)."""
         c, phi, delta, gamma = theta
         d, rho, v = np.maximum(x[..., 0], 0.0), x[..., 1], np.maximum(x[..., 2], 0.0)
-        rk = np.clip(rho, MIN_RAKE, math.pi - phi - delta - math.radians(1.0))
+        rk = np.clip(rho, MIN_RAKE_RAD, math.pi - phi - delta - math.radians(1.0))
         beta = critical_beta(rk, phi, delta)
         n_gamma, n_c, _, _ = n_factors(rk, beta, phi, delta)
         big_d = wedge_denominator(rk, beta, phi, delta)

@@ -22,10 +22,7 @@ running again with ``resume=True``: only episodes without a result file run.
 from __future__ import annotations
 
 import contextlib
-import copy
 import dataclasses
-import hashlib
-import itertools
 import json
 import math
 import multiprocessing
@@ -38,40 +35,22 @@ import traceback
 from collections.abc import Callable, Iterator
 from concurrent.futures import ProcessPoolExecutor, as_completed
 from concurrent.futures.process import BrokenProcessPool
-from typing import Annotated, Any
+from typing import Any
 
 import yaml
-from pydantic import Field
 
-from excavsim.config import _Strict, load_config, parse_config
-from excavsim.errors import ConfigError, ExcavsimError
-from excavsim.loop.campaign_report import format_table, plot_campaign, slug, summary_rows, write_atomic, write_tables
-from excavsim.loop.scenario import EpisodeSpec, ResolvedSpec, episode_summary, merge, resolve_goal, run_spec
+from excavsim.errors import ExcavsimError
+from excavsim.handoff.episode import EpisodeObserver
+from excavsim.loop.campaign_grid import (OVERRIDE_SECTIONS, CampaignSpec, Episode, check_campaign, episode_id,
+                                         expand_grid, load_campaign, parse_campaign)
+from excavsim.loop.campaign_report import format_table, plot_campaign, summary_rows, write_atomic, write_tables
+from excavsim.loop.scenario import EpisodeSpec, episode_summary, run_spec
 
-OVERRIDE_SECTIONS = ("robot", "scene", "planner", "executor", "sensing")
+__all__ = ["OVERRIDE_SECTIONS", "CampaignReport", "CampaignSpec", "Episode", "check_campaign", "episode_id",
+           "expand_grid", "load_campaign", "parse_campaign", "run_campaign", "run_episode_task"]
 
-
-class CampaignSpec(_Strict):
-    """A campaign: a base episode and a grid of parameters whose cartesian product gives the episodes."""
-
-    name: str = Field(pattern=r"^[A-Za-z0-9][A-Za-z0-9_.-]*$",
-                      description="label of the campaign and of its default output directory")
-    base: EpisodeSpec = Field(default_factory=EpisodeSpec, description="what every episode shares")
-    grid: dict[str, Annotated[list[Any], Field(min_length=1)]] = Field(
-        default_factory=dict,
-        description="dotted keys of EpisodeSpec (e.g. seed, soil, robot.joints.wrist_pitch.torque_limit_nm, "
-                    "goal.depth_m) to the values they take")
-    record: bool = Field(default=False, description="write a Rerun recording per episode (recordings/<id>.rrd)")
-
-
-@dataclasses.dataclass(frozen=True)
-class Episode:
-    """One point of a campaign's grid: its stable id, readable name, grid values and full specification."""
-
-    id: str
-    name: str
-    params: dict[str, Any]
-    spec: EpisodeSpec
+# Makes the observer that records one episode to the given path (excavsim.record.RerunRecorder).
+Recorder = Callable[[pathlib.Path], EpisodeObserver]
 
 
 @dataclasses.dataclass
@@ -90,121 +69,6 @@ class CampaignReport:
         return sum(r["status"] != "ok" for r in self.rows)
 
 
-# -- the grid -----------------------------------------------------------------------------------------
-def _nested(path: list[str], value: Any) -> dict:
-    for part in reversed(path):
-        value = {part: value}
-    return value
-
-
-def _apply(data: dict, key: str, value: Any) -> None:
-    """Set the dotted ``key`` of episode-spec ``data`` (a model dump) to ``value``, in place."""
-    head, *rest = key.split(".")
-    if head == "name":
-        raise ConfigError("grid key 'name': episode names are made from their grid values; vary another field")
-    if head not in EpisodeSpec.model_fields:
-        raise ConfigError(f"grid key {key!r}: {head!r} is not an episode field; allowed: "
-                          f"{', '.join(f for f in EpisodeSpec.model_fields if f != 'name')} "
-                          f"(goal and {', '.join(OVERRIDE_SECTIONS)} take dotted keys into their fields)")
-    if not rest:
-        data[head] = value
-    elif head == "goal":
-        goal = data["goal"] if isinstance(data["goal"], dict) else resolve_goal(data["goal"]).model_dump()
-        data["goal"] = merge(goal, _nested(rest, value), where="goal.")
-    elif head in OVERRIDE_SECTIONS:
-        data[head] = merge(data[head], _nested(rest, value), where=f"{head}.")
-    else:
-        raise ConfigError(f"grid key {key!r}: {head} takes a single value; write {head!r} without a dotted suffix")
-
-
-def episode_id(spec: EpisodeSpec, params: dict[str, Any]) -> str:
-    """A stable, file-name-safe id: the grid values (numbers after their key), then a hash of the spec.
-
-    The hash covers the canonical JSON of ``spec`` without its name and without fields left at their
-    defaults (so a new EpisodeSpec field does not change the ids of older campaigns).
-    """
-    canonical = json.dumps(spec.model_dump(mode="json", exclude={"name"}, exclude_defaults=True),
-                           sort_keys=True, separators=(",", ":"))
-    digest = hashlib.sha256(canonical.encode()).hexdigest()[:10]
-    parts = [v if isinstance(v, str) else f"{k.rsplit('.', 1)[-1]}{json.dumps(v)}" for k, v in params.items()]
-    label = "-".join(slug(p) for p in parts) if params else slug(spec.name)
-    label = label[:60].strip("-_.")
-    return f"{label}-{digest}" if label else digest
-
-
-def expand_grid(spec: CampaignSpec) -> list[Episode]:
-    """The campaign's episodes: the cartesian product of the grid over the base, in grid order.
-
-    Raises:
-        ConfigError: a grid key or value makes an invalid EpisodeSpec, or two points give the same episode.
-    """
-    keys = list(spec.grid)
-    base = spec.base.model_dump()
-    episodes: list[Episode] = []
-    seen: dict[str, str] = {}
-    for values in itertools.product(*(spec.grid[k] for k in keys)):
-        params = dict(zip(keys, values))
-        data = copy.deepcopy(base)
-        for key, value in params.items():
-            _apply(data, key, value)
-        name = " ".join(f"{k}={slug(v)}" for k, v in params.items()) or spec.base.name
-        data["name"] = name
-        ep = parse_config(data, EpisodeSpec, source=f"campaign {spec.name}: episode {name}")
-        eid = episode_id(ep, params)
-        if eid in seen:
-            raise ConfigError(f"campaign {spec.name}: the grid gives the same episode twice ({seen[eid]!r} and "
-                              f"{name!r}); remove the repeated value")
-        seen[eid] = name
-        episodes.append(Episode(eid, name, params, ep))
-    return episodes
-
-
-def check_campaign(spec: CampaignSpec, *, source: str) -> list[Episode]:
-    """Validate every grid value against the configurations it overrides; returns the episodes.
-
-    Each value is checked alone on the base (so the message names the key and the value); values
-    that are only invalid together surface when their episode runs, as an episode error.
-
-    Raises:
-        ConfigError: naming ``source``, the grid key, the value and what is wrong.
-    """
-    try:
-        ResolvedSpec(spec.base)
-    except ConfigError as exc:
-        raise ConfigError(f"{source}: base: {exc}") from None
-    base = spec.base.model_dump()
-    for key, values in spec.grid.items():
-        for value in values:
-            try:
-                data = copy.deepcopy(base)
-                _apply(data, key, value)
-                ResolvedSpec(parse_config(data, EpisodeSpec, source=f"grid {key}"))
-            except ConfigError as exc:
-                raise ConfigError(f"{source}: grid key {key!r}, value {value!r}:\n  {exc}") from None
-    try:
-        return expand_grid(spec)
-    except ConfigError as exc:
-        raise ConfigError(f"{source}: {exc}") from None
-
-
-def parse_campaign(data: Any, *, source: str = "campaign") -> CampaignSpec:
-    """Validate an already-parsed campaign mapping, grid included (see :func:`load_campaign`)."""
-    spec = parse_config(data, CampaignSpec, source=source)
-    check_campaign(spec, source=source)
-    return spec
-
-
-def load_campaign(path: str | pathlib.Path) -> CampaignSpec:
-    """Read and validate a campaign YAML file, grid included.
-
-    Raises:
-        ConfigError: the file, the field or grid key, the value and what is allowed.
-    """
-    spec = load_config(path, CampaignSpec)
-    check_campaign(spec, source=str(path))
-    return spec
-
-
 # -- one episode, in a worker --------------------------------------------------------------------------
 def _json_safe(obj: Any) -> Any:
     """``obj`` with non-finite floats as None and numpy scalars as Python numbers (strict JSON)."""
@@ -221,17 +85,19 @@ def _json_safe(obj: Any) -> Any:
     return str(obj)
 
 
-def _task(ep: Episode, out_dir: pathlib.Path, record: bool) -> dict[str, Any]:
+def _task(ep: Episode, out_dir: pathlib.Path, recorder: Recorder | None) -> dict[str, Any]:
     return {"id": ep.id, "name": ep.name, "params": ep.params, "spec": ep.spec.model_dump(mode="json"),
-            "out_dir": str(out_dir.resolve()), "recording": f"recordings/{ep.id}.rrd" if record else None}
+            "out_dir": str(out_dir.resolve()), "recording": f"recordings/{ep.id}.rrd" if recorder else None,
+            "recorder": recorder}
 
 
 def run_episode_task(task: dict[str, Any]) -> dict[str, Any]:
     """Run one campaign episode (in a worker) and return its result record; never raises.
 
     Args:
-        task: ``id``, ``name``, ``params``, ``spec`` (an EpisodeSpec as JSON), ``out_dir`` and
-            ``recording`` (a path under ``out_dir``, or None).
+        task: ``id``, ``name``, ``params``, ``spec`` (an EpisodeSpec as JSON), ``out_dir``,
+            ``recording`` (a path under ``out_dir``, or None) and ``recorder`` (the observer factory
+            that records to that path, or None).
 
     Returns:
         A JSON-ready record: the task's fields, ``status`` (``ok`` or ``error``), ``summary`` (see
@@ -246,12 +112,10 @@ def run_episode_task(task: dict[str, Any]) -> dict[str, Any]:
     try:
         spec = EpisodeSpec.model_validate(task["spec"])
         observer = None
-        if task["recording"]:
-            from excavsim.record import RerunRecorder  # only when recording: rerun is heavy
-
+        if task["recording"] and task.get("recorder") is not None:
             path = pathlib.Path(task["out_dir"]) / task["recording"]
             path.parent.mkdir(parents=True, exist_ok=True)
-            observer = RerunRecorder(path)
+            observer = task["recorder"](path)
         rec["summary"] = episode_summary(run_spec(spec, progress=log.append, observer=observer))
     except Exception as exc:  # noqa: BLE001 - a failing episode is a result, not the campaign's end
         rec.update(status="error", error=f"{type(exc).__name__}: {exc}", traceback=traceback.format_exc())
@@ -360,7 +224,7 @@ def _progress_line(count: int, total: int, rec: dict, eta_s: float) -> str:
 
 # -- the campaign --------------------------------------------------------------------------------------
 def run_campaign(spec: CampaignSpec, out_dir: str | pathlib.Path, *, workers: int | None = None,
-                 resume: bool = False, ray_address: str | None = None,
+                 resume: bool = False, ray_address: str | None = None, recorder: Recorder | None = None,
                  progress: Callable[[str], None] | None = print) -> CampaignReport:
     """Run the campaign's episodes in parallel, then write its summary table and plots.
 
@@ -373,12 +237,17 @@ def run_campaign(spec: CampaignSpec, out_dir: str | pathlib.Path, *, workers: in
         ray_address: None for local processes; ``"local"`` for a Ray instance started here,
             ``"auto"`` or ``HOST:PORT`` for a running Ray cluster (needs a shared ``out_dir`` only
             when recording).
+        recorder: what records an episode with ``record: true``: called in the worker with the
+            recording's path, it returns the episode's observer (the CLI hands
+            :class:`excavsim.record.RerunRecorder`); it must be picklable (a class or a module-level
+            function), since it travels to the worker processes.
         progress: receives one line per finished episode (count, result, ETA) and the summary.
 
     Raises:
         ConfigError: the grid is invalid.
         ExcavsimError: ``out_dir`` holds results and ``resume`` is false, it is in use by another run,
-            ``workers`` is below 1, Ray is missing or unreachable, or a worker process died.
+            ``workers`` is below 1, Ray is missing or unreachable, ``record: true`` without a
+            ``recorder``, or a worker process died.
     """
     say = progress or (lambda _s: None)
     if workers is not None and workers < 1:
@@ -401,18 +270,16 @@ def run_campaign(spec: CampaignSpec, out_dir: str | pathlib.Path, *, workers: in
             say(f"note: {len(stale)} result file(s) in {ep_dir} are not episodes of this campaign "
                 "(an earlier grid?); the summary leaves them out")
         todo = [e for e in episodes if e.id not in done]
-        if spec.record and todo:
-            try:
-                import excavsim.record  # noqa: F401
-            except ImportError as exc:
-                raise ExcavsimError(f"record: true needs the Rerun recorder (excavsim.record): {exc}") from None
+        if spec.record and todo and recorder is None:
+            raise ExcavsimError(f"campaign {spec.name} has record: true but no recorder was given: pass "
+                                "recorder=excavsim.record.RerunRecorder (the CLI does)")
         write_atomic(out / "campaign.yaml", yaml.safe_dump(spec.model_dump(mode="json"), sort_keys=False))
 
         n = min(workers or os.cpu_count() or 1, max(len(todo), 1))
         where = f"Ray ({ray_address})" if ray_address else f"{n} local process{'es' if n > 1 else ''}"
         say(f"campaign {spec.name}: {len(episodes)} episodes, {len(episodes) - len(todo)} already done, "
             f"{len(todo)} to run on {where}; results in {out}")
-        tasks = [_task(e, out, spec.record) for e in todo]
+        tasks = [_task(e, out, recorder if spec.record else None) for e in todo]
         results = _ray_results(tasks, ray_address, workers) if ray_address else _local_results(tasks, n)
         count, ran, t0 = len(episodes) - len(todo), 0, time.perf_counter()
         try:

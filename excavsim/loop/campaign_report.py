@@ -8,22 +8,14 @@ import io
 import json
 import os
 import pathlib
-import re
 import tempfile
 from collections.abc import Callable
-from typing import TYPE_CHECKING, Any
+from typing import Any
 
-if TYPE_CHECKING:
-    from excavsim.loop.campaign import CampaignSpec, Episode
+from excavsim.loop.campaign_grid import CampaignSpec, Episode, slug
 
 ENDS = ("done", "no_dig", "budget", "error")  # how an episode ended, in the order plots stack them
 _END_COLOURS = {"done": "#2ca02c", "no_dig": "#7f7f7f", "budget": "#ff7f0e", "error": "#d62728"}
-
-
-def slug(value: Any) -> str:
-    """A value as a file-name-safe token (for episode ids and plot names)."""
-    text = value if isinstance(value, str) else json.dumps(value, sort_keys=True)
-    return re.sub(r"[^A-Za-z0-9_.]+", "_", text).strip("_.")
 
 
 def write_atomic(path: pathlib.Path, text: str) -> None:

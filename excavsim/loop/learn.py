@@ -9,10 +9,12 @@ nominal wedge model with learned predictors in closed-loop episodes.
 
 from __future__ import annotations
 
+import dataclasses
 import json
+import math
 import pathlib
 import time
-from collections.abc import Callable
+from collections.abc import Callable, Sequence
 from typing import Any
 
 import numpy as np
@@ -25,6 +27,7 @@ from excavsim.learning.evaluate import (cross_validate, format_table4, format_ta
                                         measure_costs)
 from excavsim.learning.figures import plot_large_force_errors
 from excavsim.learning.predictors import METHODS, GlobalRegression
+from excavsim.loop.online import DigLearning, OnlineLearning
 
 SPLITS = {"samples": "shuffled samples (the thesis' protocol)", "digs": "whole digs held out"}
 
@@ -128,8 +131,6 @@ def run_learn(*, soil: str | None = None, digs: int = 30, seed: int = 0, out: st
                        for k, e in errs.items()}
     say(f"\nwrote {png}")
     if compare:
-        from excavsim.loop.online import compare_predictors, format_comparison
-
         overrides = {"robot": {"joints": {"wrist_pitch": {"torque_limit_nm": wrist_limit}}}} if wrist_limit else {}
         limit = f"wrist limit {wrist_limit:.0f} N m" if wrist_limit else "configured wrist limit"
         say(f"\nclosed-loop comparison: {episodes} episodes of at most {dig_budget} digs in {soil_name}, {limit}")
@@ -147,3 +148,78 @@ def run_learn(*, soil: str | None = None, digs: int = 30, seed: int = 0, out: st
     (out / "learn.json").write_text(json.dumps(report, indent=1))
     say(f"numbers written to {out / 'learn.json'}")
     return report
+
+
+@dataclasses.dataclass
+class ComparisonRow:
+    """One predictor's episodes: per-episode summaries and learning histories."""
+
+    predictor: str
+    summaries: list[dict[str, Any]]
+    histories: list[list[DigLearning]]
+
+    def mean(self, key: str) -> float:
+        return float(np.mean([s[key] for s in self.summaries]))
+
+    def total(self, key: str) -> float:
+        return float(np.sum([s[key] for s in self.summaries]))
+
+
+def compare_predictors(*, soil: str | None = None, episodes: int = 2, seed: int = 100, goal: str = "straight",
+                       dig_budget: int = 8, method: str = "global", basis: str = "mechanics",
+                       forgetting: float = 1.0, prior: ForceDataset | None = None,
+                       overrides: dict[str, Any] | None = None,
+                       progress: Callable[[str], None] | None = None) -> list[ComparisonRow]:
+    """The same episodes (seeds ``seed``, ``seed + 1``, ...) planned with the nominal wedge model and
+    with a learned predictor updated after every dig, from scratch and (when ``prior`` is given)
+    starting from ``prior``.
+
+    Args:
+        soil: soil preset (default: the scene's); goal: trench goal name; dig_budget: digs per episode.
+        method, basis, forgetting: the learned predictor (see :func:`~excavsim.learning.predictors.make_model`).
+        overrides: ``robot``, ``scene``, ``planner``, ``executor``, ``sensing`` overrides as in an
+            :class:`~excavsim.loop.scenario.EpisodeSpec`.
+        progress: called with a line per episode.
+    """
+    from excavsim.loop.scenario import EpisodeSpec, episode_summary, run_spec
+
+    say = progress or (lambda _s: None)
+    variants: list[tuple[str, Callable[[], OnlineLearning | None]]] = [
+        ("nominal wedge", lambda: None),
+        (f"learned online ({method}, {basis})", lambda: OnlineLearning(method, basis=basis, forgetting=forgetting)),
+    ]
+    if prior is not None and len(prior):
+        variants.append((f"learned, prior {prior.n_digs} digs + online",
+                         lambda: OnlineLearning(method, basis=basis, forgetting=forgetting, prior=prior)))
+    rows = []
+    for name, make in variants:
+        row = ComparisonRow(name, [], [])
+        for e in range(episodes):
+            spec = EpisodeSpec(name=f"compare-{e}", goal=goal, soil=soil, seed=seed + e, dig_budget=dig_budget,
+                               **(overrides or {}))
+            observer = make()
+            summary = episode_summary(run_spec(spec, observer=observer))
+            row.summaries.append(summary)
+            row.histories.append(observer.history if observer else [])
+            say(f"  {name:<40} seed {seed + e}: {summary['digs']} digs, {summary['stalls']} stalls, "
+                f"{summary['dug_l_per_dig']:.1f} l per dig, {100 * summary['removed_fraction']:.0f} % removed "
+                f"({summary['end']})")
+        rows.append(row)
+    return rows
+
+
+def format_comparison(rows: Sequence[ComparisonRow]) -> str:
+    """Stalls, soil per dig and the predictors' errors, one line per predictor."""
+    lines = [f"{'predictor':<40}{'episodes':>9}{'digs':>6}{'stalls':>7}{'l/dig':>7}{'removed':>9}"
+             f"{'wrist peak':>11}{'err learned':>12}{'err nominal':>12}"]
+    for r in rows:
+        hist = [h for hs in r.histories for h in hs]
+        learned = np.nanmean([h.learned_mae for h in hist]) if any(np.isfinite(h.learned_mae) for h in hist) \
+            else math.nan
+        nominal = np.mean([h.nominal_mae for h in hist]) if hist else math.nan
+        lines.append(f"{r.predictor:<40}{len(r.summaries):>9}{r.total('digs'):>6.0f}{r.total('stalls'):>7.0f}"
+                     f"{r.mean('dug_l_per_dig'):>7.1f}{100 * r.mean('removed_fraction'):>8.0f}%"
+                     f"{r.mean('peak_wrist_pitch_nm'):>11.0f}{learned:>12.0f}{nominal:>12.0f}")
+    lines.append("l/dig: soil in the bucket per dig (truth); removed: of the goal volume; wrist peak: mean over "
+                 "episodes [N m]; err: mean |F| error [N] on each dig before learning from it")
+    return "\n".join(lines)

@@ -26,12 +26,12 @@ from pydantic import Field, model_validator
 
 from excavsim import constants
 from excavsim.config import (ConfigError, ExecutorConfig, PlannerConfig, RobotConfig, SceneConfig, SensingConfig,
-                             TrenchGoal, _Strict, get_soil, load_config, load_executor_config, load_planner_config,
+                             StrictModel, TrenchGoal, get_soil, load_config, load_executor_config, load_planner_config,
                              load_robot_config, load_scene_config, load_sensing_config, load_trench_goal,
                              parse_config)
 
 
-class EpisodeSpec(_Strict):
+class EpisodeSpec(StrictModel):
     """One trenching episode: goal, soil, seed, stopping rules and configuration overrides."""
 
     name: str = Field(default="episode", description="label for logs and result files")
@@ -132,7 +132,8 @@ def run_spec(spec: EpisodeSpec, *, progress: Callable[[str], None] | None = None
         robot_path, scene_path: base configuration files the spec's overrides apply to (default
             configs/robot.yaml and configs/scene.yaml).
     """
-    from excavsim.loop.episode import ObserverGroup, run_episode
+    from excavsim.handoff.episode import ObserverGroup
+    from excavsim.loop.episode import run_episode
     from excavsim.world.simulation import Simulation
 
     r = ResolvedSpec(spec, robot_path=robot_path, scene_path=scene_path)

@@ -49,8 +49,9 @@ import time
 import numpy as np
 
 from excavsim.errors import ExcavsimError
-from excavsim.planning.trench import SurfaceProfile, TrenchPlanner, goal_profile
-from excavsim.sensing.elevation import ElevationMap
+from excavsim.handoff.goal import SurfaceProfile, goal_profile
+from excavsim.handoff.maps import ElevationMap
+from excavsim.planning.trench import TrenchPlanner
 
 OBJECTIVES = ("volume", "peak_torque", "cumulative_torque", "lexicographic")
 # Energy of an infeasible cell, per objective: above every feasible energy (see the module docstring).

@@ -27,8 +27,9 @@ import time
 
 import numpy as np
 
-from excavsim.planning.trench import SurfaceProfile, TrenchPlanner, goal_profile
-from excavsim.sensing.elevation import ElevationMap
+from excavsim.handoff.goal import SurfaceProfile, goal_profile
+from excavsim.handoff.maps import ElevationMap
+from excavsim.planning.trench import TrenchPlanner
 
 
 @dataclasses.dataclass

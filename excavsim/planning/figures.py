@@ -26,9 +26,10 @@ from mpl_toolkits.mplot3d.art3d import Poly3DCollection
 
 from excavsim.config import TrenchGoal
 from excavsim.errors import ExcavsimError
-from excavsim.planning.trench import CONSTRAINTS, PlanResult, SurfaceProfile, goal_profile
+from excavsim.handoff.goal import SurfaceProfile, goal_profile
+from excavsim.handoff.maps import ElevationMap
+from excavsim.planning.trench import CONSTRAINTS, PlanResult
 from excavsim.robot.kinematics import PlanarArm
-from excavsim.sensing.elevation import ElevationMap
 
 FEASIBLE, GEOMETRY_LIMITED, FORCE_LIMITED = 0, 1, 2
 PHASE_NAMES = ("penetrate", "drag", "curl")

@@ -44,48 +44,16 @@ import numpy as np
 
 from excavsim.config import PlannerConfig, TrenchGoal
 from excavsim.errors import ExcavsimError
-from excavsim.planning.predictor import DigContext, ForcePredictor, trajectory_progress
+from excavsim.handoff.forces import DigContext, ForcePredictor, trajectory_progress
+from excavsim.handoff.goal import SurfaceProfile, goal_profile
+from excavsim.handoff.maps import ElevationMap
 from excavsim.robot.fast import arm_params, ik_torques
 from excavsim.robot.kinematics import PlanarArm
 from excavsim.robot.reachability import ReachabilityTable
-from excavsim.sensing.elevation import ElevationMap
 
 CONSTRAINTS = ("shaping", "sensible", "volume", "reachability", "force")
 _NO_DIG = -1
 _CURL_STRIDE = 4  # drag samples between the curls tried first
-
-
-def goal_profile(goal: TrenchGoal, x: np.ndarray) -> np.ndarray:
-    """Lowest height the bucket may cut to at radial distance ``x`` (the goal's 2-D profile)."""
-    x = np.asarray(x, dtype=float)
-    z_ref = goal.surface_z_m
-    inside = (x >= goal.near_x_m) & (x <= goal.far_x_m)
-    near = z_ref - (x - goal.near_x_m) * math.tan(math.radians(goal.near_wall_deg))
-    far = z_ref - (goal.far_x_m - x) * math.tan(math.radians(goal.far_wall_deg))
-    z = np.maximum(np.maximum(near, far), z_ref - goal.depth_m)
-    return np.where(inside, z, z_ref)
-
-
-@dataclasses.dataclass(frozen=True)
-class SurfaceProfile:
-    """The mapped surface along the arm plane, averaged across the bucket width."""
-
-    x: np.ndarray
-    z: np.ndarray
-
-    @classmethod
-    def from_map(cls, emap: ElevationMap, arm: PlanarArm, waist: float, width: float, *,
-                 dx: float = 0.01, n_across: int = 5) -> SurfaceProfile:
-        x = np.arange(0.0, 4.0 + dx / 2, dx)
-        offsets = (np.arange(n_across) + 0.5) / n_across * width - width / 2
-        pts = arm.plane_to_world(waist, np.stack([x, np.zeros_like(x)], axis=-1))  # (n, 3)
-        side = np.array([-math.sin(arm.waist_sign * waist), math.cos(arm.waist_sign * waist)])
-        xs = pts[:, None, 0] + offsets[None, :] * side[0]
-        ys = pts[:, None, 1] + offsets[None, :] * side[1]
-        return cls(x, emap.height_at(xs, ys).mean(axis=1))
-
-    def __call__(self, x: np.ndarray) -> np.ndarray:
-        return np.interp(x, self.x, self.z)
 
 
 @dataclasses.dataclass
@@ -208,6 +176,10 @@ class TrenchPlanner:
         x = cx[:, None] + c * vx[:, None] + s * vz[:, None]  # clockwise rotation by th
         z = cz[:, None] - s * vx[:, None] + c * vz[:, None]
         return np.stack([x, z, rho0[:, None] - th], axis=-1)
+
+    def swept_volume(self, poses: np.ndarray, surface: SurfaceProfile) -> float:
+        """Soil a tip path (S, 3) sweeps between the mapped surface and itself, times the bucket width [m^3]."""
+        return float(self._swept(poses, surface).sum())
 
     # -- per-sample quantities ------------------------------------------------------------------
     def _swept(self, poses: np.ndarray, surface: SurfaceProfile) -> np.ndarray:

@@ -1,6 +1,6 @@
 """Rerun recordings of trenching episodes, and their replay (DESIGN.md §2, STYLE.md "Recording").
 
-:class:`RerunRecorder` is an :class:`~excavsim.loop.episode.EpisodeObserver` that writes one ``.rrd``
+:class:`RerunRecorder` is an :class:`~excavsim.handoff.episode.EpisodeObserver` that writes one ``.rrd``
 file per episode, headless, through its own :class:`rerun.RecordingStream` (never the global one, so
 that several episodes recorded in one process stay apart). The file is complete, footer included,
 when :meth:`RerunRecorder.finished` returns, also after an episode that raised. :func:`replay` opens
@@ -60,8 +60,8 @@ import yaml
 
 from excavsim import constants
 from excavsim.errors import ExcavsimError
-from excavsim.loop.episode import DigMetrics, EpisodeObserver, EpisodeResult, format_episode
-from excavsim.planning.trench import goal_profile
+from excavsim.handoff.episode import DigMetrics, EpisodeObserver, EpisodeResult, format_episode
+from excavsim.handoff.goal import goal_profile
 from excavsim.record.blueprint import default_blueprint
 from excavsim.record.geometry import (FILLED_RGB, MAP_RGB, OVERDIG_RGB, PHASE_NAMES, PHASE_RGB, PLAN_AXIS_LENGTH,
                                       SAND_RGB, geom_archetype, grid_normals, grid_triangles, quat_xyzw, ramp_colours)
@@ -110,10 +110,10 @@ class RerunRecorder(EpisodeObserver):
         m = sim.model
         self._moving = np.array([b for b in range(1, m.nbody) if m.body_weldid[b] != 0])
         self._names = {b: m.body(b).name or f"body_{b}" for b in range(m.nbody)}
-        self._ft_adr = [int(m.sensor_adr[m.sensor(s).id]) for s in (constants.FT_FORCE_SENSOR,
-                                                                     constants.FT_TORQUE_SENSOR)]
-        self._act = np.array([m.actuator(a).id for a in constants.ACTUATORS])
-        self._qadr = np.array([m.jnt_qposadr[m.joint(j).id] for j in constants.JOINTS])
+        index = sim.index
+        self._ft_adr = [index.ft_force, index.ft_torque]
+        self._act = index.actuator
+        self._qadr = index.qpos
         self._time(sim.data.time)
         rec.log("world", rr.ViewCoordinates.RIGHT_HAND_Z_UP, static=True)
         rec.log("plan", rr.ViewCoordinates.RIGHT_HAND_Z_UP, static=True)
@@ -145,15 +145,16 @@ class RerunRecorder(EpisodeObserver):
         self.rec.log("metrics/map_rms_cm", rr.Scalars(100 * accuracy.rms_m))
         self._say(f"scan {index}: {accuracy.summary()}")
 
-    def planned(self, index: int, plan, fallback) -> None:
+    def planned(self, index: int, plan, dig) -> None:
         self._flush()
         self._time(self.sim.data.time)
-        self._log_feasible(plan)
+        if plan is not None:
+            self._log_feasible(plan)
         self.rec.log("world/exec/path", rr.Clear(recursive=False))  # the last dig's path, until this one's
-        dig = fallback if plan.action is None else plan
         if dig is None:
             self.rec.log("world/plan/path", rr.Clear(recursive=False))
-            self._say(f"plan {index}: no dig ({plan.reason}) and no fallback", level=rr.TextLogLevel.WARN)
+            why = f" ({plan.reason}) and no fallback" if plan is not None else ""
+            self._say(f"plan {index}: no dig{why}", level=rr.TextLogLevel.WARN)
             return
         strips, colours, labels = [], [], []
         points = self.rig.arm.plane_to_world(self.waist, dig.poses[:, :2])
@@ -164,12 +165,14 @@ class RerunRecorder(EpisodeObserver):
                 colours.append(PHASE_RGB[p])
                 labels.append(name)
         self.rec.log("world/plan/path", rr.LineStrips3D(strips, colors=colours, labels=labels, radii=0.008))
-        if plan.action is None:
-            self._say(f"plan {index}: {plan.reason}; fallback {fallback.label}, {1000 * fallback.volume_m3:.1f} l")
+        if dig.action is None:
+            why = f"{plan.reason}; " if plan is not None else ""
+            self._say(f"plan {index}: {why}{dig.kind}, {1000 * dig.volume_m3:.1f} l")
         else:
-            k, a, d1, d2 = plan.action
+            k, a, d1, d2 = dig.action
+            how = f"{plan.reason}, " if plan is not None and dig.kind == "planned" else f"{dig.kind}, "
             self._say(f"plan {index}: k {k:.2f} m, alpha {np.degrees(a):.0f} deg, d1 {d1:.2f} m, d2 {d2:.2f} m, "
-                      f"{1000 * plan.volume_m3:.1f} l ({plan.reason}, {plan.seconds:.2f} s)")
+                      f"{1000 * dig.volume_m3:.1f} l ({how}{dig.planning_s:.2f} s)")
 
     def stepped(self, sim) -> None:
         d = sim.data

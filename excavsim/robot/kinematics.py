@@ -2,7 +2,7 @@
 
 Trenching is planar (000_a3ca905d8c6d92bf.txt §4.3.3): the waist fixes the arm's plane and only the
 shoulder, elbow and wrist pitch move while digging; wrist yaw and roll are held at zero (App. A1,
-"θ5 and θ6 are typically held constant"). :meth:`PlanarArm.from_model` reads the chain's geometry
+"θ5 and θ6 are typically held constant"). :func:`~excavsim.robot.extract.arm_from_model` reads the chain's geometry
 from a compiled MuJoCo model (joint anchors, the ``bucket_tip`` site, body masses and centres of
 mass at the zero configuration), so there is no second copy of the dimensions. After that the class
 is numpy only: the planner uses it without MuJoCo.
@@ -26,9 +26,6 @@ import dataclasses
 
 import numpy as np
 
-from excavsim import constants
-from excavsim.errors import ModelError
-
 _TWO_PI = 2.0 * np.pi
 
 
@@ -37,7 +34,7 @@ def wrap_angle(a: np.ndarray) -> np.ndarray:
     return (np.asarray(a) + np.pi) % _TWO_PI - np.pi
 
 
-def _rot(theta: np.ndarray, v: np.ndarray) -> np.ndarray:
+def rotate2(theta: np.ndarray, v: np.ndarray) -> np.ndarray:
     """Rotate 2-vectors ``v`` (shape (2,) or (..., 2)) counter-clockwise by ``theta`` (...)."""
     c, s = np.cos(theta), np.sin(theta)
     return np.stack([c * v[..., 0] - s * v[..., 1], s * v[..., 0] + c * v[..., 1]], axis=-1)
@@ -82,104 +79,6 @@ class PlanarArm:
     link_coms: np.ndarray
     gravity: float
 
-    # ------------------------------------------------------------------ construction
-    @classmethod
-    def from_model(cls, model, *, tol: float = 1e-9) -> PlanarArm:
-        """Extract the planar chain from a compiled MuJoCo model.
-
-        Args:
-            model: a ``mujoco.MjModel`` or a dm_control ``Physics``/model wrapper holding the T3.
-                Names may carry a PyMJCF attachment prefix (``t3/shoulder_joint``).
-            tol: tolerance for the structural checks (parallel pitch axes, vertical waist).
-
-        Raises:
-            ModelError: a named element is missing or the chain is not planar as assumed.
-        """
-        import mujoco  # local: the rest of this module is numpy only
-
-        m = _as_mjmodel(model)
-        jids = [_named_id(m, mujoco.mjtObj.mjOBJ_JOINT, n) for n in constants.JOINTS]
-        waist, shoulder, elbow, wrist = jids[:4]
-        tip_sid = _named_id(m, mujoco.mjtObj.mjOBJ_SITE, constants.BUCKET_TIP_SITE)
-        for j in jids:
-            if m.jnt_type[j] != mujoco.mjtJoint.mjJNT_HINGE:
-                raise ModelError(f"joint {mujoco.mj_id2name(m, mujoco.mjtObj.mjOBJ_JOINT, j)!r} must be a hinge")
-        d = mujoco.MjData(m)
-        d.qpos[:] = m.qpos0
-        qadr = m.jnt_qposadr[jids]
-        if np.any(np.abs(m.qpos0[qadr]) > 0):
-            raise ModelError("the T3 joints must have zero reference positions (qpos0) for the planar extraction")
-        mujoco.mj_kinematics(m, d)
-        mujoco.mj_comPos(m, d)
-
-        z_axis = d.xaxis[waist]
-        if abs(abs(z_axis[2]) - 1.0) > tol:
-            raise ModelError(f"waist_joint axis must be vertical, got {z_axis}")
-        waist_sign = float(np.sign(z_axis[2]))
-        origin = d.xanchor[waist].copy()
-        normal = d.xaxis[shoulder].copy()  # the plane's -y: positive rotation about it is CCW in (x, z)
-        if abs(normal[2]) > tol:
-            raise ModelError(f"shoulder_joint axis must be horizontal, got {normal}")
-        e_y = -normal / np.linalg.norm(normal)
-        e_z = np.array([0.0, 0.0, 1.0])
-        e_x = np.cross(e_y, e_z)
-        signs = []
-        for j, name in zip((shoulder, elbow, wrist), constants.PLANAR_JOINTS):
-            dot = float(np.dot(d.xaxis[j], normal))
-            if abs(abs(dot) - 1.0) > tol:
-                raise ModelError(f"{name} axis {d.xaxis[j]} is not parallel to the shoulder axis")
-            signs.append(np.sign(dot))
-
-        def to_plane(p: np.ndarray) -> np.ndarray:
-            r = p - origin
-            return np.array([np.dot(r, e_x), p[2]])
-
-        anchors = np.array([to_plane(d.xanchor[j]) for j in (shoulder, elbow, wrist)])
-        tip = to_plane(d.site_xpos[tip_sid])
-        links = np.array([anchors[1] - anchors[0], anchors[2] - anchors[1], tip - anchors[2]])
-        plane_offset = float(np.dot(d.site_xpos[tip_sid] - origin, e_y))
-        blade = d.site_xmat[tip_sid].reshape(3, 3)[:, 0]
-        if abs(np.dot(blade, e_y)) > 1e-6:
-            raise ModelError("the bucket_tip site's x axis must lie in the arm plane")
-        blade_angle0 = float(np.arctan2(blade[2], np.dot(blade, e_x)))
-
-        # Masses: every body moved by a planar joint belongs to the link of its nearest planar
-        # ancestor joint (wrist yaw and roll held at zero, so the wrist link is rigid).
-        owner = {}
-        for b in range(1, m.nbody):
-            k, a = None, b
-            while a > 0 and k is None:
-                for jj in range(m.body_jntadr[a], m.body_jntadr[a] + m.body_jntnum[a]):
-                    if jj in (shoulder, elbow, wrist):
-                        k = (shoulder, elbow, wrist).index(jj)
-                a = m.body_parentid[a]
-            if k is not None:
-                owner[b] = k
-        masses = np.zeros(3)
-        moments = np.zeros((3, 2))
-        for b, k in owner.items():
-            masses[k] += m.body_mass[b]
-            moments[k] += m.body_mass[b] * to_plane(d.xipos[b])
-        coms = np.where(masses[:, None] > 0, moments / np.maximum(masses[:, None], 1e-300), anchors) - anchors
-
-        gvec = m.opt.gravity
-        if abs(gvec[0]) > tol or abs(gvec[1]) > tol:
-            raise ModelError(f"gravity must be vertical, got {gvec}")
-        return cls(
-            waist_axis_xy=origin[:2].copy(),
-            waist_sign=waist_sign,
-            plane_offset_y=plane_offset,
-            shoulder_xz=anchors[0],
-            links=links,
-            joint_signs=np.array(signs, dtype=float),
-            blade_angle0=blade_angle0,
-            lower=m.jnt_range[[shoulder, elbow, wrist], 0].copy(),
-            upper=m.jnt_range[[shoulder, elbow, wrist], 1].copy(),
-            link_masses=masses,
-            link_coms=coms,
-            gravity=float(-gvec[2]),
-        )
-
     def fingerprint(self) -> bytes:
         """Bytes that change whenever any kinematic or limit parameter changes (for cache keys)."""
         parts = [np.asarray(getattr(self, f.name), dtype=float).tobytes() for f in dataclasses.fields(self)]
@@ -200,7 +99,7 @@ class PlanarArm:
             (..., 4, 2) positions (x, z) [m].
         """
         th = self._link_angles(q)
-        steps = np.stack([_rot(th[..., k], self.links[k]) for k in range(3)], axis=-2)
+        steps = np.stack([rotate2(th[..., k], self.links[k]) for k in range(3)], axis=-2)
         base = np.broadcast_to(self.shoulder_xz, th.shape[:-1] + (2,))
         return np.concatenate([base[..., None, :], base[..., None, :] + np.cumsum(steps, axis=-2)], axis=-2)
 
@@ -214,7 +113,7 @@ class PlanarArm:
             (..., 3) array of (x, z, pitch) [m, m, rad], pitch wrapped into [-π, π).
         """
         th = self._link_angles(q)
-        p = self.shoulder_xz + sum(_rot(th[..., k], self.links[k]) for k in range(3))
+        p = self.shoulder_xz + sum(rotate2(th[..., k], self.links[k]) for k in range(3))
         pitch = wrap_angle(self.blade_angle0 + th[..., 2] - np.pi)
         return np.concatenate([p, pitch[..., None]], axis=-1)
 
@@ -256,7 +155,7 @@ class PlanarArm:
         """
         pose = np.asarray(pose, dtype=float)
         th3 = pose[..., 2] + np.pi - self.blade_angle0  # total CCW rotation of the wrist link
-        wrist = pose[..., :2] - _rot(th3, self.links[2])
+        wrist = pose[..., :2] - rotate2(th3, self.links[2])
         dvec = wrist - self.shoulder_xz
         l1, l2 = np.linalg.norm(self.links[0]), np.linalg.norm(self.links[1])
         r2 = np.einsum("...i,...i->...", dvec, dvec)
@@ -298,27 +197,3 @@ class PlanarArm:
         jac[..., 0:2, :] = np.swapaxes(cols, -1, -2)
         jac[..., 2, :] = self.joint_signs
         return jac
-
-
-def _as_mjmodel(model):
-    """Accept an MjModel, a dm_control Physics, or its model wrapper."""
-    if hasattr(model, "model") and hasattr(model.model, "ptr"):
-        return model.model.ptr
-    return getattr(model, "ptr", model)
-
-
-def _named_id(m, objtype, name: str) -> int:
-    """Id of the element called ``name`` or ``<prefix>/name`` (PyMJCF attachment)."""
-    import mujoco
-
-    i = mujoco.mj_name2id(m, objtype, name)
-    if i >= 0:
-        return i
-    n = {mujoco.mjtObj.mjOBJ_JOINT: m.njnt, mujoco.mjtObj.mjOBJ_SITE: m.nsite, mujoco.mjtObj.mjOBJ_BODY: m.nbody,
-         mujoco.mjtObj.mjOBJ_ACTUATOR: m.nu}.get(objtype, 0)
-    names = [mujoco.mj_id2name(m, objtype, k) or "" for k in range(n)]
-    hits = [k for k, nm in enumerate(names) if nm.endswith("/" + name)]
-    if len(hits) == 1:
-        return hits[0]
-    kind = str(objtype).split("_")[-1].lower()
-    raise ModelError(f"{kind} {name!r} not found in the model. Available: {sorted(x for x in names if x)}")

@@ -15,7 +15,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from excavsim.robot.kinematics import PlanarArm, _rot
+from excavsim.robot.kinematics import PlanarArm, rotate2
 
 
 def tip_wrench_torques(arm: PlanarArm, q: np.ndarray, wrench: np.ndarray) -> np.ndarray:
@@ -50,7 +50,7 @@ def tip_force_in_plane(force_tip_frame: np.ndarray, pitch: np.ndarray) -> np.nda
     # The tip frame's x axis is the blade, at counter-clockwise angle π + ρ in (x, z). Its y axis is
     # the plane's -y, so its z axis (into the bucket) lies 90° *clockwise* of x: (-sin ρ, cos ρ).
     f = np.asarray(force_tip_frame, dtype=float)
-    return _rot(np.pi + np.asarray(pitch, dtype=float), np.stack([f[..., 0], -f[..., 1]], axis=-1))
+    return rotate2(np.pi + np.asarray(pitch, dtype=float), np.stack([f[..., 0], -f[..., 1]], axis=-1))
 
 
 def gravity_torques(arm: PlanarArm, q: np.ndarray, *, payload_kg: float | np.ndarray = 0.0,
@@ -70,7 +70,7 @@ def gravity_torques(arm: PlanarArm, q: np.ndarray, *, payload_kg: float | np.nda
     q = np.asarray(q, dtype=float)
     pts = arm.joint_points(q)  # (..., 4, 2)
     th = arm._link_angles(q)
-    coms = np.stack([pts[..., k, :] + _rot(th[..., k], arm.link_coms[k]) for k in range(3)], axis=-2)
+    coms = np.stack([pts[..., k, :] + rotate2(th[..., k], arm.link_coms[k]) for k in range(3)], axis=-2)
     # Holding torque about joint i (CCW): g Σ_{n≥i} m_n (x_com_n − x_joint_i)  (eq. 31).
     dx = coms[..., None, :, 0] - pts[..., :3, None, 0]  # (..., joint i, link n)
     upper = np.triu(np.ones((3, 3)))  # n ≥ i

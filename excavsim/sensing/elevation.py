@@ -14,21 +14,20 @@ The processing is the thesis' (Figs. 101-102 and the text around them):
    conservatively: repeatedly with the highest observed neighbour, i.e. assuming soil is there, so
    the planner never counts on empty space it has not seen.
 
-:class:`ElevationMap` is a small value type; :func:`map_accuracy` compares it with the true terrain
+The :class:`~excavsim.handoff.maps.ElevationMap` it builds is a value type of the hand-off package; :func:`map_accuracy` compares it with the true terrain
 (privileged data, for tests and logging only).
 """
 
 from __future__ import annotations
 
 import dataclasses
-import pathlib
 from collections.abc import Sequence
 
 import numpy as np
 
 from excavsim.config import ElevationMapConfig
 from excavsim.errors import ExcavsimError
-from excavsim.sensing.images import RangeImage, ScanGeometry
+from excavsim.handoff.maps import ElevationMap, RangeImage, ScanGeometry
 
 WALL_MARGIN_M = 0.03
 
@@ -84,63 +83,6 @@ def calibrate(image: RangeImage, geometry: ScanGeometry, *, reject_m: float = 0.
         (scale, offset), *_ = np.linalg.lstsq(a, measured[use], rcond=None)
     residuals = np.where(use, (measured - offset) / scale - surveyed, np.nan).reshape(geometry.target_ranges.shape)
     return Calibration(float(scale), float(offset), residuals, int(use.sum()))
-
-
-@dataclasses.dataclass(frozen=True)
-class ElevationMap:
-    """A grid of soil elevations over the box, as the robot believes it to be.
-
-    Attributes:
-        x0, y0: world position of the corner of cell (0, 0) [m]; cell (i, j) spans
-            ``x0 + j * cell ... x0 + (j + 1) * cell`` and likewise in y (rows along y).
-        cell: cell size [m].
-        heights: (ny, nx) elevation of each cell [m, world z].
-        observed: (ny, nx) True where scan points fell in the cell; the rest were filled.
-        time: simulation time of the last scan used [s].
-    """
-
-    x0: float
-    y0: float
-    cell: float
-    heights: np.ndarray
-    observed: np.ndarray
-    time: float
-
-    @property
-    def shape(self) -> tuple[int, int]:
-        return self.heights.shape
-
-    def centres(self) -> tuple[np.ndarray, np.ndarray]:
-        """World x (nx,) and y (ny,) of the cell centres."""
-        ny, nx = self.heights.shape
-        return self.x0 + (np.arange(nx) + 0.5) * self.cell, self.y0 + (np.arange(ny) + 0.5) * self.cell
-
-    def height_at(self, x: np.ndarray, y: np.ndarray) -> np.ndarray:
-        """Elevation at world points, bilinear between cell centres (clamped at the edges)."""
-        ny, nx = self.heights.shape
-        u = np.clip((np.asarray(x, float) - self.x0) / self.cell - 0.5, 0, nx - 1)
-        v = np.clip((np.asarray(y, float) - self.y0) / self.cell - 0.5, 0, ny - 1)
-        c0 = np.minimum(u.astype(np.int64), nx - 2)
-        r0 = np.minimum(v.astype(np.int64), ny - 2)
-        fu, fv = u - c0, v - r0
-        h = self.heights
-        return ((1 - fu) * (1 - fv) * h[r0, c0] + fu * (1 - fv) * h[r0, c0 + 1]
-                + (1 - fu) * fv * h[r0 + 1, c0] + fu * fv * h[r0 + 1, c0 + 1])
-
-    def save(self, path: str | pathlib.Path) -> None:
-        """Write the map to an ``.npz`` file."""
-        np.savez_compressed(path, x0=self.x0, y0=self.y0, cell=self.cell, heights=self.heights,
-                            observed=self.observed, time=self.time)
-
-    @classmethod
-    def load(cls, path: str | pathlib.Path) -> ElevationMap:
-        """Read a map written by :meth:`save`."""
-        try:
-            with np.load(path) as f:
-                return cls(float(f["x0"]), float(f["y0"]), float(f["cell"]), f["heights"], f["observed"].astype(bool),
-                           float(f["time"]))
-        except (OSError, KeyError, ValueError) as exc:
-            raise ExcavsimError(f"{path}: not an elevation map written by excavsim ({exc})") from None
 
 
 def median_ranges(images: Sequence[RangeImage], calibrations: Sequence[Calibration] | None) -> np.ndarray:

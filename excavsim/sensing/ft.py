@@ -3,7 +3,7 @@
 On the testbed a JR3 six-axis sensor sits between the wrist and the bucket; its processor was
 "programmed to register forces with respect to the tip of the bucket" (Fig. 103), and a dedicated
 process recorded readings at about 10 Hz. :class:`ForceSensor` does the same with what the robot
-knows: the raw wrist reading of an :class:`~excavsim.world.simulation.Observation`, the measured
+knows: the raw wrist reading of an :class:`~excavsim.handoff.observation.Observation`, the measured
 joint angles, and its own kinematic model (the compiled ``MjModel`` with a private ``MjData``; never
 the simulation's data).
 
@@ -34,7 +34,6 @@ from __future__ import annotations
 
 import dataclasses
 import math
-from typing import TYPE_CHECKING
 
 import mujoco
 import numpy as np
@@ -42,9 +41,8 @@ import numpy as np
 from excavsim import constants
 from excavsim.config import ForceSensorConfig
 from excavsim.errors import ExcavsimError, ModelError
-
-if TYPE_CHECKING:  # the mind reads observations; it never imports the world at run time
-    from excavsim.world.simulation import Observation
+from excavsim.handoff.observation import Observation
+from excavsim.readouts import element_id
 
 
 @dataclasses.dataclass(frozen=True)
@@ -110,14 +108,6 @@ def _cross3(a: np.ndarray, b: np.ndarray) -> np.ndarray:
     return np.array([a[1] * b[2] - a[2] * b[1], a[2] * b[0] - a[0] * b[2], a[0] * b[1] - a[1] * b[0]])
 
 
-def _named_id(model: mujoco.MjModel, obj: mujoco.mjtObj, n: int, name: str, kind: str) -> int:
-    i = mujoco.mj_name2id(model, obj, name)
-    if i < 0:
-        available = [mujoco.mj_id2name(model, obj, k) for k in range(n)]
-        raise ModelError(f"{kind} {name!r} not found in the model. Available: {available}")
-    return i
-
-
 class ForceSensor:
     """The wrist F/T sensor programmed to report the soil's wrench at the bucket tip, at a fixed rate.
 
@@ -141,10 +131,10 @@ class ForceSensor:
         self.period_s = 1.0 / rate
         self.model = model
         self._data = mujoco.MjData(model)  # private: the mind's own kinematic state
-        self._bucket = _named_id(model, mujoco.mjtObj.mjOBJ_BODY, model.nbody, constants.BUCKET_BODY, "body")
-        self._ft_site = _named_id(model, mujoco.mjtObj.mjOBJ_SITE, model.nsite, constants.FT_SITE, "site")
-        self._tip_site = _named_id(model, mujoco.mjtObj.mjOBJ_SITE, model.nsite, constants.BUCKET_TIP_SITE, "site")
-        joints = [_named_id(model, mujoco.mjtObj.mjOBJ_JOINT, model.njnt, j, "joint") for j in constants.JOINTS]
+        self._bucket = element_id(model, "body", constants.BUCKET_BODY)
+        self._ft_site = element_id(model, "site", constants.FT_SITE)
+        self._tip_site = element_id(model, "site", constants.BUCKET_TIP_SITE)
+        joints = [element_id(model, "joint", j) for j in constants.JOINTS]
         self._qadr = np.array([model.jnt_qposadr[j] for j in joints])
         if model.site_bodyid[self._ft_site] != self._bucket:
             raise ModelError(f"site {constants.FT_SITE!r} must be on body {constants.BUCKET_BODY!r} "

@@ -1,8 +1,9 @@
 """The world facade: MuJoCo and the soil stepped together at a fixed control rate.
 
 The rest of the package talks to the world only through :class:`Simulation`: it sets servo commands
-and reads :class:`Observation` (joint angles and velocities, actuator forces, the noisy wrist F/T
-reading, time), the sensor-level data a real T3 gives. The true terrain, the soil volumes and the
+and reads :class:`~excavsim.handoff.observation.Observation` (joint angles and velocities, actuator
+forces, the noisy wrist F/T reading, time), the sensor-level data a real T3 gives; to the executor
+it is a :class:`~excavsim.handoff.observation.Servos`. The true terrain, the soil volumes and the
 soil's wrench on the bucket are available separately through :attr:`Simulation.truth`, as privileged
 data for tests and logging (DESIGN.md §1: the planner must never read them).
 
@@ -22,28 +23,13 @@ import mujoco
 import numpy as np
 from dm_control import mjcf
 
-from excavsim import constants
 from excavsim.config import RobotConfig, SceneConfig, SoilParams, get_soil, load_robot_config, load_scene_config
 from excavsim.errors import ExcavsimError
+from excavsim.handoff.observation import Observation
+from excavsim.readouts import ModelIndex
 from excavsim.robot.servo import setpoint_rates
 from excavsim.world.scene import build_physics
 from excavsim.world.soil import SoilContact, SoilModel, Volumes
-
-
-@dataclasses.dataclass(frozen=True)
-class Observation:
-    """What the robot's sensors report after a control step (all arrays in qpos/actuator order).
-
-    ``ft_force``/``ft_torque`` are MuJoCo's force/torque sensors at ``ft_mount`` (the force and
-    moment the wrist exerts on the bucket subtree, in the ``ft_mount`` frame) plus Gaussian noise.
-    """
-
-    time: float
-    q: np.ndarray
-    qdot: np.ndarray
-    actuator_force: np.ndarray
-    ft_force: np.ndarray
-    ft_torque: np.ndarray
 
 
 @dataclasses.dataclass(frozen=True)
@@ -80,13 +66,12 @@ class Simulation:
         self.control_dt = 1.0 / self.robot.control_rate_hz
         self.substeps = max(1, int(round(self.control_dt / self.model.opt.timestep)))
         self.control_dt = self.substeps * self.model.opt.timestep
-        self._joint_qpos = np.array([self.model.jnt_qposadr[self.model.joint(j).id] for j in constants.JOINTS])
-        self._joint_dof = np.array([self.model.jnt_dofadr[self.model.joint(j).id] for j in constants.JOINTS])
-        self._act = np.array([self.model.actuator(a).id for a in constants.ACTUATORS])
-        self._bucket = self.soil.bucket.body_id
-        f_id = self.model.sensor(constants.FT_FORCE_SENSOR).id
-        t_id = self.model.sensor(constants.FT_TORQUE_SENSOR).id
-        self._ft_adr = (int(self.model.sensor_adr[f_id]), int(self.model.sensor_adr[t_id]))
+        self.index = ModelIndex.from_model(self.model)
+        self._joint_qpos = self.index.qpos
+        self._joint_dof = self.index.dof
+        self._act = self.index.actuator
+        self._bucket = self.index.bucket_body
+        self._ft_adr = (self.index.ft_force, self.index.ft_torque)
         self.rate_limit = self.model.actuator_ctrlrange[self._act, 1].copy()
         self.torque_limit = self.model.actuator_forcerange[self._act, 1].copy()
         self.contact: SoilContact | None = None
@@ -95,6 +80,15 @@ class Simulation:
         self.step_hooks: list[Callable[[Simulation], None]] = []
 
     # -- sensing --------------------------------------------------------------------------------
+    @property
+    def time(self) -> float:
+        """Simulated time [s]."""
+        return float(self.data.time)
+
+    def joint_angles(self) -> np.ndarray:
+        """The joint encoders (6,) [rad], in ``constants.JOINTS`` order; draws no sensor noise."""
+        return self.data.qpos[self._joint_qpos].copy()
+
     def observe(self) -> Observation:
         """The sensor-level observation now (F/T with noise)."""
         d = self.data

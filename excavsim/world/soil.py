@@ -53,14 +53,14 @@ import numpy as np
 from scipy import ndimage
 
 from excavsim.config import SceneConfig, SoilParams
+from excavsim.mechanics.bearing import bearing_factors
+from excavsim.mechanics.wedge import MIN_RAKE_RAD, WedgeTable
 from excavsim.world import kernels
 from excavsim.world.bucket import BucketGeometry
 from excavsim.world.settle import SettleResult, settle
 from excavsim.world.terrain import SoilGrid
-from excavsim.world.wedge import WedgeTable
 
 _EDGE_EXCLUSION_M = 0.03  # profile within this arc length of the edge belongs to the cutting face
-MIN_WEDGE_RAKE = math.radians(5.0)  # below this the blade slices along itself: eq. 8 is held at 5 deg
 
 
 @dataclasses.dataclass(frozen=True)
@@ -117,20 +117,6 @@ class SoilContact:
     def __repr__(self) -> str:
         return (f"SoilContact(t={self.time:.3f}, depth={self.depth_m:.3f}, force={np.round(self.force, 1)}, "
                 f"cut={self.cut_volume_m3:.2e})")
-
-
-def bearing_factors(phi: float) -> tuple[float, float, float]:
-    """Strip-footing bearing capacity factors (N_c, N_q, N_gamma) for friction angle ``phi`` [rad].
-
-    Prandtl-Reissner ``N_q = exp(pi tan phi) tan^2(pi/4 + phi/2)``, ``N_c = (N_q - 1) cot phi``
-    (``2 + pi`` at phi = 0) and Vesic ``N_gamma = 2 (N_q + 1) tan phi``. Standard geotechnics, used
-    here for the bearing of the bucket's bottom and back, which the thesis treats only qualitatively.
-    """
-    t = math.tan(phi)
-    n_q = math.exp(math.pi * t) * math.tan(math.pi / 4 + phi / 2) ** 2
-    n_c = (n_q - 1) / t if phi > 1e-9 else 2 + math.pi
-    n_g = 2 * (n_q + 1) * t
-    return n_c, n_q, n_g
 
 
 def strength_field(shape: tuple[int, int], cell: float, std: float, length_m: float,
@@ -209,7 +195,7 @@ class SoilModel:
         p[kernels.P_MU] = math.tan(soil.delta)
         p[kernels.P_V_EPS] = scene.bucket.friction_velocity_m_s
         p[kernels.P_K_ROCK] = scene.bucket.rock_stiffness_n_per_m
-        p[kernels.P_RAKE_MIN] = max(self.table.rake_min, MIN_WEDGE_RAKE)
+        p[kernels.P_RAKE_MIN] = max(self.table.rake_min, MIN_RAKE_RAD)
         p[kernels.P_M_REF] = scene.bucket.friction_mass_kg
         self._params = p
         self._state = np.zeros(kernels.S_LEN)

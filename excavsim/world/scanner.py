@@ -4,7 +4,7 @@ The scanner sits at the ``scanner`` site of the soil box (a Perceptron-like rang
 beyond the near wall; the site's +z is its boresight). Each scan casts a grid of rays, uniform in
 azimuth and elevation over the box plus a margin, and a small patch of rays at each surveyed target
 on the walls. Occlusion is truthful: rays stop at the soil (MuJoCo's heightfield triangles), the
-walls and the target plates (:mod:`excavsim.sensing.raycast`). The arm is not in this scene model:
+walls and the target plates (:mod:`excavsim.world.raycast`). The arm is not in this scene model:
 the executor parks it out of view before a scan (000_a3ca905d8c6d92bf.txt §7.2).
 
 Errors (``configs/sensing.yaml``):
@@ -26,15 +26,14 @@ ranges) and what it receives is :class:`RangeImage`.
 
 from __future__ import annotations
 
-
 import mujoco
 import numpy as np
 
 from excavsim import constants
 from excavsim.config import ScannerConfig
-from excavsim.errors import ModelError
-from excavsim.sensing import raycast
-from excavsim.sensing.images import RangeImage, ScanGeometry
+from excavsim.handoff.maps import RangeImage, ScanGeometry
+from excavsim.readouts import element_id
+from excavsim.world import raycast
 from excavsim.world.terrain import SoilGrid
 
 
@@ -50,7 +49,7 @@ def _small_rotation(angles: np.ndarray) -> np.ndarray:
 
 def _occluders(model: mujoco.MjModel, data: mujoco.MjData) -> np.ndarray:
     """The box's walls and target plates as rows (centre 3, rotation 9, half sizes 3)."""
-    body = mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_BODY, constants.SOIL_BOX_BODY)
+    body = element_id(model, "body", constants.SOIL_BOX_BODY)
     rows = []
     for g in range(model.ngeom):
         name = mujoco.mj_id2name(model, mujoco.mjtObj.mjOBJ_GEOM, g) or ""
@@ -76,9 +75,7 @@ class LaserScanner:
         self.rng = rng
         data = mujoco.MjData(model)
         mujoco.mj_kinematics(model, data)
-        site = mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_SITE, constants.SCANNER_SITE)
-        if site < 0:
-            raise ModelError(f"the model has no {constants.SCANNER_SITE!r} site")
+        site = element_id(model, "site", constants.SCANNER_SITE)
         origin = data.site_xpos[site].copy()
         rot = data.site_xmat[site].reshape(3, 3).copy()
         self.boxes = np.ascontiguousarray(_occluders(model, data))
@@ -110,13 +107,8 @@ class LaserScanner:
         offsets = np.linspace(-0.02, 0.02, k) if k > 1 else np.zeros(1)
         dirs, ranges = [], []
         for i in range(constants.N_SURVEY_TARGETS):
-            site = mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_SITE, f"{constants.SURVEY_TARGET_SITE_PREFIX}{i}")
-            if site < 0:
-                raise ModelError(f"survey target site {i} is missing")
-            plate = mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_GEOM,
-                                      f"{constants.SURVEY_TARGET_SITE_PREFIX}{i}_plate")
-            if plate < 0:
-                raise ModelError(f"survey target plate {i} is missing")
+            site = element_id(model, "site", f"{constants.SURVEY_TARGET_SITE_PREFIX}{i}")
+            plate = element_id(model, "geom", f"{constants.SURVEY_TARGET_SITE_PREFIX}{i}_plate")
             centre = data.site_xpos[site]
             axes = data.geom_xmat[plate].reshape(3, 3)  # columns: the plate's x, y (in plane), z (normal)
             pts = np.array([centre + u * axes[:, 0] + v * axes[:, 1] for v in offsets for u in offsets])

@@ -63,7 +63,6 @@ from __future__ import annotations
 
 import dataclasses
 import math
-import time
 from typing import Literal, NamedTuple
 
 import numpy as np
@@ -72,6 +71,9 @@ from excavsim.config import SoilParams
 from excavsim.errors import ExcavsimError
 
 G_M_S2 = 9.81  # gravitational acceleration [m/s^2]
+# Below this rake the blade slices along itself, outside the wedge model: the world and the
+# predictors hold the factors at their value here.
+MIN_RAKE_RAD = math.radians(5.0)
 
 
 class WedgeError(ExcavsimError, ValueError):
@@ -402,31 +404,3 @@ def wedge_force_components(depth_m, rake, soil: SoilParams, width_m, *, frame: L
     if soil.adhesion_pa:
         fx = fx - soil.adhesion_pa * np.maximum(depth_m, 0.0) / np.sin(rake) * width_m
     return tip_to_plane(fx, fz, rake) if frame == "plane" else (fx[()], fz[()])
-
-
-def bench_wedge(*, n: int = 1_000_000, soil_name: str = "testbed_sand") -> list[tuple[str, float, str, str]]:
-    """Wedge-force throughput with the table and with the exact beta*, and the table build time."""
-    from excavsim.config import get_soil
-
-    soil = get_soil(soil_name)
-    t0 = time.perf_counter()
-    table = WedgeTable.for_soil(soil)
-    t_build = time.perf_counter() - t0
-    rng = np.random.default_rng(0)
-    depth = rng.uniform(0.0, 0.3, n)
-    rake = rng.uniform(math.radians(10.0), math.radians(90.0), n)
-
-    from excavsim.bench import _best_of
-
-    def best_of(fn) -> float:
-        return _best_of(fn, 3)
-
-    t_table = best_of(lambda: wedge_force(depth, rake, soil, 0.3, table=table))
-    t_exact = best_of(lambda: wedge_force(depth, rake, soil, 0.3))
-    note = f"batch of {n}, {soil_name}, rake 10-90 deg, depth 0-0.3 m"
-    return [
-        ("wedge table build", t_build, "s", f"{table.rake.size} rakes, {math.degrees(table.rake_step):.2g} deg step"),
-        ("wedge force, table lookup", n / t_table, "evals/s", note),
-        ("wedge force, exact beta*", n / t_exact, "evals/s", note),
-        ("wedge table / exact", t_exact / t_table, "x speed-up", "same inputs"),
-    ]

@@ -1,0 +1,60 @@
+"""What the robot's sensors report, and the servo interface the executor and the loop drive.
+
+:class:`Observation` is the sensor-level reading of one control step (the world's
+:class:`~excavsim.world.simulation.Simulation` produces it); :class:`Servos` is the part of the
+world the robot's mind may command and read, so that the executor never imports the world.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+from typing import Protocol
+
+import numpy as np
+
+
+@dataclasses.dataclass(frozen=True)
+class Observation:
+    """What the robot's sensors report after a control step (all arrays in qpos/actuator order).
+
+    ``ft_force``/``ft_torque`` are MuJoCo's force/torque sensors at ``ft_mount`` (the force and
+    moment the wrist exerts on the bucket subtree, in the ``ft_mount`` frame) plus Gaussian noise.
+
+    Attributes:
+        time: simulated time [s].
+        q, qdot: (6,) joint angles [rad] and velocities [rad/s].
+        actuator_force: (6,) servo torques [N m].
+        ft_force, ft_torque: (3,) wrist reading [N, N m].
+    """
+
+    time: float
+    q: np.ndarray
+    qdot: np.ndarray
+    actuator_force: np.ndarray
+    ft_force: np.ndarray
+    ft_torque: np.ndarray
+
+
+class Servos(Protocol):
+    """The robot's hydraulic servos and sensors, as the executor drives them (a Simulation is one).
+
+    Attributes:
+        control_dt: the control period [s].
+        torque_limit: (6,) relief limits of the joints [N m].
+    """
+
+    control_dt: float
+    torque_limit: np.ndarray
+
+    @property
+    def time(self) -> float:
+        """Simulated time now [s] (reading it takes no sensor sample)."""
+        ...
+
+    def observe(self) -> Observation:
+        """The sensor reading now (draws the F/T noise)."""
+        ...
+
+    def track(self, target: np.ndarray) -> Observation:
+        """One control step driving the joints towards ``target`` (6,) [rad]; the reading after it."""
+        ...

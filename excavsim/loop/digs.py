@@ -1,0 +1,118 @@
+"""Where each cycle's dig comes from: the planner (with its fallback), a random feasible dig, or a script.
+
+The episode driver (:func:`~excavsim.loop.episode.run_episode`) asks a :class:`DigSource` for one
+dig per cycle, on the map it just scanned:
+
+* :class:`PlannedDigs` (the default): the planner's choice (000_a3ca905d8c6d92bf.txt ch. 6), or,
+  when its best dig is below the minimum utility, the boundary-following fallback of §7.2;
+* :class:`RandomFeasibleDigs`: a seeded random dig of the planner's feasible set that sweeps enough
+  soil, so that force data cover the action space (§5.2.4; what ``excavsim learn`` digs);
+* :class:`ScriptedDigs`: given trenching actions, one per cycle (``excavsim demo``).
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import math
+from collections.abc import Sequence
+from typing import Protocol
+
+import numpy as np
+
+from excavsim.handoff.dig import Dig, TrenchAction
+from excavsim.handoff.goal import SurfaceProfile
+from excavsim.handoff.maps import ElevationMap
+from excavsim.loop.rig import Rig
+from excavsim.planning import fallback
+from excavsim.planning.trench import PlanResult
+
+
+@dataclasses.dataclass(frozen=True)
+class Choice:
+    """A dig source's answer for one cycle.
+
+    Attributes:
+        dig: the dig to execute, or None: the episode ends with ``no_dig``.
+        reason: why there is no dig (when ``dig`` is None).
+        plan: the planner's result, for observers (None when the source did not plan).
+        note: a line of progress to print before the dig (e.g. that the planner fell back).
+    """
+
+    dig: Dig | None
+    reason: str = ""
+    plan: PlanResult | None = None
+    note: str = ""
+
+
+class DigSource(Protocol):
+    """Chooses the dig of each cycle on the scanned map."""
+
+    def choose(self, rig: Rig, emap: ElevationMap) -> Choice:
+        """The dig for this cycle (see :class:`Choice`)."""
+        ...
+
+
+class PlannedDigs:
+    """The planner's dig, or the boundary-following fallback (§7.2) when none reaches the minimum utility."""
+
+    def choose(self, rig: Rig, emap: ElevationMap) -> Choice:
+        plan = rig.planner.plan(emap)
+        if plan.action is not None:
+            return Choice(Dig("planned", plan.poses, plan.phases, plan.volume_m3, plan.action, plan.seconds), plan=plan)
+        boundary, why = fallback.choose(rig.planner, emap)
+        if boundary is None:
+            return Choice(None, f"no dig of minimum utility ({plan.reason}), and no fallback: {why}", plan)
+        dig = Dig("fallback: " + boundary.label, boundary.poses, boundary.phases, boundary.volume_m3, None,
+                  plan.seconds + boundary.seconds, shift_up=False)
+        return Choice(dig, plan=plan, note=f"  planner: {plan.reason}; falling back to a {why}")
+
+
+class RandomFeasibleDigs:
+    """A random dig of the planner's feasible set sweeping at least ``min_volume_fraction`` of the
+    bucket (instead of the planner's choice), so that the digs cover the action space.
+
+    Args:
+        rng: the generator that picks the cells (seeded by the caller).
+        min_volume_fraction: smallest swept volume, as a fraction of the bucket's capacity.
+    """
+
+    def __init__(self, rng: np.random.Generator, min_volume_fraction: float = 0.3):
+        self.rng = rng
+        self.min_volume_fraction = float(min_volume_fraction)
+
+    def choose(self, rig: Rig, emap: ElevationMap) -> Choice:
+        plan = rig.planner.plan(emap)
+        enough = plan.feasible & (np.nan_to_num(plan.volume) >= self.min_volume_fraction * rig.capacity)
+        cells = np.argwhere(enough)
+        if len(cells) == 0:
+            return Choice(None, f"no feasible dig sweeping {100 * self.min_volume_fraction:.0f} % of the bucket", plan)
+        c = tuple(cells[self.rng.integers(len(cells))])
+        action = TrenchAction(float(plan.grid_k[c[0]]), float(plan.grid_alpha[c[1]]), float(plan.grid_d1[c[2]]),
+                              float(plan.d2[c]))
+        surface = SurfaceProfile.from_map(emap, rig.arm, math.radians(rig.goal.waist_deg), rig.width)
+        poses, phases = rig.planner.trajectory(action, surface)
+        return Choice(Dig("random feasible", poses, phases, float(plan.volume[c]), action, plan.seconds), plan=plan)
+
+
+class ScriptedDigs:
+    """The given trenching actions, one per cycle, each with the planner's trajectory rules (§3.4)
+    and without its constraints: the caller vouches for them (an unreachable path stalls or fails
+    in the executor, as it would on the machine).
+
+    Args:
+        actions: (k [m], alpha [rad], d1 [m], d2 [m]) per dig; the episode ends when they run out.
+    """
+
+    def __init__(self, actions: Sequence[tuple[float, float, float, float]]):
+        self.actions = [TrenchAction(*map(float, a)) for a in actions]
+        self._next = 0
+
+    def choose(self, rig: Rig, emap: ElevationMap) -> Choice:
+        if self._next >= len(self.actions):
+            return Choice(None, f"all {len(self.actions)} scripted digs done")
+        action = self.actions[self._next]
+        self._next += 1
+        surface = SurfaceProfile.from_map(emap, rig.arm, math.radians(rig.goal.waist_deg), rig.width)
+        poses, phases = rig.planner.trajectory(action, surface)
+        swept = rig.planner.swept_volume(poses, surface)
+        return Choice(Dig("scripted", poses, phases, swept, action, 0.0))

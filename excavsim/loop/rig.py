@@ -1,0 +1,126 @@
+"""The loop's pieces around the world, and the moves every episode makes: park, go home, scan.
+
+:func:`make_rig` builds what a loop needs besides the :class:`~excavsim.world.simulation.Simulation`:
+the configurations, the robot's model of itself (:class:`~excavsim.robot.kinematics.PlanarArm`,
+read from the compiled model), the scanner, the planner with its nominal force predictor, the dig
+executor and the model's ``home`` and ``park`` keyframes. :func:`park`, :func:`go_home` and
+:func:`scan` are the moves around each dig (000_a3ca905d8c6d92bf.txt §7.2, Fig. 107): park out of
+the scanner's view, scan ten images into a map, come back over the box.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+from collections.abc import Callable
+
+import numpy as np
+
+from excavsim import constants
+from excavsim.config import (ExecutorConfig, PlannerConfig, SensingConfig, TrenchGoal, get_soil, load_executor_config,
+                             load_planner_config, load_sensing_config, load_trench_goal)
+from excavsim.execution.dig import DigExecutor
+from excavsim.handoff.dig import ExecutionRecord
+from excavsim.handoff.maps import ElevationMap
+from excavsim.planning.predictor import WedgePredictor
+from excavsim.planning.trench import TrenchPlanner
+from excavsim.robot.extract import arm_from_model
+from excavsim.robot.kinematics import PlanarArm
+from excavsim.robot.reachability import load_or_build
+from excavsim.sensing.elevation import MapAccuracy, build_map, map_accuracy
+from excavsim.sensing.ft import ForceSensor
+from excavsim.world.scanner import LaserScanner
+from excavsim.world.simulation import Simulation
+
+
+@dataclasses.dataclass
+class Rig:
+    """Everything a loop needs around the Simulation: configurations, the robot's model of itself,
+    the scanner, the planner with its nominal force predictor, the executor and the keyframes.
+
+    Attributes:
+        home, park: (6,) joint angles of the model's ``home`` (over the box) and ``park`` (out of
+            the scanner's view) keyframes [rad].
+        width, capacity: the bucket's width [m] and struck capacity [m^3], from the model.
+    """
+
+    goal: TrenchGoal
+    planner_cfg: PlannerConfig
+    executor_cfg: ExecutorConfig
+    sensing_cfg: SensingConfig
+    arm: PlanarArm
+    scanner: LaserScanner
+    planner: TrenchPlanner
+    executor: DigExecutor
+    width: float
+    capacity: float
+    home: np.ndarray
+    park: np.ndarray
+
+
+def make_rig(sim: Simulation, *, seed: int = 0, goal: TrenchGoal | None = None,
+             planner_cfg: PlannerConfig | None = None, executor_cfg: ExecutorConfig | None = None,
+             sensing_cfg: SensingConfig | None = None) -> Rig:
+    """Build the loop's pieces with the defaults from ``configs/`` where none are given.
+
+    Args:
+        sim: the world.
+        seed: the episode seed; the scanner's noise and drift come from it.
+        goal: the trench (default ``configs/trenches/straight.yaml``).
+    """
+    goal = goal or load_trench_goal(constants.TRENCHES_DIR / "straight.yaml")
+    planner_cfg = planner_cfg or load_planner_config()
+    sensing_cfg = sensing_cfg or load_sensing_config()
+    executor_cfg = executor_cfg or load_executor_config()
+    arm = arm_from_model(sim.model)
+    scanner = LaserScanner(sim.model, sim.soil.grid, sensing_cfg.scanner, np.random.default_rng((seed, 7)))
+    nominal = get_soil(sim.scene.soil)
+    width = float(sim.model.numeric(constants.BUCKET_WIDTH_NUMERIC).data[0])
+    capacity = float(sim.model.numeric(constants.BUCKET_CAPACITY_NUMERIC).data[0])
+    planner = TrenchPlanner(arm, load_or_build(arm), sim.torque_limit[1:4], width, capacity, goal, planner_cfg,
+                            WedgePredictor(nominal, width), nominal.density_kg_m3)
+    home, park_q = sim.index.home, sim.index.park
+    executor = DigExecutor(sim, arm, executor_cfg, ForceSensor.from_config(sim.model, sensing_cfg.force_sensor),
+                           park_q)
+    return Rig(goal, planner_cfg, executor_cfg, sensing_cfg, arm, scanner, planner, executor, width, capacity,
+               home, park_q)
+
+
+def go_to(sim: Simulation, q: np.ndarray, cfg: ExecutorConfig) -> None:
+    """A joint move to ``q`` (6,) [rad] until every joint is within ``settle_tol_rad``, or
+    ``move_timeout_s``. Home and park both hold the bucket high, so a straight joint move between
+    them clears the walls."""
+    for _ in range(int(cfg.move_timeout_s / sim.control_dt)):
+        if np.all(np.abs(sim.track(q).q - q) <= cfg.settle_tol_rad):
+            break
+
+
+def park(sim: Simulation, rig: Rig) -> None:
+    """Swing the arm out of the scanner's view (the ``park`` keyframe)."""
+    go_to(sim, rig.park, rig.executor_cfg)
+
+
+def go_home(sim: Simulation, rig: Rig) -> None:
+    """Bring the arm back over the box (the ``home`` keyframe), ready for a dig."""
+    go_to(sim, rig.home, rig.executor_cfg)
+
+
+def scan(sim: Simulation, rig: Rig) -> tuple[ElevationMap, MapAccuracy]:
+    """Scan ``n_scans`` range images, build the elevation map, and its accuracy against the truth
+    (privileged, for logs and metrics; the map is all the mind gets)."""
+    cfg = rig.sensing_cfg
+    images = [rig.scanner.scan(sim.time) for _ in range(cfg.map.n_scans)]
+    emap, cals = build_map(images, rig.scanner.geometry, cfg.map)
+    return emap, map_accuracy(emap, sim.soil.grid.surface_z, cals)
+
+
+def bucket_witness(sim: Simulation) -> Callable[[str, ExecutionRecord], None]:
+    """The executor's ``on_phase`` hook that writes the soil in the bucket at lift-out (privileged
+    truth, for metrics) into the record: the loop measures the world where the executor says the
+    dig is; the executor itself never reads it. A dig that found no contact carries what the bucket
+    held then (nothing)."""
+
+    def witness(phase: str, rec: ExecutionRecord) -> None:
+        if phase in ("lift out", "no contact"):
+            rec.bucket_volume_m3 = float(sim.truth.volumes.bucket)
+
+    return witness
