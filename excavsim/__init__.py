@@ -1,11 +1,12 @@
 """excavsim: an open MuJoCo testbed for robotic trenching.
 
 A simulated T3 hydraulic arm with an excavator bucket digs trenches in a heightfield soil box in a
-closed scan-plan-dig loop (Singh 1995). See README.md and shared/DESIGN.md.
+closed scan-plan-dig loop (Singh 1995). See README.md and docs/architecture.md.
 
 Subpackages follow the architecture: ``world`` is the truth (MuJoCo + soil), ``robot`` the arm's
 kinematics and statics, ``sensing``/``planning``/``learning``/``execution`` the robot's mind,
-``loop`` wires them, ``record`` observes.
+``loop`` wires them, ``record`` observes; ``handoff`` holds the values passed between them and
+``mechanics`` the soil mechanics the world and the mind share.
 """
 
 import os

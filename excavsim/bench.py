@@ -1,7 +1,8 @@
 """Benchmarks: numbers and ratios measured side by side in one run (never asserted in tests).
 
 ``excavsim bench`` runs them all and prints one table. Each benchmark returns rows of
-(name, value, unit, note); later issues add their own to :data:`BENCHMARKS`.
+(name, value, unit, note) and is listed in :data:`BENCHMARKS`. Nothing in the package imports this
+module: only the CLI does.
 """
 
 from __future__ import annotations
@@ -343,7 +344,7 @@ def bench_episode(*, dig_budget: int = 20, seed: int = 0) -> list[Row]:
 
     Wall time and the simulated-to-wall ratio of the whole loop (parking, scanning, mapping,
     planning, digging, settling), against stepping the bare arm through the same servo commands
-    with the soil off: the loop's overhead over MuJoCo alone. Targets (issue #7): <= 60 s on one
+    with the soil off: the loop's overhead over MuJoCo alone. Targets: <= 60 s on one
     core for about 20 digs, >= 50x real time, within 3x of the bare arm.
     """
     from excavsim.handoff.episode import EpisodeObserver

@@ -137,7 +137,7 @@ def run_spec(spec: EpisodeSpec, *, progress: Callable[[str], None] | None = None
     from excavsim.world.simulation import Simulation
 
     r = ResolvedSpec(spec, robot_path=robot_path, scene_path=scene_path)
-    if spec.predictor != "wedge":  # learned online, from scratch, from this episode's digs (§5.2, issue #8)
+    if spec.predictor != "wedge":  # learned online, from scratch, from this episode's digs (§5.2)
         from excavsim.loop.online import OnlineLearning
 
         observer = ObserverGroup(OnlineLearning(spec.predictor, progress=progress), observer)

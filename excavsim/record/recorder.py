@@ -1,4 +1,4 @@
-"""Rerun recordings of trenching episodes, and their replay (DESIGN.md §2, STYLE.md "Recording").
+"""Rerun recordings of trenching episodes (the only module besides its helpers that imports rerun).
 
 :class:`RerunRecorder` is an :class:`~excavsim.handoff.episode.EpisodeObserver` that writes one ``.rrd``
 file per episode, headless, through its own :class:`rerun.RecordingStream` (never the global one, so
@@ -38,13 +38,7 @@ before the first scan; cycle k scans, plans and digs dig k). Entity tree::
 A default blueprint (:func:`default_blueprint`) goes with the file: 3D views of the world with the
 true terrain and with the map, the feasible set, time series of the signals and metrics, the summary.
 
-Overhead (measured on a 2-core machine, rate_hz 10): the ``small`` goal, 1 dig, 2 scans of 80 x 80
-rays, coarse planner grid, 37 s simulated: 1.3 s of wall time without the recorder, 1.4-1.5 s with
-it (+0.1-0.15 s, about 10 %: 0.09 s inside the hooks, 40 ms of that opening the file and logging
-the robot, goal and configuration once; the rest in Rerun's background threads), 1.5 MB. The
-``straight`` goal, 3 digs, default planner grid, 109 s simulated: 8.76 s without, 8.90 s with
-(+2 %, 0.21 s in the hooks), 2.7 MB; each dig adds about 0.6 MB, mostly the true terrain mesh
-(121 x 121 vertices).
+What recording costs (wall time, file size per dig) is measured in the README's recording section.
 """
 
 from __future__ import annotations

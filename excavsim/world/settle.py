@@ -64,13 +64,13 @@ def settle(
 
     Each cell's outflow may be over-relaxed by ``over_relaxation`` ``w``: the move is scaled by
     ``1 + min(w - 1, 1.999 tan(repose) cell / excess)``, which never lifts a receiver so far that soil
-    would flow back. The trade-off, measured on the trench of :func:`bench_settle` (121 x 121 cells of
-    2.5 cm, a 1.2 x 0.3 x 0.4 m trench, repose 30 deg, tolerance 1 mm): w = 1.0 needs 100 sweeps and
-    5 ms, w = 1.5 54 sweeps and 2.5 ms, w = 1.8 37 sweeps and 1.8 ms; the mirror asymmetry of the
-    settled trench (the sweep order breaks symmetry, and which of the many stable surfaces is reached
-    depends on the order) grows from 3.4 mm at w = 1 to 4.3 mm at w = 1.5 and 6.2 mm at w = 1.8, out
-    of a repose step of 14 mm per cell. The default 1.5 halves the time for 1 mm more asymmetry; use
-    1.0 when symmetry matters more than speed. A smaller tolerance also reduces the asymmetry and
+    would flow back. The trade-off, on the trench of ``excavsim bench settle`` (121 x 121 cells of
+    2.5 cm, a 1.2 x 0.3 x 0.4 m trench, repose 30 deg, tolerance 1 mm): w = 1.0 needs 100 sweeps,
+    w = 1.5 54 and w = 1.8 37; the mirror asymmetry of the settled trench (the sweep order breaks
+    symmetry, and which of the many stable surfaces is reached depends on the order) grows from
+    3.4 mm at w = 1 to 4.3 mm at w = 1.5 and 6.2 mm at w = 1.8, out of a repose step of 14 mm per
+    cell. The default 1.5 halves the sweeps for 1 mm more asymmetry; use 1.0 when symmetry matters
+    more than speed. A smaller tolerance also reduces the asymmetry and
     the slope error (slopes may stand ``tolerance_m / L`` steeper than repose), at the cost of sweeps.
 
     Args:

@@ -5,7 +5,7 @@ and reads :class:`~excavsim.handoff.observation.Observation` (joint angles and v
 forces, the noisy wrist F/T reading, time), the sensor-level data a real T3 gives; to the executor
 it is a :class:`~excavsim.handoff.observation.Servos`. The true terrain, the soil volumes and the
 soil's wrench on the bucket are available separately through :attr:`Simulation.truth`, as privileged
-data for tests and logging (DESIGN.md §1: the planner must never read them).
+data for tests, metrics and logging: the robot's mind never reads them.
 
 One control step (:meth:`Simulation.step`): the soil model reads the bucket's pose and velocity,
 cuts and moves soil and computes its wrench on the bucket; the wrench is written to
