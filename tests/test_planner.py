@@ -12,7 +12,7 @@ from excavsim.config import TrenchGoal, get_soil, load_planner_config, load_tren
 from excavsim.handoff.goal import SurfaceProfile, goal_profile
 from excavsim.handoff.maps import ElevationMap
 from excavsim.planning.predictor import WedgePredictor
-from excavsim.planning.trench import TrenchPlanner
+from excavsim.planning.search import TrenchPlanner
 
 LIMITS = np.array([25000.0, 12000.0, 1000.0])  # configs/robot.yaml: shoulder, elbow, wrist pitch
 WIDTH, CAPACITY = 0.3, 0.0203981  # models/t3/t3.xml numerics
