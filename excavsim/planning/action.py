@@ -42,7 +42,7 @@ def padded_distances(length: np.ndarray, spacing: float, n: int) -> np.ndarray:
 
 def penetrate(k: np.ndarray, alpha: np.ndarray, s: np.ndarray, surface: SurfaceProfile,
               cfg: PlannerConfig) -> np.ndarray:
-    """(n, P, 3) penetrate poses of n actions: the straight entry at ``alpha`` with rake ``alpha + epsilon`` (§3.4.2.2).
+    """(n, P, 3) penetrate poses of n actions: a straight line at ``alpha``, rake ``alpha + epsilon`` (§3.4.2.2).
 
     Args:
         k: (n,) entry distances [m]; the entry is on the mapped ``surface``.

@@ -30,7 +30,7 @@ import numpy as np
 from excavsim.handoff.goal import SurfaceProfile
 from excavsim.handoff.maps import ElevationMap
 from excavsim.planning.action import running_total, soil_depth
-from excavsim.planning.constraints import sensible, shaping
+from excavsim.planning.constraints import force, sensible, shaping, volume
 from excavsim.planning.search import TrenchPlanner
 
 
@@ -50,7 +50,7 @@ class FallbackDig:
     @property
     def feasible(self) -> bool:
         """Within the goal (the curl included), reachable and within the torque limits."""
-        return self.shaping and self.reachable and self.peak_torque_ratio <= 1.0
+        return self.shaping and self.reachable and bool(force(self.peak_torque_ratio))
 
 
 def boundary_polyline(planner: TrenchPlanner) -> tuple[np.ndarray, np.ndarray]:
@@ -114,7 +114,8 @@ def candidates(planner: TrenchPlanner, emap: ElevationMap) -> list[FallbackDig]:
         a = a + int(ins[0])
         if keep_end:
             back = np.cumsum(seg[a + 1:b + 1][::-1])[::-1]  # volume from sample a + i to b
-            a = a + int(np.argmax(back <= vmax)) if np.any(back <= vmax) else b
+            fits = volume(back, vmax)
+            a = a + int(np.argmax(fits)) if fits.any() else b
             tries = [(a_, b) for a_ in range(a, b, stride)]
         else:
             vol = np.cumsum(seg[a + 1:b + 1])

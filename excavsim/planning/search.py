@@ -88,7 +88,6 @@ class TrenchPlanner:
                  bucket_capacity: float, goal: TrenchGoal, config: PlannerConfig, predictor: ForcePredictor,
                  density: float = 2000.0):
         self.arm = arm
-        self.table = table
         self.limits = np.asarray(torque_limits, dtype=float)
         if self.limits.shape != (3,) or np.any(self.limits <= 0):
             raise ExcavsimError(f"torque_limits must be 3 positive values [N m]; given {torque_limits!r}")
@@ -103,6 +102,11 @@ class TrenchPlanner:
         self.grid_k = _steps(g.k_min_m, g.k_max_m, g.k_step_m)
         self.grid_alpha = np.radians(_steps(g.alpha_min_deg, g.alpha_max_deg, g.alpha_step_deg))
         self.grid_d1 = _steps(g.d1_min_m, g.d1_max_m, g.d1_step_m)
+
+    @property
+    def table(self) -> ReachabilityTable:
+        """The reachability table of the reachability constraint."""
+        return self.statics.table
 
     @property
     def grid_shape(self) -> tuple[int, int, int]:
@@ -162,14 +166,12 @@ class TrenchPlanner:
         return reachability(poses, self.statics)
 
     def torque_ratio(self, poses: np.ndarray, depth: np.ndarray, load_m3: np.ndarray,
-                     progress: np.ndarray | None = None, surface: SurfaceProfile | None = None, *,
-                     limits: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+                     progress: np.ndarray | None = None, surface: SurfaceProfile | None = None
+                     ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """Predicted forces, static joint torques (eq. 28) and the largest torque/limit ratio per sample
-        with this planner's predictor, within ``limits`` (default: its own); see
-        :func:`~excavsim.planning.constraints.torque_ratio`."""
+        with this planner's predictor and torque limits (see :func:`~excavsim.planning.constraints.torque_ratio`)."""
         return torque_ratio(poses, depth, load_m3, statics=self.statics, predictor=self.predictor,
-                            density=self.density, limits=self.limits if limits is None else limits,
-                            progress=progress, surface=surface)
+                            density=self.density, limits=self.limits, progress=progress, surface=surface)
 
     # -- the search -----------------------------------------------------------------------------
     def feasibility(self, surface: SurfaceProfile, vmax: float, *, limits: np.ndarray | None = None) -> Feasibility:
