@@ -296,7 +296,7 @@ def bench_planner(*, n_loop: int = 150) -> list[Row]:
     from excavsim.handoff.goal import SurfaceProfile
     from excavsim.handoff.maps import ElevationMap
     from excavsim.planning.predictor import WedgePredictor
-    from excavsim.planning.trench import TrenchPlanner
+    from excavsim.planning.search import TrenchPlanner
     from excavsim.robot.extract import arm_from_model
     from excavsim.robot.reachability import load_or_build
 
@@ -325,7 +325,7 @@ def bench_planner(*, n_loop: int = 150) -> list[Row]:
         for c in cells:
             k, a, d = kk.ravel()[c:c + 1], aa.ravel()[c:c + 1], dd.ravel()[c:c + 1]
             pen = planner.penetrate(k, a, d, surface)
-            planner._evaluate(np.array([0]), pen, planner.drag(pen[:, -1]), surface, capacity, True)
+            planner.evaluate_cells(pen, planner.drag(pen[:, -1]), surface, capacity)
 
     t_loop = _best_of(loop, 1) * n / n_loop
     per_1e4 = t_plan * 1e4 / n

@@ -166,7 +166,7 @@ def _cmd_plan(args: argparse.Namespace) -> int:
     from excavsim.handoff.maps import ElevationMap
     from excavsim.loop.scenario import resolve_goal
     from excavsim.planning.predictor import WedgePredictor
-    from excavsim.planning.trench import TrenchPlanner
+    from excavsim.planning.search import TrenchPlanner
     from excavsim.robot.extract import arm_from_model
     from excavsim.robot.reachability import load_or_build
 

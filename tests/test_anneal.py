@@ -11,7 +11,7 @@ from excavsim.errors import ExcavsimError
 from excavsim.handoff.maps import ElevationMap
 from excavsim.planning.anneal import AnnealOptions, CellEvaluator, anneal
 from excavsim.planning.predictor import WedgePredictor
-from excavsim.planning.trench import TrenchPlanner
+from excavsim.planning.search import TrenchPlanner
 
 STRAIGHT = constants.TRENCHES_DIR / "straight.yaml"
 

@@ -14,7 +14,7 @@ from excavsim.handoff.dig import DigPlan
 from excavsim.handoff.maps import ElevationMap
 from excavsim.loop.rig import bucket_witness
 from excavsim.planning.predictor import WedgePredictor
-from excavsim.planning.trench import TrenchPlanner
+from excavsim.planning.search import TrenchPlanner
 from excavsim.sensing.ft import ForceSensor
 from excavsim.world.simulation import Simulation
 

@@ -14,7 +14,7 @@ from excavsim.handoff.goal import goal_profile
 from excavsim.handoff.maps import ElevationMap
 from excavsim.planning import fallback
 from excavsim.planning.predictor import WedgePredictor
-from excavsim.planning.trench import TrenchPlanner
+from excavsim.planning.search import TrenchPlanner
 from excavsim.robot.extract import arm_from_model
 from excavsim.robot.reachability import load_or_build
 

@@ -26,7 +26,7 @@ from excavsim.learning.predictors import (METHODS, GlobalRegression, LocallyWeig
                                           NeuralNet, WedgeModel, make_model)
 from excavsim.mechanics.wedge import G_M_S2, tip_to_plane
 from excavsim.planning.predictor import WedgePredictor
-from excavsim.planning.trench import TrenchPlanner
+from excavsim.planning.search import TrenchPlanner
 
 DATA = pathlib.Path(__file__).parent / "data" / "learning_digs.npz"
 SAND = get_soil("testbed_sand")

@@ -185,7 +185,7 @@ def test_the_planner_and_map_builder_import_no_simulator():
     import subprocess
     import sys
 
-    code = ("import sys; import excavsim.planning.trench, excavsim.planning.anneal, excavsim.planning.fallback, "
+    code = ("import sys; import excavsim.planning.search, excavsim.planning.anneal, excavsim.planning.fallback, "
             "excavsim.sensing.elevation; import excavsim.learning.predictors, excavsim.learning.adapter, "
             "excavsim.learning.evaluate, excavsim.learning.figures; "
             "bad = [m for m in ('mujoco', 'dm_control', 'rerun') if m in sys.modules]; print(bad); sys.exit(bool(bad))")

@@ -15,7 +15,7 @@ from excavsim.handoff.goal import SurfaceProfile
 from excavsim.handoff.maps import ElevationMap
 from excavsim.planning import figures
 from excavsim.planning.predictor import WedgePredictor
-from excavsim.planning.trench import TrenchPlanner
+from excavsim.planning.search import TrenchPlanner
 
 PNG_SIGNATURE = b"\x89PNG\r\n\x1a\n"
 LIMITS = np.array([25000.0, 12000.0, 1000.0])  # configs/robot.yaml: shoulder, elbow, wrist pitch

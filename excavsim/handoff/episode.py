@@ -20,7 +20,7 @@ class EpisodeObserver:
     """Hooks into an episode; a recorder overrides the ones it needs (every default does nothing).
 
     Calls, in order: :meth:`started` once; per cycle :meth:`scanned`, then :meth:`planned` (with
-    the planner's :class:`~excavsim.planning.trench.PlanResult` and the chosen
+    the planner's :class:`~excavsim.planning.search.PlanResult` and the chosen
     :class:`~excavsim.handoff.dig.Dig`, or None when there is none), :meth:`stepped` after every
     control step of the dig and the moves around it, :meth:`dug` after the soil settled;
     :meth:`finished` once at the end, also when the episode raised (then with None).

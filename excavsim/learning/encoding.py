@@ -23,7 +23,7 @@ forms the thesis uses:
   0 (terrain below the tip does not resist).
 
 Along the trench the surface is the planner's: the map averaged across the bucket width
-(:class:`~excavsim.planning.trench.SurfaceProfile`).
+(:class:`~excavsim.handoff.goal.SurfaceProfile`).
 """
 
 from __future__ import annotations

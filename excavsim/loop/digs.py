@@ -24,7 +24,7 @@ from excavsim.handoff.goal import SurfaceProfile
 from excavsim.handoff.maps import ElevationMap
 from excavsim.loop.rig import Rig
 from excavsim.planning import fallback
-from excavsim.planning.trench import PlanResult
+from excavsim.planning.search import PlanResult
 
 
 @dataclasses.dataclass(frozen=True)

@@ -22,7 +22,7 @@ from excavsim.execution.dig import DigExecutor
 from excavsim.handoff.dig import ExecutionRecord
 from excavsim.handoff.maps import ElevationMap
 from excavsim.planning.predictor import WedgePredictor
-from excavsim.planning.trench import TrenchPlanner
+from excavsim.planning.search import TrenchPlanner
 from excavsim.robot.extract import arm_from_model
 from excavsim.robot.kinematics import PlanarArm
 from excavsim.robot.reachability import load_or_build

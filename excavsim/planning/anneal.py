@@ -1,6 +1,6 @@
 """Simulated annealing over the trenching action space (000_a3ca905d8c6d92bf.txt §6.3).
 
-The alternative to :meth:`~excavsim.planning.trench.TrenchPlanner.plan`'s exhaustive search that
+The alternative to :meth:`~excavsim.planning.search.TrenchPlanner.plan`'s exhaustive search that
 the thesis proposes (§1.4, §2.2.2, §6.3, [Bohachevsky86]): "a stochastic gradient descent method. A
 random element whose standard deviation decreases exponentially with time is added ..." (§6.3); "a
 step is always taken if it improves the error metric but is sometimes taken (based on an
@@ -9,51 +9,52 @@ constraint is only a pass/fail test, so nothing needs to be smooth.
 
 The search runs on the planner's own discretized (k, alpha, d1) grid, so its answer is one of the
 cells the exhaustive search considers. A :class:`CellEvaluator` evaluates batches of cells exactly
-as ``plan(prune=True)`` does (the same d1 pruning, the same ``TrenchPlanner._evaluate``, hence the
-same constraints and the same longest admissible drag d2) and caches every cell it has evaluated.
+as ``plan(prune=True)`` does (the same d1 pruning, the same
+:class:`~excavsim.planning.feasibility.Feasibility`, hence the same constraints and the same longest
+admissible drag d2) and caches every cell it has evaluated.
 The annealer keeps ``chains`` Metropolis chains over grid indices, proposes for all of them at once
 (one batch per iteration), and shrinks both the proposal's standard deviation and the temperature
 exponentially from their start to their end values over ``maxiter`` iterations; a greedy descent
 over the 26 neighbouring cells of the best cell finishes it (the "modified to be practical" step
-of §6.3). The final choice is the planner's own ``_choose`` over the evaluated cells, so the
-objective, its utility and the "no dig" rule are the planner's.
+of §6.3). The final choice is :func:`~excavsim.planning.objectives.choose` over the evaluated cells,
+so the objective, its utility and the "no dig" rule are the planner's.
 
-The energy the chains descend orders cells as the objective does (``_choose``):
+The energy the chains descend orders cells as the objective does (:func:`~excavsim.planning.objectives.choose`):
 
 * ``lexicographic`` (eq. 44): the peak torque ratio (in [0, 1]) for digs sweeping at least
   ``volume_threshold`` (and ``min_volume_fraction``) of the capacity; ``1 + (v_goal - volume) /
   v_goal`` (in (1, 2]) for smaller digs, so that volume leads the search towards the threshold;
 * ``peak_torque``: likewise with ``v_goal`` the ``min_volume_fraction`` of the capacity (smaller
-  digs are "no dig" to ``_choose``); ``cumulative_torque``: likewise with ``x / (1 + x)`` for the
+  digs are "no dig" to ``choose``); ``cumulative_torque``: likewise with ``x / (1 + x)`` for the
   peak, ``x`` the cumulative torque over ``sum(torque_limits) x 0.1 m`` (a monotone squashing that
   only sets the temperature's scale);
 * ``volume``: ``-volume / capacity``;
 * infeasible cells get a constant penalty above every feasible energy (a plateau the chains walk).
 
-What it buys: on the flat fill and ``configs/trenches/straight.yaml`` the defaults evaluate about
-2.5 % of the 9800 cells and land within 1 % of the exhaustive utility. The wall time is of the
-order of ``plan``'s, which evaluates its surviving cells in one vectorized batch where this pays a
-batch per iteration. Like any annealer it can miss a feasible set of a few isolated cells (a
-terrain where ``plan`` finds two useful digs among 9800 cells): it then answers "no dig".
+What it buys: a near-optimal dig from a small share of the grid's cells (the README gives the
+measured share and gap). It is not faster than ``plan``, which evaluates its surviving cells in one
+vectorized batch where this pays a batch per iteration. Like any annealer it can miss a feasible
+set of a few isolated cells: it then answers "no dig".
 
 numpy only, like the rest of ``planning/``.
 """
 
 from __future__ import annotations
 
-import copy
 import dataclasses
-import math
 import time
 
 import numpy as np
 
 from excavsim.errors import ExcavsimError
-from excavsim.handoff.goal import SurfaceProfile, goal_profile
+from excavsim.handoff.dig import TrenchAction
 from excavsim.handoff.maps import ElevationMap
-from excavsim.planning.trench import TrenchPlanner
+from excavsim.planning.constraints import shaping
+from excavsim.planning.feasibility import prune_along_d1
+from excavsim.planning.objectives import OBJECTIVES, choose
+from excavsim.planning.search import TrenchPlanner
 
-OBJECTIVES = ("volume", "peak_torque", "cumulative_torque", "lexicographic")
+__all__ = ["OBJECTIVES", "AnnealOptions", "AnnealResult", "CellEvaluator", "anneal", "cell_energy"]
 # Energy of an infeasible cell, per objective: above every feasible energy (see the module docstring).
 _PENALTY = {"lexicographic": 3.0, "volume": 1.0, "peak_torque": 3.0, "cumulative_torque": 3.0}
 _CUM_SCALE_M = 0.1  # cumulative-torque energy scale: the torque limits' sum over this path length [m]
@@ -92,18 +93,18 @@ class AnnealOptions:
 
 @dataclasses.dataclass
 class AnnealResult:
-    """The annealer's answer, in the terms of :class:`~excavsim.planning.trench.PlanResult`.
+    """The annealer's answer, in the terms of :class:`~excavsim.planning.search.PlanResult`.
 
     ``action`` is (k, alpha, d1, d2) [m, rad, m, m] or None for "no dig" (nothing feasible among
     the evaluated cells, or the best sweeps less than ``min_volume_fraction`` of the capacity);
-    ``utility`` and ``reason`` are the planner's ``_choose`` on the evaluated cells. ``cell`` is
+    ``utility`` and ``reason`` are the objective's choice on the evaluated cells. ``cell`` is
     the chosen (i_k, i_alpha, i_d1). ``evaluated`` has the grid's shape (n_k, n_alpha, n_d1) and
     marks the cells passed to the planner's evaluation; ``cells_visited`` also counts the cells the
     search touched that the d1 pruning rejected without evaluation. ``best_energy`` (maxiter + 1,)
     is the best energy after the initial batch and after each iteration.
     """
 
-    action: tuple[float, float, float, float] | None
+    action: TrenchAction | None
     reason: str
     utility: float
     volume_m3: float
@@ -131,7 +132,7 @@ class CellEvaluator:
     Cells are flat indices into the grid of shape ``planner.grid_shape`` (C order, as ``plan``
     flattens it). A cell beyond the first goal-cutting penetration along d1 is infeasible without
     evaluation (``plan``'s pruning, a cheap geometric test done on the whole grid at construction);
-    the others go through ``planner._evaluate`` once each, in batches, with their penetrations'
+    the others go through ``planner.evaluate_cells`` once each, in batches, with their penetrations'
     verdicts computed per cell (``plan`` shares that work along each (k, alpha) line for the whole
     grid; the verdicts are the same, up to the order of floating-point sums).
 
@@ -143,16 +144,14 @@ class CellEvaluator:
     def __init__(self, planner: TrenchPlanner, emap: ElevationMap):
         self.planner = planner
         cfg = planner.cfg
-        self.surface = SurfaceProfile.from_map(emap, planner.arm, math.radians(planner.goal.waist_deg), planner.width)
+        self.surface = planner.surface(emap)
         self.shape = planner.grid_shape
-        kk, aa, dd = np.meshgrid(planner.grid_k, planner.grid_alpha, planner.grid_d1, indexing="ij")
-        self.k, self.alpha, self.d1 = kk.ravel(), aa.ravel(), dd.ravel()
+        self.k, self.alpha, self.d1 = planner.grid_cells()
         n = self.k.size
         self.vmax = cfg.fill_fraction * planner.capacity
         # plan's d1 pruning: alive up to the first penetration that cuts through the goal.
         pen = planner.penetrate(self.k, self.alpha, self.d1, self.surface)
-        pen_shape = np.all(pen[..., 1] >= goal_profile(planner.goal, pen[..., 0]) - cfg.shaping_tolerance_m, axis=1)
-        self.alive = np.cumprod(pen_shape.reshape(self.shape), axis=2).astype(bool).ravel()
+        self.alive = prune_along_d1(np.all(shaping(pen, planner.goal, cfg.shaping_tolerance_m), axis=1), self.shape)
         self.visited = np.zeros(n, bool)
         self.evaluated = np.zeros(n, bool)
         self.feasible = np.zeros(n, bool)
@@ -172,12 +171,12 @@ class CellEvaluator:
         if todo.size:
             p = self.planner
             pen = p.penetrate(self.k[todo], self.alpha[todo], self.d1[todo], self.surface)
-            out = p._evaluate(todo, pen, p.drag(pen[:, -1]), self.surface, self.vmax, True)
+            out = p.evaluate_cells(pen, p.drag(pen[:, -1]), self.surface, self.vmax)
             self.evaluated[todo] = True
-            self.j[todo], self.radius[todo] = out["j"], out["r"]
-            self.feasible[todo] = out["j"] >= 0
+            self.j[todo], self.radius[todo] = out.j, out.radius
+            self.feasible[todo] = out.j >= 0
             for key in self.res:
-                self.res[key][todo] = out[key]
+                self.res[key][todo] = getattr(out, key)
         return self.feasible[cells]
 
 
@@ -188,7 +187,7 @@ def cell_energy(ev: CellEvaluator, cells: np.ndarray, objective: str) -> np.ndar
     vol, peak, cum = (ev.res[key][cells] for key in ("volume", "peak", "cum"))
     if objective == "volume":
         return np.where(ok, -vol / p.capacity, _PENALTY[objective])
-    # The torque objectives rank the digs sweeping enough (_choose's "useful": at least
+    # The torque objectives rank the digs sweeping enough (choose's "useful": at least
     # min_volume_fraction of the capacity; eq. 44: at least volume_threshold too); volume ranks the rest.
     v_goal = p.cfg.min_volume_fraction * p.capacity
     if objective == "lexicographic":
@@ -271,16 +270,13 @@ def anneal(planner: TrenchPlanner, emap: ElevationMap, *, seed: int | np.random.
                 break
             best, e_best = nb[i].copy(), float(e_nb[i])
 
-    chooser = planner
-    if objective != planner.cfg.objective:
-        chooser = copy.copy(planner)
-        chooser.cfg = planner.cfg.model_copy(update={"objective": objective})
-    choice, utility, reason = chooser._choose(ev.feasible, ev.res)
+    choice, utility, reason = choose(ev.feasible, ev.res["volume"], ev.res["peak"], ev.res["cum"], planner.cfg,
+                                     planner.capacity, objective=objective)
     action, cell = None, None
     volume = peak = cum = radius = 0.0
     if choice is not None:
-        action = (float(ev.k[choice]), float(ev.alpha[choice]), float(ev.d1[choice]),
-                  int(ev.j[choice]) * planner.cfg.sample_spacing_m)
+        action = TrenchAction(float(ev.k[choice]), float(ev.alpha[choice]), float(ev.d1[choice]),
+                              int(ev.j[choice]) * planner.cfg.sample_spacing_m)
         cell = tuple(int(i) for i in np.unravel_index(choice, ev.shape))
         volume, peak, cum = (float(ev.res[key][choice]) for key in ("volume", "peak", "cum"))
         radius = float(ev.radius[choice])

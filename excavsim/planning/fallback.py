@@ -27,9 +27,11 @@ import time
 
 import numpy as np
 
-from excavsim.handoff.goal import SurfaceProfile, goal_profile
+from excavsim.handoff.goal import SurfaceProfile
 from excavsim.handoff.maps import ElevationMap
-from excavsim.planning.trench import TrenchPlanner
+from excavsim.planning.action import running_total, soil_depth
+from excavsim.planning.constraints import force, sensible, shaping, volume
+from excavsim.planning.search import TrenchPlanner
 
 
 @dataclasses.dataclass
@@ -48,7 +50,7 @@ class FallbackDig:
     @property
     def feasible(self) -> bool:
         """Within the goal (the curl included), reachable and within the torque limits."""
-        return self.shaping and self.reachable and self.peak_torque_ratio <= 1.0
+        return self.shaping and self.reachable and bool(force(self.peak_torque_ratio))
 
 
 def boundary_polyline(planner: TrenchPlanner) -> tuple[np.ndarray, np.ndarray]:
@@ -85,23 +87,20 @@ def _with_curl(planner: TrenchPlanner, path: np.ndarray, phases: np.ndarray) -> 
     """Append the curl with the smallest reachable radius (Fig. 23), unless already curled."""
     if path[-1, 2] <= math.radians(planner.cfg.curl_end_pitch_deg) + 1e-9:
         return path, phases
-    radii = planner.cfg.curl_radii_m
-    ends = np.concatenate([planner.curl(path[-1:], np.array([r]))[:, -1] for r in radii])
-    ok, _ = planner._reach(ends[:, None, :])
-    r = radii[int(np.argmax(ok[:, 0]))] if ok.any() else radii[0]
-    curl = planner.curl(path[-1:], np.array([r]))[0][1:]
+    r = planner.curl_radius(path[-1:], default=planner.cfg.curl_radii_m[0])
+    curl = planner.curl(path[-1:], r)[0][1:]
     return np.concatenate([path, curl]), np.concatenate([phases, np.full(len(curl), 2, np.int8)])
 
 
 def candidates(planner: TrenchPlanner, emap: ElevationMap) -> list[FallbackDig]:
     """The pre-planned boundary digs on this map, in the order they are tried (see the module docstring)."""
     cfg = planner.cfg
-    surface = SurfaceProfile.from_map(emap, planner.arm, math.radians(planner.goal.waist_deg), planner.width)
+    surface = planner.surface(emap)
     line, (i_far, i_near) = boundary_polyline(planner)
     phase = np.where(np.arange(len(line)) < i_far, 0, 1).astype(np.int8)
     vmax = cfg.fill_fraction * planner.capacity
-    soil = line[:, 1] <= surface(line[:, 0]) + cfg.surface_tolerance_m
-    seg = np.concatenate([[0.0], planner._swept(line, surface)])  # volume swept reaching sample i
+    soil = sensible(line, surface, cfg.surface_tolerance_m)
+    seg = np.concatenate([[0.0], planner.swept(line, surface)])  # volume swept reaching sample i
 
     vmin = cfg.fallback_min_volume_fraction * planner.capacity
     stride = 2
@@ -115,7 +114,8 @@ def candidates(planner: TrenchPlanner, emap: ElevationMap) -> list[FallbackDig]:
         a = a + int(ins[0])
         if keep_end:
             back = np.cumsum(seg[a + 1:b + 1][::-1])[::-1]  # volume from sample a + i to b
-            a = a + int(np.argmax(back <= vmax)) if np.any(back <= vmax) else b
+            fits = volume(back, vmax)
+            a = a + int(np.argmax(fits)) if fits.any() else b
             tries = [(a_, b) for a_ in range(a, b, stride)]
         else:
             vol = np.cumsum(seg[a + 1:b + 1])
@@ -141,15 +141,14 @@ def candidates(planner: TrenchPlanner, emap: ElevationMap) -> list[FallbackDig]:
 
 def _verdict(planner: TrenchPlanner, label: str, poses: np.ndarray, phases: np.ndarray,
              surface: SurfaceProfile) -> FallbackDig:
-    vcum = np.concatenate([[0.0], np.cumsum(planner._swept(poses, surface))])
-    reach, _ = planner._reach(poses[None])
+    vcum = running_total(planner.swept(poses, surface))
+    reach, _ = planner.reach(poses[None])
     peak = math.inf
     if reach.all():
-        depth = np.maximum(surface(poses[:, 0]) - poses[:, 1], 0.0)
-        _, _, ratio = planner._torque_ratio(poses, depth, vcum)
+        _, _, ratio = planner.torque_ratio(poses, soil_depth(poses, surface), vcum)
         peak = float(ratio.max())
-    shaping = bool(np.all(poses[:, 1] >= goal_profile(planner.goal, poses[:, 0]) - planner.cfg.shaping_tolerance_m))
-    return FallbackDig(label, poses, phases, float(vcum[-1]), peak, bool(reach.all()), shaping)
+    within = bool(np.all(shaping(poses, planner.goal, planner.cfg.shaping_tolerance_m)))
+    return FallbackDig(label, poses, phases, float(vcum[-1]), peak, bool(reach.all()), within)
 
 
 def choose(planner: TrenchPlanner, emap: ElevationMap) -> tuple[FallbackDig | None, str]:

@@ -28,7 +28,8 @@ from excavsim.config import TrenchGoal
 from excavsim.errors import ExcavsimError
 from excavsim.handoff.goal import SurfaceProfile, goal_profile
 from excavsim.handoff.maps import ElevationMap
-from excavsim.planning.trench import CONSTRAINTS, PlanResult
+from excavsim.planning.constraints import CONSTRAINTS
+from excavsim.planning.search import PlanResult
 from excavsim.robot.kinematics import PlanarArm
 
 FEASIBLE, GEOMETRY_LIMITED, FORCE_LIMITED = 0, 1, 2

@@ -1,4 +1,4 @@
-"""The action-space trenching planner: trajectories, constraints, search, objectives."""
+"""The exhaustive trenching planner: its search, pruning, objectives and per-dig checks (§6.2)."""
 
 from __future__ import annotations
 
@@ -9,10 +9,10 @@ import pytest
 
 from excavsim import constants
 from excavsim.config import TrenchGoal, get_soil, load_planner_config, load_trench_goal
-from excavsim.handoff.goal import SurfaceProfile, goal_profile
+from excavsim.handoff.goal import goal_profile
 from excavsim.handoff.maps import ElevationMap
 from excavsim.planning.predictor import WedgePredictor
-from excavsim.planning.trench import TrenchPlanner
+from excavsim.planning.search import TrenchPlanner
 
 LIMITS = np.array([25000.0, 12000.0, 1000.0])  # configs/robot.yaml: shoulder, elbow, wrist pitch
 WIDTH, CAPACITY = 0.3, 0.0203981  # models/t3/t3.xml numerics
@@ -34,37 +34,6 @@ def make_planner(arm, table, *, goal=None, soil="testbed_sand", limits=LIMITS, *
 def straight_plan(arm, reach_table):
     planner = make_planner(arm, reach_table)
     return planner, planner.plan(flat_map())
-
-
-def test_goal_profile_follows_the_walls_and_bottom():
-    g = TrenchGoal(near_x_m=1.7, far_x_m=2.9, depth_m=0.3, near_wall_deg=45.0, far_wall_deg=90.0)
-    z = goal_profile(g, np.array([1.0, 1.7, 1.8, 2.5, 2.89, 3.2]))
-    np.testing.assert_allclose(z, [0.5, 0.5, 0.4, 0.2, 0.2, 0.5])
-
-
-def test_trajectory_follows_the_rake_rules(straight_plan):
-    """§3.4.2: penetrate at rake alpha + epsilon; drag with rake max(zeta, rho_i - omega s); curl up."""
-    planner, _ = straight_plan
-    surface = SurfaceProfile.from_map(flat_map(), planner.arm, 0.0, WIDTH)
-    alpha = math.radians(30)
-    poses, phases = planner.trajectory((2.6, alpha, 0.2, 1.0), surface, radius=0.3)
-    pen, drag, curl = poses[phases == 0], poses[phases == 1], poses[phases == 2]
-    np.testing.assert_allclose(pen[:, 2], alpha + math.radians(10))
-    np.testing.assert_allclose(pen[-1, :2], [2.6 - 0.2 * math.cos(alpha), 0.5 - 0.2 * math.sin(alpha)])
-    s = pen[-1, 0] - drag[:, 0]
-    np.testing.assert_allclose(drag[:, 2], np.maximum(math.radians(8), alpha + math.radians(10) - math.radians(50) * s))
-    np.testing.assert_allclose(drag[:, 1], pen[-1, 1])
-    # The curl turns about a centre 0.3 m from the edge, between the blade's heel direction and its
-    # normal, to -30 deg; the blade's points then move away from the soil below it (Fig. 16).
-    rho = drag[-1, 2]
-    b, zt = np.array([math.cos(rho), math.sin(rho)]), np.array([-math.sin(rho), math.cos(rho)])
-    centre = drag[-1, :2] + 0.3 * (b + zt) / math.sqrt(2)
-    np.testing.assert_allclose(np.linalg.norm(curl[:, :2] - centre, axis=1), 0.3, atol=1e-12)
-    heel = drag[-1, :2] + 0.2 * b  # a point of the bottom 0.2 m behind the edge (< 0.3 / sqrt 2)
-    v = np.array([(heel - centre)[1], -(heel - centre)[0]])  # clockwise rotation at unit rate
-    assert v @ zt > 0
-    assert curl[-1, 2] == pytest.approx(math.radians(-30))
-    assert np.all(np.diff(curl[:, 2]) < 0) and curl[-1, 1] > drag[-1, 1]
 
 
 def test_flat_terrain_max_volume_dig_is_the_one_known_by_construction(arm, reach_table):
@@ -167,3 +136,41 @@ def test_bad_planner_inputs_are_refused(arm, reach_table):
         parse_config({"objective": "fastest"}, PlannerConfig, source="test")
     with pytest.raises(ConfigError, match="far_x_m"):
         parse_config({"near_x_m": 2.0, "far_x_m": 1.5, "depth_m": 0.2}, TrenchGoal, source="test")
+
+
+def test_the_trajectory_of_the_chosen_action_is_the_planned_path(straight_plan):
+    """Without a radius, ``trajectory`` curls with the smallest reachable radius, as the search does."""
+    planner, res = straight_plan
+    surface = planner.surface(flat_map())
+    poses, phases = planner.trajectory(res.action, surface)
+    np.testing.assert_array_equal(poses, res.poses)
+    np.testing.assert_array_equal(phases, res.phases)
+    assert planner.swept_volume(poses, surface) == pytest.approx(res.volume_m3, rel=1e-9)
+
+
+class _LimitsWatcher:
+    """A force predictor that notes the planner's torque limits each time the search asks it."""
+
+    def __init__(self, inner, planner_ref: list):
+        self.inner, self.planner_ref, self.seen = inner, planner_ref, []
+
+    def predict(self, depth, rake, volume, context=None):
+        self.seen.append(self.planner_ref[0].limits.copy())
+        return self.inner.predict(depth, rake, volume, context)
+
+
+def test_classifying_the_limits_leaves_the_planner_untouched(arm, reach_table):
+    """The force-free search of ``classify_limits`` gets its limits as a parameter: the planner's own
+    limits never change, even while the search runs, and the answer is that of the plain search."""
+    ref = []
+    planner = make_planner(arm, reach_table, soil="lean_clay", objective="volume")
+    planner.predictor = watcher = _LimitsWatcher(planner.predictor, ref)
+    ref.append(planner)
+    limits = planner.limits
+    classified = planner.plan(flat_map(), classify_limits=True)
+    assert planner.limits is limits and watcher.seen
+    assert all(np.array_equal(seen, LIMITS) for seen in watcher.seen)
+    plain = planner.plan(flat_map())
+    assert classified.action == plain.action
+    np.testing.assert_array_equal(classified.feasible, plain.feasible)
+    assert (classified.limiting == 2).any() and not np.any(classified.feasible & (classified.limiting != 0))
