@@ -27,8 +27,8 @@ import numpy as np
 from excavsim import constants
 from excavsim.config import ExecutorConfig
 from excavsim.errors import ExcavsimError
-from excavsim.execution.script import (Command, Script, ScriptEngine, Sense, Step, SubScript, all_of, always, any_of,
-                                       event, reached)
+from excavsim.execution.conditions import Sense, all_of, always, any_of, event, reached
+from excavsim.execution.script import Command, Script, ScriptEngine, Step, SubScript
 from excavsim.handoff.dig import DigPlan, ExecutionRecord
 from excavsim.handoff.observation import Observation, Servos
 from excavsim.robot.fast import arm_params, ik_torques
