@@ -10,7 +10,7 @@ from excavsim.config import get_soil, load_executor_config, load_planner_config,
 from excavsim.execution.conditions import (Context, Sense, after, all_of, always, any_of, event, force_above,
                                            force_below, held, joint_above, past, path_done, reached, started,
                                            timed_out)
-from excavsim.execution.dig import DigExecutor
+from excavsim.execution.dig import DigExecutor, dig_script
 from excavsim.execution.script import Abort, Command, Script, ScriptEngine, Step, SubScript, Watch
 from excavsim.handoff.dig import DigPlan
 from excavsim.handoff.maps import ElevationMap
@@ -182,6 +182,31 @@ def test_a_path_command_is_done_at_its_end_once_its_joints_settle():
     engine.tick(sense(2.05, q))
     engine.end_tick(sense(2.05, q))
     assert engine.stop.kind == "timeout" and engine.stop.step == "next"
+
+
+def test_the_dig_script_describes_every_step_and_condition(flat_run, arm):
+    sim, plan, _ = flat_run
+    cfg = load_executor_config()
+    script = dig_script(plan, arm, cfg, sim.index.park)
+    text = script.describe()
+    names = [st.name for sub in script.subscripts for st in sub.steps]
+    assert names == ["above entry", "touch-down", "dig", "lift out", "hold lifted", "over spoil", "dump", "park",
+                     "dig plane", "swing to spoil", "swing to park", "level"]
+    for sub in script.subscripts:
+        for st in sub.steps:
+            assert f"{st.name}: when {st.when.describe()} -> {st.command.describe()}" in text
+            for w in st.watches:
+                assert f"raises {w.event} when {w.when.describe()}" in text
+            if st.abort is not None:
+                assert f"aborts {st.abort.outcome!r} when {st.abort.when.describe()}" in text
+            if st.ends is not None:
+                assert f"ends the script when {st.ends.describe()}" in text
+    for part in ["raises contact when (past 0.3 s and |F| > 120 N for 3 ticks)",
+                 "|F| < 40 N for 0.5 s", "times out after 20 s", "stops after 160 s", "follow dig at 0.15 m/s",
+                 "aborts 'no contact' when (event path_end:touchdown and", "swing to spoil: when (event path_done:lift "
+                 "or event started:hold lifted)"]:
+        assert part in text, part
+    assert text.count("times out after 20 s") == 8  # every arm step
 
 
 def run_dig(sim, arm, cfg, plan):
