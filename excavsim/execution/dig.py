@@ -9,8 +9,9 @@ raising ``empty`` when the F/T force stays low at the settled dump pose; **park*
 empty, which ends the script when every joint has settled. The waist runs: turn to the dig plane;
 when the lift is done (or the arm has given up on it), swing to the spoil area; when the bucket is
 empty, swing to park. Wrist yaw and roll stay level. Every arm step times out after
-``move_timeout_s`` and the next one starts anyway (the dig is then "completed late"); the whole
-script stops after ``dig_timeout_moves`` of those.
+``move_timeout_s`` and the next one starts anyway (the dig is then "completed late"), but a
+touch-down that times out still waits for contact; the whole script stops after
+``dig_timeout_moves`` of those.
 
 :class:`DigExecutor` ticks the :class:`~excavsim.execution.script.ScriptEngine` at the control rate,
 lays out each named path when its step starts, follows it and turns it into joint targets through
