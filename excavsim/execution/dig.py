@@ -2,19 +2,24 @@
 
 :func:`dig_script` fills the fixed structure of a dig with the numbers of one plan. The arm group
 (shoulder, elbow, wrist pitch) runs: move above the entry; **touch-down** (descend until the F/T
-force stays above a threshold for three control ticks, the ``contact`` event); **dig** along the planned path shifted by the offset touch-down found;
-**lift out**; **dump** once the waist has reached the spoil side; **park** once the bucket reads
-empty. The waist runs: turn to the dig plane; when the arm has lifted, swing to the spoil area; when
-the bucket is empty, swing to park. Couplings are conditions on the other joints and on events the
-executor raises (``contact``, ``path_done``, ``lifted``, ``empty``).
+force stays above a threshold for a few control ticks, which raises ``contact``; aborted as
+"no contact" when the descent ends settled without it); **dig** along the planned path shifted by
+the offset touch-down found; **lift out**; **dump** once the waist has reached the spoil side,
+raising ``empty`` when the F/T force stays low at the settled dump pose; **park** once the bucket is
+empty, which ends the script when every joint has settled. The waist runs: turn to the dig plane;
+when the lift is done (or the arm has given up on it), swing to the spoil area; when the bucket is
+empty, swing to park. Wrist yaw and roll stay level. Every arm step times out after
+``move_timeout_s`` and the next one starts anyway (the dig is then "completed late"), but a
+touch-down that times out still waits for contact; the whole script stops after
+``dig_timeout_moves`` of those.
 
 :class:`DigExecutor` ticks the :class:`~excavsim.execution.script.ScriptEngine` at the control rate,
-turns Cartesian path commands into joint targets through IK, watches for **stalls** (a joint at its
-relief limit that lags its target for ``stall_time_s``): the dig is then stopped and the bucket
-backed out along the path it took, before lifting, dumping and parking as usual. With compliance on
-(off by default) the remaining dig path rises while a joint nears its relief limit (see
-:meth:`DigExecutor._yield`), so a dig in soil stiffer than planned can still finish. No physical
-failure raises: the :class:`ExecutionRecord` says what happened.
+lays out each named path when its step starts, follows it and turns it into joint targets through
+IK, watches for **stalls** (a joint at its relief limit that lags its target for ``stall_time_s``):
+the dig is then stopped and the bucket backed out along the path it took, before lifting, dumping
+and parking as usual. With compliance on (off by default) the remaining dig path rises while a
+joint nears its relief limit (see :meth:`DigExecutor._yield`), so a dig in soil stiffer than planned
+can still finish. No physical failure raises: the :class:`ExecutionRecord` says what happened.
 """
 
 from __future__ import annotations
@@ -27,33 +32,39 @@ import numpy as np
 from excavsim import constants
 from excavsim.config import ExecutorConfig
 from excavsim.errors import ExcavsimError
-from excavsim.execution.script import (Command, Script, ScriptEngine, Sense, Step, SubScript, all_of, always, any_of,
-                                       event, reached)
+from excavsim.execution.conditions import (Sense, all_of, always, any_of, event, force_above, force_below, held,
+                                           past, path_done, path_end, reached, settled, started, timed_out)
+from excavsim.execution.paths import PathFollower, path_length
+from excavsim.execution.script import Abort, Command, Script, ScriptEngine, Step, Stop, SubScript, Transition, Watch
 from excavsim.handoff.dig import DigPlan, ExecutionRecord
 from excavsim.handoff.observation import Observation, Servos
 from excavsim.robot.fast import arm_params, ik_torques
 from excavsim.robot.kinematics import PlanarArm
-from excavsim.sensing.ft import ForceSensor
+from excavsim.sensing.ft import ForceSensor, FTReading
 
-ARM = ("shoulder_joint", "elbow_joint", "wrist_pitch_joint")
+ARM = constants.PLANAR_JOINTS
 WAIST = "waist_joint"
+WRIST = ("wrist_yaw_joint", "wrist_roll_joint")
+ARM_SUB = 0  # the arm's sub-script comes first in the dig script
 
 
 def touch_pitch(plan: DigPlan, arm: PlanarArm, cfg: ExecutorConfig) -> float:
     """The flattest pitch, from ``touch_pitch_deg`` up to the entry's, at which the whole vertical
     touch-down descent above the entry is reachable [rad]."""
     entry = plan.poses[0]
-    for deg in np.arange(cfg.touch_pitch_deg, math.degrees(entry[2]) + 5.0, 5.0):
+    step, n = cfg.touch_pitch_step_deg, cfg.touch_reach_checks
+    for deg in np.arange(cfg.touch_pitch_deg, math.degrees(entry[2]) + step, step):
         pitch = min(math.radians(deg), float(entry[2]))
-        z = np.linspace(entry[1] - cfg.touch_search_m, entry[1] + cfg.approach_height_m, 8)
-        if arm.reachable(np.stack([np.full(8, entry[0]), z, np.full(8, pitch)], axis=-1)).all():
+        z = np.linspace(entry[1] - cfg.touch_search_m, entry[1] + cfg.approach_height_m, n)
+        if arm.reachable(np.stack([np.full(n, entry[0]), z, np.full(n, pitch)], axis=-1)).all():
             return pitch
     return float(entry[2])
 
 
 def dig_script(plan: DigPlan, arm: PlanarArm, cfg: ExecutorConfig, park: np.ndarray) -> Script:
     """The trenching dig script with this plan's numbers (see the module docstring); ``park`` (6,)
-    is the model's park keyframe [rad]."""
+    is the model's park keyframe [rad]. Its paths (touchdown, dig, lift, dump) are laid out by the
+    executor when their steps start."""
     entry = plan.poses[0]
     above = np.array([entry[0], entry[1] + cfg.approach_height_m, touch_pitch(plan, arm, cfg)])
     q_above, ok = arm.inverse(above)
@@ -64,25 +75,40 @@ def dig_script(plan: DigPlan, arm: PlanarArm, cfg: ExecutorConfig, park: np.ndar
                             f"{cfg.dump_pose} is out of reach")
     park = np.asarray(park, dtype=float)[:4]
     tol = cfg.settle_tol_rad
-    late = event("step_timeout")  # a move that does not settle in time does not hang the dig
-    at_above = any_of(all_of(*(reached(j, tol) for j in (WAIST,) + ARM)), late)
+    wait = cfg.move_timeout_s
+    late = timed_out()  # a move that does not settle in time does not hang the dig
+
+    def follow(path: str, speed: float) -> Command:
+        return Command(path=path, speed=speed, tol=tol)
+
+    contact = Watch("contact", all_of(past(cfg.touch_ignore_s),
+                                      held(force_above(cfg.touch_force_n), ticks=cfg.touch_contact_ticks)))
+    no_contact = Abort("no contact", all_of(path_end("touchdown"), settled(constants.JOINTS, tol)),
+                       f"no contact within {100 * cfg.touch_search_m:.0f} cm below the map")
+    empty = Watch("empty", all_of(path_done("dump"), settled(ARM, tol),
+                                  held(force_below(cfg.empty_force_n), seconds=cfg.empty_hold_s)))
     arm_steps = (
-        Step("above entry", always(), Command(tuple(q_above))),
-        Step("touch-down", at_above, Command(path="touchdown")),
-        Step("dig", event("contact"), Command(path="dig")),
-        Step("lift out", any_of(event("path_done:dig"), late), Command(path="lift")),
-        Step("hold lifted", any_of(event("path_done:lift"), late), Command()),
-        Step("over spoil", any_of(reached(WAIST, tol), late), Command(tuple(q_dump))),
-        Step("dump", any_of(all_of(*(reached(j, tol) for j in ARM)), late), Command(path="dump")),
-        Step("park", any_of(event("empty"), late), Command(tuple(park[1:]))),
+        Step("above entry", always(), Command(tuple(q_above)), wait),
+        Step("touch-down", any_of(settled((WAIST,) + ARM, tol), late), follow("touchdown", cfg.touch_speed_m_s), wait,
+             watches=(contact,), abort=no_contact),
+        Step("dig", event("contact"), follow("dig", cfg.path_speed_m_s), wait),
+        Step("lift out", any_of(path_done("dig"), late), follow("lift", cfg.path_speed_m_s), wait),
+        Step("hold lifted", any_of(path_done("lift"), late), Command(), wait),
+        Step("over spoil", any_of(reached(WAIST, tol), late), Command(tuple(q_dump)), wait),
+        Step("dump", any_of(settled(ARM, tol), late), follow("dump", cfg.path_speed_m_s), wait, watches=(empty,)),
+        Step("park", any_of(event("empty"), late), Command(tuple(park[1:])), wait,
+             ends=any_of(settled(constants.JOINTS, tol), late)),
     )
     waist_steps = (
         Step("dig plane", always(), Command((plan.waist,))),
-        Step("swing to spoil", any_of(event("path_done:lift"), event("lift_timeout")),
+        # the waist swings even if the lift never settled: the arm holds once the lift timed out
+        Step("swing to spoil", any_of(path_done("lift"), started("hold lifted")),
              Command((math.radians(cfg.spoil_waist_deg),))),
         Step("swing to park", event("empty"), Command((park[0],))),
     )
-    return Script("trench dig", (SubScript(ARM, arm_steps), SubScript((WAIST,), waist_steps)))
+    wrist_steps = (Step("level", always(), Command((0.0, 0.0))),)
+    subs = (SubScript(ARM, arm_steps), SubScript((WAIST,), waist_steps), SubScript(WRIST, wrist_steps))
+    return Script("trench dig", subs, timeout_s=cfg.dig_timeout_moves * wait)
 
 
 class DigExecutor:
@@ -104,27 +130,17 @@ class DigExecutor:
         self.park = np.asarray(park, dtype=float)
         names = list(constants.JOINTS)
         self._arm_idx = [names.index(j) for j in ARM]
-        self._waist_idx = names.index(WAIST)
         self._names = names
         # compiled elbow-up IK for the one pose of each control step (equal to PlanarArm.inverse)
         self._ik_params = arm_params(arm)
         self._ik_buf = (np.zeros((1, 3)), np.zeros((1, 3)), np.zeros(1), np.zeros((1, 3)), np.zeros(1, bool),
                         np.zeros((1, 3)))
-        self._geometry: dict[int, tuple[np.ndarray, np.ndarray]] = {}
 
     def _inverse(self, pose: np.ndarray) -> tuple[np.ndarray, bool]:
         poses, wrench, payload, q, ok, tau = self._ik_buf
         poses[0] = pose
         ik_torques(self._ik_params, poses, wrench, payload, np.zeros(2), False, q, ok, tau)
         return q[0].copy(), bool(ok[0])
-
-    def _cum(self, path: np.ndarray) -> np.ndarray:
-        """Cumulative length along ``path`` (cached per path array while it is in use)."""
-        hit = self._geometry.get(id(path))
-        if hit is None or hit[0] is not path:
-            hit = (path, np.concatenate([[0.0], np.cumsum(_seg(path))]))
-            self._geometry[id(path)] = hit
-        return hit[1]
 
     def run(self, plan: DigPlan, *, on_phase: Callable[[str, ExecutionRecord], None] | None = None
             ) -> ExecutionRecord:
@@ -137,168 +153,154 @@ class DigExecutor:
                 the loop measures the world there (the soil in the bucket at lift-out), which the
                 executor itself never reads.
         """
-        cfg = self.cfg
         sim = self.sim
         announce = on_phase or (lambda _name, _rec: None)
-        rec = ExecutionRecord(planned_volume_m3=plan.volume_m3)
-        script = dig_script(plan, self.arm, cfg, self.park)
+        rec = ExecutionRecord(planned_volume_m3=plan.volume_m3, touch_expected_z=float(plan.poses[0, 1]))
+        script = dig_script(plan, self.arm, self.cfg, self.park)
         rec.script_text = script.describe()
         engine = ScriptEngine(script)
-        entry = plan.poses[0]
-        rec.touch_expected_z = float(entry[1])
-        tp = touch_pitch(plan, self.arm, cfg)
-        paths: dict[str, np.ndarray] = {
-            "touchdown": np.array([[entry[0], entry[1] + cfg.approach_height_m, tp],
-                                   [entry[0], entry[1] - cfg.touch_search_m, tp]]),
-        }
-        cursor: dict[str, float] = {}
-        events: set[str] = set()
-        target = sim.observe().q.copy()
-        target[[self._names.index(j) for j in constants.JOINTS[4:]]] = 0.0  # wrist yaw and roll stay at 0
-        stall_since = None
-        empty_since = None
-        contact_ticks = 0
-        lead_len = 0.0
-        rise = 0.0  # compliant rise of the remaining dig path [m]
-        t0 = sim.time
-        max_time = 8 * cfg.move_timeout_s
+        joints = [[self._names.index(j) for j in sub.joints] for sub in script.subscripts]
+        paths: list[PathFollower | None] = [None] * len(joints)  # the path each sub-script follows
+        stall = _StallWatch(self.cfg, sim.torque_limit[self._arm_idx])
+        target = sim.observe().q.copy()  # hold still until the first commands; this reading draws F/T noise too
         obs = sim.observe()
-        phase_start: dict[str, float] = {}
         while True:
             reading = self.ft.reading(obs)
-            q = obs.q
-            sense = Sense(obs.time, dict(zip(self._names, q)), dict(zip(self._names, obs.qdot)),
-                          dict(zip(self._names, obs.actuator_force)), reading.force_tip, frozenset(events))
-            n_before = len(engine.transitions)
+            sense = Sense(obs.time, dict(zip(self._names, obs.q)), dict(zip(self._names, obs.qdot)),
+                          dict(zip(self._names, obs.actuator_force)), reading.force_tip)
+            seen = len(engine.transitions)
             commands = engine.tick(sense)
-            for tr in engine.transitions[n_before:]:
-                phase_start[tr.name] = tr.time
-                if tr.subscript == 0:
-                    if "step_timeout" in events and tr.name == "hold lifted":
-                        events.add("lift_timeout")  # the waist swings even if the lift never settled
-                    events.discard("step_timeout")
-                if tr.name == "dig":  # contact: shift the planned path by what touch-down found
-                    tip = self.arm.forward(q[self._arm_idx])
-                    rec.touch_found_z = float(tip[1])
-                    rec.touch_offset_m = float(tip[1] + cfg.touch_sink_m - entry[1])
-                    if abs(rec.touch_offset_m) > cfg.touch_warn_m:
-                        kind = "below" if rec.touch_offset_m < 0 else "above"
-                        rec.warnings.append(
-                            f"contact {100 * abs(rec.touch_offset_m):.1f} cm {kind} the map: "
-                            + ("the map is high, or the bucket overshot before the force registered (Fig. 104)"
-                               if kind == "below" else "the map is low, or terrain interferes before the entry "
-                                                       "(Fig. 105)"))
-                    shifted = plan.poses.copy()
-                    shifted[:, 1] += float(np.clip(rec.touch_offset_m, *plan.shift_bounds_m))
-                    # lead-in: back up clear of the soil, turn to the entry pitch in the air, go in
-                    clear = shifted[0, 1] + 0.03
-                    lead = np.array([tip, [tip[0], clear, tip[2]], [shifted[0, 0], clear, shifted[0, 2]]])
-                    paths["dig"] = np.concatenate([lead, shifted])
-                    lead_len = _length(np.concatenate([lead, shifted[:1]]))
-                    rec.planned_path = shifted
-                if tr.name == "dump":
-                    here = self.arm.forward(q[self._arm_idx])
-                    paths["dump"] = np.array([here, [here[0], here[1], math.radians(cfg.dump_pose[2])]])
-                if tr.name == "lift out":
-                    end = self.arm.forward(q[self._arm_idx])
-                    paths["lift"] = np.array([end, [end[0], max(cfg.lift_height_m, end[1]), end[2]]])
-                if tr.subscript == 0:
+            for tr in engine.transitions[seen:]:
+                cmd = script.subscripts[tr.subscript].steps[tr.step].command
+                paths[tr.subscript] = self._lay_out(cmd, obs.q, plan, rec) if cmd.path else None
+                if tr.subscript == ARM_SUB:
                     announce(tr.name, rec)
-            # contact: the F/T force stays above the threshold for a few samples once the descent runs
-            if engine.current(0).name == "touch-down" and obs.time - phase_start["touch-down"] > 0.3:
-                contact_ticks = contact_ticks + 1 if np.linalg.norm(reading.force_tip) > cfg.touch_force_n else 0
-                if contact_ticks >= 3:
-                    events.add("contact")
-            # the touch-down ran out without contact
-            if engine.current(0).name == "touch-down" and cursor.get("touchdown", 0.0) >= _length(paths["touchdown"]):
-                if self._settled(q, target):
-                    rec.outcome = "no contact"
-                    announce("no contact", rec)
-                    rec.warnings.append(f"no contact within {100 * cfg.touch_search_m:.0f} cm below the map")
-                    self._park(rec)
-                    break
-            # commands -> joint targets
-            for i, cmd in enumerate(commands):
-                joints = script.subscripts[i].joints
-                idx = [self._names.index(j) for j in joints]
-                if cmd.path:
-                    path = paths[cmd.path]
-                    s = cursor.get(cmd.path, 0.0)
-                    speed = cfg.touch_speed_m_s if cmd.path == "touchdown" else cfg.path_speed_m_s
-                    cum = self._cum(path)
-                    s = min(s + speed * sim.control_dt, float(cum[-1]))
-                    cursor[cmd.path] = s
-                    pose = _point_at(path, s, cum)
-                    if cmd.path == "dig" and cfg.compliance != "off" and rec.stall is None and s >= lead_len:
-                        rise = self._yield(rise, obs, reading)
-                        pose = pose + np.array([0.0, rise, 0.0])
-                        rec.compliance.append(rise)
-                    qp, ok = self._inverse(pose)
-                    if ok:
-                        target[idx] = qp
-                    if s >= cum[-1] and self._settled(q[idx], target[idx]):
-                        events.add(f"path_done:{cmd.path}")
-                elif cmd.targets:
-                    target[idx] = cmd.targets
-            # stall watch while digging
-            if engine.current(0).name == "dig" and rec.stall is None and cursor.get("dig", 0.0) >= lead_len:
-                rec.executed_path.append(self.arm.forward(q[self._arm_idx]))
-                lim = sim.torque_limit[self._arm_idx]
-                saturated = np.abs(obs.actuator_force[self._arm_idx]) >= cfg.stall_torque_fraction * lim
-                lagging = np.abs(q[self._arm_idx] - target[self._arm_idx]) > cfg.stall_error_rad
-                bad = saturated & lagging
-                if bad.any():
-                    stall_since = obs.time if stall_since is None else stall_since
-                    if obs.time - stall_since >= cfg.stall_time_s:
-                        j = ARM[int(np.argmax(bad))]
-                        tip = self.arm.forward(q[self._arm_idx])
-                        rec.stall = {"joint": j, "time": obs.time, "tip": tip,
-                                     "torque": float(obs.actuator_force[self._names.index(j)])}
-                        back = np.asarray(rec.executed_path)[::-1]
-                        paths["dig"] = back  # back out along the path taken
-                        cursor["dig"] = 0.0
-                        target[self._arm_idx] = q[self._arm_idx]
-                else:
-                    stall_since = None
-            # the bucket is empty when the F/T force stays low at the dump pose
-            if (engine.current(0).name == "dump" and "path_done:dump" in events
-                    and self._settled(q[self._arm_idx], target[self._arm_idx])):
-                if np.linalg.norm(reading.force_tip) < cfg.empty_force_n:
-                    empty_since = obs.time if empty_since is None else empty_since
-                    if obs.time - empty_since >= 0.5:
-                        events.add("empty")
-                else:
-                    empty_since = None
-            if len(rec.times) == 0 or obs.time - rec.times[-1] >= 1.0 / self.ft.rate_hz - 1e-9:
-                rec.times.append(obs.time)
-                rec.ft.append((obs.time, reading.force_tip.copy()))
-                rec.torques.append(obs.actuator_force.copy())
-            step = engine.current(0).name
-            if obs.time - phase_start.get(step, obs.time) > cfg.move_timeout_s and "step_timeout" not in events:
-                err = np.abs(q - target)
-                events.add("step_timeout")
-                rec.warnings.append(f"step {step!r} did not settle within {cfg.move_timeout_s:.0f} s "
-                                    f"(largest joint error {np.degrees(err.max()):.1f} deg at "
-                                    f"{self._names[int(np.argmax(err))]}); moving on")
-            if step == "park" and (self._settled(q, target) or "step_timeout" in events):
-                late = any("did not settle" in w for w in rec.warnings)
-                rec.outcome = "stalled" if rec.stall else ("completed late" if late else "completed")
+            if engine.stop is not None:  # an abort
                 break
-            if obs.time - t0 > max_time:
-                rec.outcome = f"timeout in step {engine.current(0).name!r}"
+            for i, cmd in enumerate(commands):
+                if cmd.path:
+                    target[joints[i]] = self._follow(paths[i], obs, reading, target[joints[i]], rec)
+                    engine.report(i, target[joints[i]], at_end=paths[i].at_end)
+                elif cmd.targets:
+                    target[joints[i]] = cmd.targets
+            if paths[ARM_SUB] is not None and paths[ARM_SUB].in_cut:
+                paths[ARM_SUB] = self._watch_stall(stall, paths[ARM_SUB], obs, target, rec)
+            self._record(rec, obs, reading)
+            timed_out_before = len(engine.timeouts)
+            engine.end_tick(sense)
+            for late in engine.timeouts[timed_out_before:]:
+                self._warn_late(rec, script, late, obs.q, target)
+            if engine.stop is not None:
                 break
             try:
                 obs = sim.track(target)
             except ExcavsimError as exc:  # a physical failure of the simulation: report, do not raise
                 rec.outcome = f"simulation failure: {exc}"
                 break
-        names = [tr.name for tr in engine.transitions if tr.subscript == 0]
-        times = [tr.time for tr in engine.transitions if tr.subscript == 0] + [obs.time]
+        if engine.stop is not None:
+            self._conclude(rec, engine.stop, bool(engine.timeouts), announce)
+        names = [tr.name for tr in engine.transitions if tr.subscript == ARM_SUB]
+        times = [tr.time for tr in engine.transitions if tr.subscript == ARM_SUB] + [obs.time]
         rec.phase_times = {n: times[i + 1] - times[i] for i, n in enumerate(names)}
         rec.phase_starts = {n: times[i] for i, n in enumerate(names)}
         return rec
 
-    def _yield(self, rise: float, obs: Observation, reading) -> float:
+    def _lay_out(self, cmd: Command, q: np.ndarray, plan: DigPlan, rec: ExecutionRecord) -> PathFollower:
+        """The path a path command names, laid out as its step starts with the joints at ``q`` (6,)."""
+        cfg = self.cfg
+        tip = self.arm.forward(q[self._arm_idx])
+        cut_from = math.inf
+        if cmd.path == "touchdown":  # straight down over the entry at the touch pitch
+            entry, tp = plan.poses[0], touch_pitch(plan, self.arm, cfg)
+            path = np.array([[entry[0], entry[1] + cfg.approach_height_m, tp],
+                             [entry[0], entry[1] - cfg.touch_search_m, tp]])
+        elif cmd.path == "dig":
+            path, cut_from = self._dig_path(plan, tip, rec)
+        elif cmd.path == "lift":
+            path = np.array([tip, [tip[0], max(cfg.lift_height_m, tip[1]), tip[2]]])
+        elif cmd.path == "dump":  # pour: turn the bucket at a fixed tip
+            path = np.array([tip, [tip[0], tip[1], math.radians(cfg.dump_pose[2])]])
+        else:
+            raise ExcavsimError(f"dig script: unknown path {cmd.path!r}; the executor lays out touchdown, dig, "
+                                f"lift and dump")
+        return PathFollower(path, cmd.speed, cfg.pitch_radius_m, cut_from)
+
+    def _dig_path(self, plan: DigPlan, tip: np.ndarray, rec: ExecutionRecord) -> tuple[np.ndarray, float]:
+        """At contact (the bucket tip at ``tip``): record the touch-down (§7.1.3), shift the planned path
+        by its offset, and lead in to it. Returns the path and the length of its lead-in [m]."""
+        cfg = self.cfg
+        entry = plan.poses[0]
+        rec.touch_found_z = float(tip[1])
+        rec.touch_offset_m = float(tip[1] + cfg.touch_sink_m - entry[1])
+        if abs(rec.touch_offset_m) > cfg.touch_warn_m:
+            kind = "below" if rec.touch_offset_m < 0 else "above"
+            rec.warnings.append(
+                f"contact {100 * abs(rec.touch_offset_m):.1f} cm {kind} the map: "
+                + ("the map is high, or the bucket overshot before the force registered (Fig. 104)"
+                   if kind == "below" else "the map is low, or terrain interferes before the entry (Fig. 105)"))
+        shifted = plan.poses.copy()
+        shifted[:, 1] += float(np.clip(rec.touch_offset_m, *plan.shift_bounds_m))
+        rec.planned_path = shifted
+        # lead-in: back up clear of the soil, turn to the entry pitch in the air, go in
+        clear = shifted[0, 1] + cfg.lead_in_clearance_m
+        lead = np.array([tip, [tip[0], clear, tip[2]], [shifted[0, 0], clear, shifted[0, 2]]])
+        return np.concatenate([lead, shifted]), path_length(np.concatenate([lead, shifted[:1]]), cfg.pitch_radius_m)
+
+    def _follow(self, path: PathFollower, obs: Observation, reading: FTReading, held: np.ndarray,
+                rec: ExecutionRecord) -> np.ndarray:
+        """The joint targets one control step further along ``path`` (``held`` where IK fails); in the
+        cut, compliance raises the rest of the path (its rise so far is ``rec.compliance[-1]``)."""
+        pose = path.advance(self.sim.control_dt)
+        if path.in_cut and self.cfg.compliance != "off":
+            rise = self._yield(rec.compliance[-1] if rec.compliance else 0.0, obs, reading)
+            pose = pose + np.array([0.0, rise, 0.0])
+            rec.compliance.append(rise)
+        q, ok = self._inverse(pose)
+        return q if ok else held
+
+    def _watch_stall(self, stall: _StallWatch, path: PathFollower, obs: Observation, target: np.ndarray,
+                     rec: ExecutionRecord) -> PathFollower:
+        """Log the tip along the cut; on a stall, record it, hold the arm where it is, and return the
+        way back out along the path taken (else ``path``)."""
+        q = obs.q[self._arm_idx]
+        rec.executed_path.append(self.arm.forward(q))
+        j = stall.check(obs.time, q, obs.actuator_force[self._arm_idx], target[self._arm_idx])
+        if j is None:
+            return path
+        rec.stall = {"joint": ARM[j], "time": obs.time, "tip": self.arm.forward(q),
+                     "torque": float(obs.actuator_force[self._arm_idx[j]])}
+        target[self._arm_idx] = q
+        return PathFollower(np.asarray(rec.executed_path)[::-1], path.speed, self.cfg.pitch_radius_m)
+
+    def _record(self, rec: ExecutionRecord, obs: Observation, reading: FTReading) -> None:
+        """Log time, the F/T force and the joint torques at the F/T sensor's rate."""
+        if len(rec.times) == 0 or obs.time - rec.times[-1] >= 1.0 / self.ft.rate_hz - 1e-9:
+            rec.times.append(obs.time)
+            rec.ft.append((obs.time, reading.force_tip.copy()))
+            rec.torques.append(obs.actuator_force.copy())
+
+    def _warn_late(self, rec: ExecutionRecord, script: Script, late: Transition, q: np.ndarray,
+                   target: np.ndarray) -> None:
+        err = np.abs(q - target)
+        timeout = script.subscripts[late.subscript].steps[late.step].timeout_s
+        rec.warnings.append(f"step {late.name!r} did not settle within {timeout:.0f} s "
+                            f"(largest joint error {np.degrees(err.max()):.1f} deg at "
+                            f"{self._names[int(np.argmax(err))]}); moving on")
+
+    def _conclude(self, rec: ExecutionRecord, stop: Stop, late: bool,
+                  announce: Callable[[str, ExecutionRecord], None]) -> None:
+        """The outcome of a script that stopped; after an abort, park."""
+        if stop.kind == "end":
+            rec.outcome = "stalled" if rec.stall else ("completed late" if late else "completed")
+        elif stop.kind == "timeout":
+            rec.outcome = f"timeout in step {stop.step!r}"
+        else:
+            rec.outcome = stop.abort.outcome
+            announce(rec.outcome, rec)
+            rec.warnings.append(stop.abort.note)
+            self._park(rec)
+
+    def _yield(self, rise: float, obs: Observation, reading: FTReading) -> float:
         """Compliant path modification (simplified §5.4): the remaining dig path rises while the most
         loaded planar joint is above ``compliance_torque_ratio`` of its relief limit.
 
@@ -315,7 +317,8 @@ class DigExecutor:
         gain = cfg.compliance_gain_m_s
         if cfg.compliance == "impedance":
             v = float(np.linalg.norm((self.arm.jacobian(obs.q[self._arm_idx]) @ obs.qdot[self._arm_idx])[:2]))
-            gain *= 1.0 + float(np.linalg.norm(reading.force_tip)) / max(v, 0.01) / cfg.impedance_ref_n_s_per_m
+            gain *= 1.0 + float(np.linalg.norm(reading.force_tip)) / max(v, cfg.impedance_min_speed_m_s) \
+                / cfg.impedance_ref_n_s_per_m
         rise += gain * max(ratio - cfg.compliance_torque_ratio, 0.0) * self.sim.control_dt
         return min(rise, cfg.compliance_max_m)
 
@@ -339,24 +342,22 @@ class DigExecutor:
                 break
 
 
-PITCH_RADIUS_M = 0.5  # a turn of the bucket counts as this radius times the angle along a path
+class _StallWatch:
+    """A stall while cutting: a planar joint at ``stall_torque_fraction`` of its relief limit that
+    lags its target by more than ``stall_error_rad`` for ``stall_time_s``. Executor logic rather than
+    a script condition: the dig step goes on, backing out, and the watch runs only in the cut."""
 
+    def __init__(self, cfg: ExecutorConfig, torque_limit: np.ndarray):
+        self.cfg = cfg
+        self.torque_limit = torque_limit  # (3,) [N m]
+        self.since: float | None = None  # since when a joint is saturated and lagging [s]
 
-def _seg(path: np.ndarray) -> np.ndarray:
-    """Lengths of a pose polyline's segments: position, and pitch turned at PITCH_RADIUS_M [m]."""
-    d = np.diff(path, axis=0)
-    return np.sqrt(d[:, 0] ** 2 + d[:, 1] ** 2 + (PITCH_RADIUS_M * d[:, 2]) ** 2)
-
-
-def _length(path: np.ndarray) -> float:
-    return float(_seg(path).sum()) if len(path) > 1 else 0.0
-
-
-def _point_at(path: np.ndarray, s: float, cum: np.ndarray | None = None) -> np.ndarray:
-    """Pose at path length ``s`` along a polyline of poses (see :func:`_seg`); ``cum`` is the
-    cumulative length along it when already known."""
-    if cum is None:
-        cum = np.concatenate([[0.0], np.cumsum(_seg(path))])
-    if cum[-1] <= 0:
-        return path[-1].copy()
-    return np.array([np.interp(s, cum, path[:, k]) for k in range(3)])
+    def check(self, time: float, q: np.ndarray, torque: np.ndarray, target: np.ndarray) -> int | None:
+        """The index (into ``ARM``) of the joint that stalled on this tick, or None (q, torque, target: (3,))."""
+        saturated = np.abs(torque) >= self.cfg.stall_torque_fraction * self.torque_limit
+        bad = saturated & (np.abs(q - target) > self.cfg.stall_error_rad)
+        if not bad.any():
+            self.since = None
+            return None
+        self.since = time if self.since is None else self.since
+        return int(np.argmax(bad)) if time - self.since >= self.cfg.stall_time_s else None

@@ -1,0 +1,69 @@
+"""Cartesian tip paths the executor follows: polylines of planar tip poses (x m, z m, pitch rad).
+
+A path's length counts the turn of the bucket as ``pitch_radius_m`` times its angle, so that a
+path that mostly turns the bucket (the curl, the pour) still takes time to follow.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+
+def segment_lengths(path: np.ndarray, pitch_radius_m: float) -> np.ndarray:
+    """Lengths of a pose polyline's segments, (n - 1,): position, and pitch turned at ``pitch_radius_m`` [m].
+
+    Args:
+        path: (n, 3) tip poses (x m, z m, pitch rad).
+        pitch_radius_m: the radius that turns a pitch angle into a length [m].
+    """
+    d = np.diff(path, axis=0)
+    return np.sqrt(d[:, 0] ** 2 + d[:, 1] ** 2 + (pitch_radius_m * d[:, 2]) ** 2)
+
+
+def path_length(path: np.ndarray, pitch_radius_m: float) -> float:
+    """Length of a pose polyline (n, 3) [m] (see :func:`segment_lengths`)."""
+    return float(segment_lengths(path, pitch_radius_m).sum()) if len(path) > 1 else 0.0
+
+
+def point_at(path: np.ndarray, s: float, cum: np.ndarray) -> np.ndarray:
+    """Pose (3,) at length ``s`` along a pose polyline (n, 3); ``cum`` (n,) is the cumulative length at
+    its vertices [m]."""
+    if cum[-1] <= 0:
+        return path[-1].copy()
+    return np.array([np.interp(s, cum, path[:, k]) for k in range(3)])
+
+
+class PathFollower:
+    """A cursor that moves along a pose path at a fixed speed, one control step at a time.
+
+    Args:
+        path: (n, 3) tip poses (x m, z m, pitch rad).
+        speed: cursor speed along the path [m/s].
+        pitch_radius_m: see :func:`segment_lengths` [m].
+        cut_from: path length from which the bucket is in the cut, where the stall watch and
+            compliance act [m]; infinite for a path that never cuts.
+    """
+
+    def __init__(self, path: np.ndarray, speed: float, pitch_radius_m: float, cut_from: float = math.inf):
+        self.path = path
+        self.speed = speed
+        self.cum = np.concatenate([[0.0], np.cumsum(segment_lengths(path, pitch_radius_m))])
+        self.cut_from = cut_from
+        self.s = 0.0  # the cursor's length along the path [m]
+
+    def advance(self, dt: float) -> np.ndarray:
+        """Move the cursor on by ``dt`` [s] (not past the end) and return the pose (3,) there."""
+        self.s = min(self.s + self.speed * dt, float(self.cum[-1]))
+        return point_at(self.path, self.s, self.cum)
+
+    @property
+    def at_end(self) -> bool:
+        """The cursor has reached the end of the path."""
+        return bool(self.s >= self.cum[-1])
+
+    @property
+    def in_cut(self) -> bool:
+        """The cursor is past the path's lead-in, in the cut."""
+        return self.s >= self.cut_from
