@@ -245,7 +245,6 @@ class SoilModel:
         """Advance the soil by one control step of ``dt`` seconds and return its action on the bucket."""
         b = self.bucket
         grid = self.grid
-        cfg = self.scene.bucket
         mujoco.mj_objectVelocity(self.model, data, mujoco.mjtObj.mjOBJ_BODY, b.body_id, self._vel6, 0)
         self._params[kernels.P_DT] = dt
         out = self._out
