@@ -18,6 +18,7 @@ from excavsim.config import SceneConfig, get_soil, load_scene_config
 from excavsim.mechanics.bearing import bearing_factors
 from excavsim.mechanics.wedge import wedge_force
 from excavsim.robot.extract import arm_from_model
+from excavsim.world import soil_records
 from excavsim.world.bucket import BucketGeometry
 from excavsim.world.simulation import Simulation
 from excavsim.world.soil import SoilModel
@@ -245,6 +246,72 @@ def test_load_weight_and_soil_wrench_are_consistent():
     c = drv.place((1.6, 1.1, math.radians(-30)))
     np.testing.assert_allclose(c.load_weight, [0, 0, -2000 * 0.01 * 9.81], rtol=1e-12)
     np.testing.assert_allclose(c.force, c.cutting_force + c.bearing_force + c.load_weight + c.rock_force)
+
+
+def test_every_part_of_the_wrench_reaches_the_total_while_digging_into_a_rock():
+    """Cutting, bearing (rake below the approach), a rock on the path and the load: at every step
+    the total force is the sum of the parts the kernel writes, to round-off."""
+    sim = Simulation(scene=quiet_scene(rocks=1), seed=12)
+    soil = sim.soil
+    soil.rocks[:] = [[2.0, 0.0, SURFACE - 0.1, 0.06]]
+    soil.load = 0.005
+    contacts = Driver(sim).drag(2.3, 1.95, 0.1, math.radians(20), above=0.1)
+    parts = np.array([[c.cutting_force, c.bearing_force, c.rock_force, c.load_weight] for c in contacts])
+    assert (np.linalg.norm(parts, axis=2) > 1.0).any(axis=0).all()  # each part acts at some step
+    np.testing.assert_allclose([c.force for c in contacts], parts.sum(axis=1), rtol=0, atol=1e-9)
+
+
+def test_soil_contact_reads_the_fields_of_the_kernel_output_record():
+    sim = Simulation(scene=quiet_scene(), seed=10)
+    sim.soil.load = 0.01
+    contacts = Driver(sim).drag(2.3, 2.1, 0.1, math.radians(20), above=0.1)
+    c = max(contacts, key=lambda c: c.cut_volume_m3)
+    rec = c.record[0]
+    for prop, field in (("depth_m", "depth_m"), ("rake_rad", "rake_rad"), ("cutting_speed_m_s", "cutting_speed_m_s"),
+                        ("wedge_failure_force_n", "wedge_failure_force_n"), ("cut_volume_m3", "cut_volume_m3"),
+                        ("max_penetration_m", "max_penetration_m"), ("cutting_force", "cutting_force_n"),
+                        ("bearing_force", "bearing_force_n"), ("rock_force", "rock_force_n"), ("force", "force_n"),
+                        ("torque", "torque_nm")):
+        np.testing.assert_array_equal(getattr(c, prop), rec[field], err_msg=prop)
+    assert c.load_weight[2] == rec["load_weight_z_n"] < 0
+    assert 0.05 < c.depth_m < 0.15 and c.max_penetration_m > 0 and c.cut_volume_m3 > 0  # a live cut, not zeros
+    assert c.cut_volume_m3 == rec["taken_volume_m3"]  # the bucket is far from full: all of it entered
+
+
+def test_the_kernel_writes_every_field_of_its_output_record_each_step():
+    """No field of a step's snapshot is left over from the step before."""
+    sim = Simulation(scene=quiet_scene(), seed=10)
+    soil = sim.soil
+    drv = Driver(sim)
+    for pose in ((2.3, SURFACE + 0.1, 0.5), (2.3, SURFACE - 0.05, 0.5)):  # in the air, then in the soil
+        soil._out_f8[:] = np.nan  # every float field
+        soil._window[:] = -7
+        rec = drv.place(pose).record[0]
+        for field in soil_records.OUT.names:
+            assert np.isfinite(rec[field]).all() and (rec[field] != -7).all(), field
+
+
+def test_a_parameter_changed_in_the_record_changes_the_next_step_as_the_physics_says():
+    """The speed factor of the truth terms (Fig. 63): ``speed_coefficient_s_per_m`` set to k in the
+    kernel's parameter record multiplies the wedge's failure force by ``1 + k v``."""
+    contacts = []
+    for k in (0.0, 2.0):
+        sim = Simulation(scene=quiet_scene(), seed=5)
+        drv = Driver(sim)
+        drv.drag(2.3, 2.2, 0.1, math.radians(30), 0.1)
+        sim.soil.params["speed_coefficient_s_per_m"] = k
+        contacts.append(drv.place((2.18, SURFACE - 0.1, math.radians(30))))
+    base, fast = contacts
+    assert base.cutting_speed_m_s == fast.cutting_speed_m_s > 0.05 and base.depth_m == fast.depth_m > 0.05
+    assert fast.wedge_failure_force_n == pytest.approx(base.wedge_failure_force_n * (1 + 2.0 * base.cutting_speed_m_s),
+                                                       rel=1e-12)
+
+
+def test_a_record_is_built_from_every_one_of_its_fields():
+    g = soil_records.filled(soil_records.GRID, x0_m=-1.0, y0_m=-2.0, cell_m=0.025, z0_m=0.1)
+    assert g.shape == (1,) and g["cell_m"][0] == 0.025
+    with pytest.raises(TypeError, match=r"missing \['z0_m'\], unknown \['z_m'\]"):
+        soil_records.filled(soil_records.GRID, x0_m=-1.0, y0_m=-2.0, cell_m=0.025, z_m=0.1)
 
 
 def test_ft_sensor_reads_the_applied_soil_force():

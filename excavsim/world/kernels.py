@@ -3,7 +3,9 @@
 These are the per-control-step inner loops of :mod:`excavsim.world.soil`: cutting the swept cells,
 sampling the surface under bucket points, summing the surcharge ahead of the edge, and the
 elasto-plastic bearing and friction of the bucket's outer surface. Grid conventions are those of
-:class:`~excavsim.world.terrain.SoilGrid` (``h[row, col]``, row along y, col along x).
+:class:`~excavsim.world.terrain.SoilGrid` (``h[row, col]``, row along y, col along x). The kernel's
+parameters, state and outputs are the named records of :mod:`excavsim.world.soil_records`; inside
+the compiled code a record (``grid``, ``p``, ``st``, ``o``) is a reference to its array's memory.
 """
 
 from __future__ import annotations
@@ -28,15 +30,19 @@ def _bilinear(h, x0, y0, cell, x, y):
 
 
 @numba.njit(cache=True)
-def surface_heights(h, x0, y0, cell, z0, pts, out):
-    """World surface height under each of ``pts`` (n, 3) into ``out`` (n,); -inf off the grid."""
+def surface_heights(h, grid, pts, out):
+    """World surface height under each of ``pts`` (n, 3) into ``out`` (n,); -inf off the grid.
+
+    ``grid`` is a :data:`~excavsim.world.soil_records.GRID` record (an element, not the array).
+    """
+    x0, y0, cell, z0 = grid.x0_m, grid.y0_m, grid.cell_m, grid.z0_m
     for i in range(pts.shape[0]):
         out[i] = _bilinear(h, x0, y0, cell, pts[i, 0], pts[i, 1]) + z0
 
 
 @numba.njit(cache=True)
-def cut_swept(h, x0, y0, cell, z0, a0, b0, a1, b1, window):
-    """Lower the cells swept by the cutting edge to the edge's height.
+def cut_swept(h, grid, a0, b0, a1, b1, window):
+    """Lower the cells swept by the cutting edge to the edge's height (``grid``: a GRID record).
 
     The edge moved from segment (a0, b0) to segment (a1, b1) (world points, 3 each). The quad between
     them is sampled at most half a cell apart; each sample lowers its nearest cell to the edge height
@@ -46,6 +52,7 @@ def cut_swept(h, x0, y0, cell, z0, a0, b0, a1, b1, window):
     Returns:
         the removed volume in height units (multiply by cell^2 for m^3).
     """
+    x0, y0, cell, z0 = grid.x0_m, grid.y0_m, grid.cell_m, grid.z0_m
     nr, nc = h.shape
     span = max(np.hypot(b1[0] - a1[0], b1[1] - a1[1]), np.hypot(b0[0] - a0[0], b0[1] - a0[1]))
     travel = max(np.hypot(a1[0] - a0[0], a1[1] - a0[1]), np.hypot(b1[0] - b0[0], b1[1] - b0[1]))
@@ -86,12 +93,14 @@ def cut_swept(h, x0, y0, cell, z0, a0, b0, a1, b1, window):
 
 
 @numba.njit(cache=True)
-def surcharge_volume(h, x0, y0, cell, z0, centre, across, ahead, width, length, z_ref):
+def surcharge_volume(h, grid, centre, across, ahead, width, length, z_ref):
     """Volume of soil above ``z_ref`` on the rectangle ahead of the edge [m^3].
 
     The rectangle starts at ``centre`` (the edge centre), spans ``width`` along the unit vector
-    ``across`` and ``length`` along the horizontal unit vector ``ahead``; sampled at cell spacing.
+    ``across`` and ``length`` along the horizontal unit vector ``ahead``; sampled at the spacing of
+    the cells of ``grid`` (a GRID record).
     """
+    x0, y0, cell, z0 = grid.x0_m, grid.y0_m, grid.cell_m, grid.z0_m
     if length <= 0.0:
         return 0.0
     nu = max(1, int(np.ceil(width / cell)))
@@ -112,43 +121,47 @@ def surcharge_volume(h, x0, y0, cell, z0, centre, across, ahead, width, length, 
 
 
 @numba.njit(cache=True)
-def bearing(h, x0, y0, cell, z0, pts, normals, areas, vel, active, sigma, dt,
-            k_rest, q_ult0, q_ult_slope, k_mob, mu, v_eps, m_ref, ref, across, out_force, out_torque):
+def bearing(h, grid, pts, normals, vel, surface, sigma, dt, p, ref, across, out_force, out_torque):
     """Elasto-plastic bearing pressure and friction on the buried outer surface of the bucket.
 
-    For each active sample (point ``pts[i]``, outward normal ``normals[i]``, area ``areas[i]``,
-    velocity ``vel[i]``) buried ``p`` below the surface, the normal pressure ``sigma[i]`` (state,
-    updated in place) moves by ``k_mob * (v . n) * dt`` as the surface pushes into or withdraws from
-    the soil, bounded below by the at-rest pressure ``k_rest * p`` and above by the bearing capacity
-    ``q_ult0 + q_ult_slope * p``. Friction ``mu * sigma * area`` opposes the tangential slip in the
+    For each active sample of ``surface`` (SURFACE_SAMPLE records: area, active flag) at the world
+    point ``pts[i]`` with outward normal ``normals[i]`` and velocity ``vel[i]``, buried ``d`` below
+    the surface of the terrain ``h`` on ``grid``, the normal pressure ``sigma[i]`` (state, updated in
+    place) moves by ``k_mob * (v . n) * dt`` as the surface pushes into or withdraws from the soil,
+    bounded below by the at-rest pressure ``k_rest * d`` and above by the bearing capacity
+    ``q_ult0 + q_ult_slope * d``. Friction ``mu * sigma * area`` opposes the tangential slip in the
     bucket's own plane (the slip along the unit vector ``across``, the bucket's width, is left out:
     trenching is planar, and friction across the soft wrist yaw and roll chattered), regularized
     below ``max(v_eps, mu N dt / m_ref)`` with ``N`` the total normal force: the friction's implied
     damping then stays below ``m_ref / dt``, which the explicit, once-per-control-step update needs
-    to stay stable (``m_ref`` is a lower bound on the bucket's effective mass). Forces on the bucket and their moment about ``ref`` are written to
-    ``out_force`` and ``out_torque`` (3,).
+    to stay stable (``m_ref`` is a lower bound on the bucket's effective mass). The constants are
+    the fields of the PARAMS record ``p``. Forces on the bucket and their moment about ``ref`` are
+    written to ``out_force`` and ``out_torque`` (3,).
 
     Returns:
         the largest penetration [m].
     """
+    x0, y0, cell, z0 = grid.x0_m, grid.y0_m, grid.cell_m, grid.z0_m
+    k_rest, q_ult0, q_ult_slope, k_mob = p.k_rest_pa_per_m, p.q_ult0_pa, p.q_ult_slope_pa_per_m, p.k_mob_pa_per_m
+    mu, v_eps, m_ref = p.mu, p.friction_velocity_m_s, p.friction_mass_kg
     fx = fy = fz = 0.0
     tx = ty = tz = 0.0
     pmax = 0.0
     n_total = 0.0
     for i in range(pts.shape[0]):
-        if active[i] == 0.0:
+        if not surface[i].active:
             sigma[i] = 0.0
             continue
         s = _bilinear(h, x0, y0, cell, pts[i, 0], pts[i, 1]) + z0
-        p = s - pts[i, 2]
-        if p <= 0.0:
+        d = s - pts[i, 2]
+        if d <= 0.0:
             sigma[i] = 0.0
             continue
-        pmax = max(pmax, p)
+        pmax = max(pmax, d)
         vn = vel[i, 0] * normals[i, 0] + vel[i, 1] * normals[i, 1] + vel[i, 2] * normals[i, 2]
-        sg = min(max(sigma[i] + k_mob * vn * dt, k_rest * p), q_ult0 + q_ult_slope * p)
+        sg = min(max(sigma[i] + k_mob * vn * dt, k_rest * d), q_ult0 + q_ult_slope * d)
         sigma[i] = sg
-        n_total += sg * areas[i]
+        n_total += sg * surface[i].area_m2
     v_reg = max(v_eps, mu * n_total * dt / m_ref)
     for i in range(pts.shape[0]):
         sg = sigma[i]
@@ -156,7 +169,7 @@ def bearing(h, x0, y0, cell, z0, pts, normals, areas, vel, active, sigma, dt,
             continue
         nx, ny, nz = normals[i, 0], normals[i, 1], normals[i, 2]
         vn = vel[i, 0] * nx + vel[i, 1] * ny + vel[i, 2] * nz
-        a = areas[i]
+        a = surface[i].area_m2
         # pressure pushes the surface inward (-n); friction opposes tangential slip
         px = -sg * a * nx
         py = -sg * a * ny
@@ -209,70 +222,78 @@ def _interp_uniform(grid0, step, values, x):
 # cell around the edge that cutting lowers, so bilinear interpolation never sees a cut sample.
 PROBE_CELLS = 2.0
 
-# Indices into the ``state`` and ``params`` vectors of :func:`soil_step` (kept in one place).
-S_PREV_A, S_PREV_B, S_PREV_C, S_HAS_PREV, S_CUT_FORCE, S_SHEAR_TRAVEL, S_LOAD, S_LEN = 0, 3, 6, 9, 10, 11, 12, 13
-(P_GAMMA_G, P_COHESION, P_ADHESION, P_SIN_DELTA, P_COS_DELTA, P_WIDTH, P_DT, P_K_CUT, P_SPEED, P_SAW,
- P_LOAD_SURCHARGE, P_CAPACITY, P_K_REST, P_Q0, P_Q_SLOPE, P_K_MOB, P_MU, P_V_EPS, P_K_ROCK, P_RAKE_MIN,
- P_M_REF, P_LEN) = range(22)
-# Indices into the ``out`` vector.
-(O_DEPTH, O_RAKE, O_SPEED, O_FAIL, O_FCUT, O_FBEAR, O_FROCK, O_FORCE, O_TORQUE, O_CUT, O_TAKE, O_PMAX,
- O_AHEAD, O_CENTRE, O_WEIGHT, O_LEN) = (0, 1, 2, 3, 4, 7, 10, 13, 16, 19, 20, 21, 22, 25, 28, 29)
+
+@numba.njit(cache=True, inline="always")
+def _set3(v, x, y, z):
+    v[0] = x
+    v[1] = y
+    v[2] = z
 
 
 @numba.njit(cache=True, inline="always")
-def _remember_edge(state, ends, cx, cy, cz):
+def _remember_edge(st, ends, cx, cy, cz):
+    prev = st.prev_edge_ends_m
     for i in range(3):
-        state[S_PREV_A + i] = ends[0, i]
-        state[S_PREV_B + i] = ends[1, i]
-    state[S_PREV_C] = cx
-    state[S_PREV_C + 1] = cy
-    state[S_PREV_C + 2] = cz
+        prev[0, i] = ends[0, i]
+        prev[1, i] = ends[1, i]
+    centre = st.prev_edge_centre_m
+    centre[0] = cx
+    centre[1] = cy
+    centre[2] = cz
 
 
 @numba.njit(cache=True)
-def soil_step(h, x0, y0, cell, z0, xpos, xmat, xipos, site_xmat, body, site, vel6, edge_pack, surf_pack, sigma,
-              t_rake0, t_step, table, strength, rocks, state, params, window, out):
+def soil_step(heights, strength, grid, mj_arrays, bucket_vel6, bucket, edge, surface, table, rocks, params, dt_s,
+              state, pressure, out):
     """One control step of the bucket-soil interaction (see :mod:`excavsim.world.soil`).
 
-    Arguments are packed to keep the call cheap:
+    Cuts the swept cells; updates the state (previous edge, elastic cutting force, shear travel,
+    load) and the bearing pressures; writes the forces on the bucket, their moment about its centre
+    of mass (cutting, bearing, rocks and the load's weight, with the load after this step's cut)
+    and diagnostics to ``out``. The records are those of :mod:`excavsim.world.soil_records`, each
+    single one as its ``(1,)`` array.
 
-    * ``xpos``, ``xmat``, ``xipos``, ``site_xmat``: MuJoCo's data arrays, read at the bucket
-      ``body`` and the tip ``site``; ``vel6`` the bucket's (angular, linear) velocity at its origin;
-    * ``edge_pack`` (n_w + 3, 3): the edge samples, the two ends of the edge and the load's centroid
-      (body frame);
-    * ``surf_pack`` (n, 8): outer-surface samples: point (3), outward normal (3), area, active flag;
-    * ``table`` (5, m): beta, N_gamma, N_c, N_a, denominator on the uniform rake grid
-      ``t_rake0 + i t_step``.
-
-    Cuts the swept cells; updates ``state`` (previous edge, elastic cutting force, shear travel,
-    load) and the bearing pressures ``sigma``; writes forces on the bucket, their moment about the
-    centre of mass (cutting, bearing, rocks and the load's weight, with the load after this step's
-    cut) and diagnostics to ``out``.
+    Args:
+        heights, strength, grid: the terrain: ``SoilGrid.heights`` (n_rows, n_cols) [m], cut in
+            place; the soil-strength factor on the same cells [-]; its GRID record.
+        mj_arrays, bucket_vel6: MuJoCo: the data arrays ``(xpos, xmat, xipos, site_xmat)``, read at
+            the bucket's body and tip site; the bucket's (angular [rad/s], linear [m/s]) velocity at
+            its origin, world frame, as ``mj_objectVelocity`` gives it (6,).
+        bucket, edge, surface: the bucket: its BUCKET record, the (n_w, 3) cutting-edge samples [m]
+            and the (n,) SURFACE_SAMPLE records of its outer surface, body frame.
+        table: the wedge table, (m,) WEDGE_ROW records on the rake grid of ``params``.
+        rocks: (n_rocks, 4) buried rocks: centre x, y, z and radius [m].
+        params, dt_s: the PARAMS record; the length of the control step [s].
+        state, pressure: the STATE record and the (n,) bearing pressures of the surface samples
+            [Pa], both updated in place.
+        out: the OUT record, every field written.
     """
+    h = heights
+    g = grid[0]
+    x0, y0, cell, z0 = g.x0_m, g.y0_m, g.cell_m, g.z0_m
+    xpos, xmat, xipos, site_xmat = mj_arrays
+    bk = bucket[0]
+    p = params[0]
+    st = state[0]
+    o = out[0]
+    body = bk.body_id
     rot = xmat[body].reshape(3, 3)
     org = xpos[body]
     com = xipos[body]
-    omega = vel6[0:3]
-    v_org = vel6[3:6]
-    tip = site_xmat[site].reshape(3, 3)
+    omega = bucket_vel6[0:3]
+    v_org = bucket_vel6[3:6]
+    tip = site_xmat[bk.tip_site_id].reshape(3, 3)
     x_t = np.array([tip[0, 0], tip[1, 0], tip[2, 0]])
     z_t = np.array([tip[0, 2], tip[1, 2], tip[2, 2]])
-    nw = edge_pack.shape[0] - 3
-    edge_body = edge_pack[:nw]
-    ends_body = edge_pack[nw:nw + 2]
-    centroid = edge_pack[nw + 2]
-    pts_body = surf_pack[:, 0:3]
-    normals_body = surf_pack[:, 3:6]
-    areas = surf_pack[:, 6]
-    active = surf_pack[:, 7]
-    t_beta = table[0]
-    t_ng = table[1]
-    t_nc = table[2]
-    t_na = table[3]
-    t_den = table[4]
-    sd = params[P_SIN_DELTA]
-    cd = params[P_COS_DELTA]
-    dt = params[P_DT]
+    nw = edge.shape[0]
+    ends_body = bk.edge_ends_m
+    centroid = bk.load_centroid_m
+    pts_body = surface.point_m
+    normals_body = surface.normal
+    t_rake0 = p.table_rake0_rad
+    t_step = p.table_rake_step_rad
+    sd = p.sin_delta
+    cd = p.cos_delta
     # force direction (eq. 8) and the horizontal direction the blade pushes the soil
     ux = -sd * x_t[0] - cd * z_t[0]
     uy = -sd * x_t[1] - cd * z_t[1]
@@ -293,8 +314,8 @@ def soil_step(h, x0, y0, cell, z0, xpos, xmat, xipos, site_xmat, body, site, vel
     ew = np.empty((nw, 3))
     for k in range(nw):
         for i in range(3):
-            ew[k, i] = (org[i] + rot[i, 0] * edge_body[k, 0] + rot[i, 1] * edge_body[k, 1]
-                        + rot[i, 2] * edge_body[k, 2])
+            ew[k, i] = (org[i] + rot[i, 0] * edge[k, 0] + rot[i, 1] * edge[k, 1]
+                        + rot[i, 2] * edge[k, 2])
         px, py, pz = ew[k, 0], ew[k, 1], ew[k, 2]
         cx += px
         cy += py
@@ -311,25 +332,26 @@ def soil_step(h, x0, y0, cell, z0, xpos, xmat, xipos, site_xmat, body, site, vel
     ends = np.empty((2, 3))
     for e in range(2):
         for i in range(3):
-            ends[e, i] = org[i] + rot[i, 0] * ends_body[e, 0] + rot[i, 1] * ends_body[e, 1] + rot[i, 2] * ends_body[e, 2]
-    if state[S_HAS_PREV] == 0.0:
-        _remember_edge(state, ends, cx, cy, cz)
-        state[S_HAS_PREV] = 1.0
-    travel = -((cx - state[S_PREV_C]) * ux + (cy - state[S_PREV_C + 1]) * uy + (cz - state[S_PREV_C + 2]) * uz)
-    speed = max(travel, 0.0) / dt
+            ends[e, i] = (org[i] + rot[i, 0] * ends_body[e, 0] + rot[i, 1] * ends_body[e, 1]
+                          + rot[i, 2] * ends_body[e, 2])
+    if not st.has_prev:
+        _remember_edge(st, ends, cx, cy, cz)
+        st.has_prev = True
+    prev_c = st.prev_edge_centre_m
+    travel = -((cx - prev_c[0]) * ux + (cy - prev_c[1]) * uy + (cz - prev_c[2]) * uz)
+    speed = max(travel, 0.0) / dt_s
 
     # wedge failure force (eq. 8 + adhesion + surcharge) with the truth terms
     f_fail = 0.0
     if depth > 0.0:
-        rk = max(rake, params[P_RAKE_MIN])
-        ng = _interp_uniform(t_rake0, t_step, t_ng, rk)
-        nc = _interp_uniform(t_rake0, t_step, t_nc, rk)
-        nadh = _interp_uniform(t_rake0, t_step, t_na, rk)
-        den = _interp_uniform(t_rake0, t_step, t_den, rk)
-        beta = _interp_uniform(t_rake0, t_step, t_beta, rk)
-        dw = params[P_WIDTH] / nw
-        f_static = (params[P_GAMMA_G] * d2sum * ng + params[P_COHESION] * dsum * nc
-                    + params[P_ADHESION] * dsum * nadh) * dw
+        rk = max(rake, p.rake_min_rad)
+        ng = _interp_uniform(t_rake0, t_step, table.n_gamma, rk)
+        nc = _interp_uniform(t_rake0, t_step, table.n_c, rk)
+        nadh = _interp_uniform(t_rake0, t_step, table.n_a, rk)
+        den = _interp_uniform(t_rake0, t_step, table.denominator, rk)
+        beta = _interp_uniform(t_rake0, t_step, table.beta_rad, rk)
+        dw = bk.width_m / nw
+        f_static = (p.gamma_g_n_m3 * d2sum * ng + p.cohesion_pa * dsum * nc + p.adhesion_pa * dsum * nadh) * dw
         wedge_len = depth * (1.0 / np.tan(rk) + 1.0 / np.tan(beta))
         ex = ends[1, 0] - ends[0, 0]
         ey = ends[1, 1] - ends[0, 1]
@@ -338,35 +360,34 @@ def soil_step(h, x0, y0, cell, z0, xpos, xmat, xipos, site_xmat, body, site, vel
         centre = np.array([cx, cy, cz])
         across = np.array([ex / en, ey / en, ez / en])
         ahead = np.array([ax, ay, 0.0])
-        v_ahead = surcharge_volume(h, x0, y0, cell, z0, centre, across, ahead, params[P_WIDTH], wedge_len,
-                                   cz + depth)
-        surcharge = v_ahead + params[P_LOAD_SURCHARGE] * state[S_LOAD]
-        f_static += params[P_GAMMA_G] * surcharge / den
+        v_ahead = surcharge_volume(h, g, centre, across, ahead, bk.width_m, wedge_len, cz + depth)
+        surcharge = v_ahead + p.load_surcharge_fraction * st.load_m3
+        f_static += p.gamma_g_n_m3 * surcharge / den
         c = int(np.floor((cx - x0) / cell + 0.5))
         r = int(np.floor((cy - y0) / cell + 0.5))
         hetero = 1.0
         if 0 <= r < strength.shape[0] and 0 <= c < strength.shape[1]:
             hetero = strength[r, c]
         if travel > 0.0:
-            state[S_SHEAR_TRAVEL] += travel
+            st.shear_travel_m += travel
         period = max(0.01, depth / np.tan(beta))
-        phase = (state[S_SHEAR_TRAVEL] / period) % 1.0
-        saw = 1.0 - params[P_SAW] * (1.0 - phase)
-        f_fail = f_static * (1.0 + params[P_SPEED] * speed) * hetero * saw
-    fc = min(max(state[S_CUT_FORCE] + params[P_K_CUT] * travel, 0.0), f_fail)
-    state[S_CUT_FORCE] = fc
+        phase = (st.shear_travel_m / period) % 1.0
+        saw = 1.0 - p.sawtooth_amplitude * (1.0 - phase)
+        f_fail = f_static * (1.0 + p.speed_coefficient_s_per_m * speed) * hetero * saw
+    fc = min(max(st.cut_force_n + p.cut_stiffness_n_per_m * travel, 0.0), f_fail)
+    st.cut_force_n = fc
     fcx, fcy, fcz = fc * ux, fc * uy, fc * uz
 
     # cut the swept cells
-    removed = cut_swept(h, x0, y0, cell, z0, state[S_PREV_A:S_PREV_A + 3], state[S_PREV_B:S_PREV_B + 3],
-                        ends[0], ends[1], window)
+    prev_ends = st.prev_edge_ends_m
+    removed = cut_swept(h, g, prev_ends[0], prev_ends[1], ends[0], ends[1], o.window)
     cut = removed * cell * cell
-    take = min(cut, max(params[P_CAPACITY] - state[S_LOAD], 0.0))
-    state[S_LOAD] += take
-    _remember_edge(state, ends, cx, cy, cz)
+    take = min(cut, max(p.capacity_m3 - st.load_m3, 0.0))
+    st.load_m3 += take
+    _remember_edge(st, ends, cx, cy, cz)
 
     # bearing and friction on the outer surface
-    n = pts_body.shape[0]
+    n = surface.shape[0]
     pts = np.empty((n, 3))
     nrm = np.empty((n, 3))
     vel = np.empty((n, 3))
@@ -383,8 +404,7 @@ def soil_step(h, x0, y0, cell, z0, xpos, xmat, xipos, site_xmat, body, site, vel
     fb = np.zeros(3)
     tb = np.zeros(3)
     across_b = np.array([rot[0, 1], rot[1, 1], rot[2, 1]])
-    pmax = bearing(h, x0, y0, cell, z0, pts, nrm, areas, vel, active, sigma, dt, params[P_K_REST], params[P_Q0],
-                   params[P_Q_SLOPE], params[P_K_MOB], params[P_MU], params[P_V_EPS], params[P_M_REF], com, across_b, fb, tb)
+    pmax = bearing(h, g, pts, nrm, vel, surface, pressure, dt_s, p, com, across_b, fb, tb)
 
     # rocks push the edge samples out
     frx = fry = frz = 0.0
@@ -396,7 +416,7 @@ def soil_step(h, x0, y0, cell, z0, xpos, xmat, xipos, site_xmat, body, site, vel
             dist = np.sqrt(ox * ox + oy * oy + oz * oz)
             pen = rocks[j, 3] - dist
             if pen > 0.0:
-                s = params[P_K_ROCK] * pen / max(dist, 1e-9)
+                s = p.rock_stiffness_n_per_m * pen / max(dist, 1e-9)
                 fx, fy, fz = s * ox, s * oy, s * oz
                 frx += fx
                 fry += fy
@@ -407,36 +427,25 @@ def soil_step(h, x0, y0, cell, z0, xpos, xmat, xipos, site_xmat, body, site, vel
                 trz += lx * fy - ly * fx
 
     # the load's weight at the centroid of the bucket interior
-    wz = -params[P_GAMMA_G] * state[S_LOAD]
+    wz = -p.gamma_g_n_m3 * st.load_m3
     gx = org[0] + rot[0, 0] * centroid[0] + rot[0, 1] * centroid[1] + rot[0, 2] * centroid[2] - com[0]
     gy = org[1] + rot[1, 0] * centroid[0] + rot[1, 1] * centroid[1] + rot[1, 2] * centroid[2] - com[1]
     trx += gy * wz
     try_ -= gx * wz
     lx, ly, lz = cx - com[0], cy - com[1], cz - com[2]
-    out[O_WEIGHT] = wz
-    out[O_DEPTH] = depth
-    out[O_RAKE] = rake
-    out[O_SPEED] = speed
-    out[O_FAIL] = f_fail
-    out[O_FCUT] = fcx
-    out[O_FCUT + 1] = fcy
-    out[O_FCUT + 2] = fcz
-    out[O_FBEAR:O_FBEAR + 3] = fb
-    out[O_FROCK] = frx
-    out[O_FROCK + 1] = fry
-    out[O_FROCK + 2] = frz
-    out[O_FORCE] = fcx + fb[0] + frx
-    out[O_FORCE + 1] = fcy + fb[1] + fry
-    out[O_FORCE + 2] = fcz + fb[2] + frz + wz
-    out[O_TORQUE] = ly * fcz - lz * fcy + tb[0] + trx
-    out[O_TORQUE + 1] = lz * fcx - lx * fcz + tb[1] + try_
-    out[O_TORQUE + 2] = lx * fcy - ly * fcx + tb[2] + trz
-    out[O_CUT] = cut
-    out[O_TAKE] = take
-    out[O_PMAX] = pmax
-    out[O_AHEAD] = ax
-    out[O_AHEAD + 1] = ay
-    out[O_AHEAD + 2] = 0.0
-    out[O_CENTRE] = cx
-    out[O_CENTRE + 1] = cy
-    out[O_CENTRE + 2] = cz
+    o.load_weight_z_n = wz
+    o.depth_m = depth
+    o.rake_rad = rake
+    o.cutting_speed_m_s = speed
+    o.wedge_failure_force_n = f_fail
+    _set3(o.cutting_force_n, fcx, fcy, fcz)
+    _set3(o.bearing_force_n, fb[0], fb[1], fb[2])
+    _set3(o.rock_force_n, frx, fry, frz)
+    _set3(o.force_n, fcx + fb[0] + frx, fcy + fb[1] + fry, fcz + fb[2] + frz + wz)
+    _set3(o.torque_nm, ly * fcz - lz * fcy + tb[0] + trx, lz * fcx - lx * fcz + tb[1] + try_,
+          lx * fcy - ly * fcx + tb[2] + trz)
+    o.cut_volume_m3 = cut
+    o.taken_volume_m3 = take
+    o.max_penetration_m = pmax
+    _set3(o.ahead, ax, ay, 0.0)
+    _set3(o.edge_centre_m, cx, cy, cz)

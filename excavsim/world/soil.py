@@ -55,7 +55,7 @@ from scipy import ndimage
 from excavsim.config import SceneConfig, SoilParams
 from excavsim.mechanics.bearing import bearing_factors
 from excavsim.mechanics.wedge import MIN_RAKE_RAD, WedgeTable
-from excavsim.world import kernels
+from excavsim.world import kernels, soil_records
 from excavsim.world.bucket import BucketGeometry
 from excavsim.world.settle import SettleResult, settle
 from excavsim.world.terrain import SoilGrid
@@ -76,11 +76,27 @@ class Volumes:
         return self.box + self.bucket + self.spoil
 
 
+# Where the fields of the kernel's output record lie in its float64 view, the form a step's snapshot keeps.
+_OUT = soil_records.float64_slots(soil_records.OUT)
+
+
+def _scalar(field: str, doc: str) -> property:
+    i = _OUT[field]
+    return property(lambda self: float(self._v[i]), doc=doc)
+
+
+def _vector(field: str, doc: str) -> property:
+    i = _OUT[field]
+    return property(lambda self: self._v[i], doc=doc)
+
+
 class SoilContact:
     """The soil's action on the bucket over one control step (privileged truth, world frame).
 
     Forces are on the bucket [N]; ``torque`` is the total moment about the bucket's centre of mass.
-    A thin view of the kernel's output vector, so that creating one every step costs little.
+    A thin view of its own copy of the kernel's output record
+    (:data:`~excavsim.world.soil_records.OUT`, kept as its float64 view), so that creating one
+    every step costs little.
     """
 
     __slots__ = ("time", "_v", "spilled_volume_m3", "poured_volume_m3")
@@ -91,28 +107,27 @@ class SoilContact:
         self.spilled_volume_m3 = spilled
         self.poured_volume_m3 = poured
 
-    depth_m = property(lambda self: float(self._v[kernels.O_DEPTH]), doc="mean edge depth below the surface [m]")
-    rake_rad = property(lambda self: float(self._v[kernels.O_RAKE]), doc="rake of the blade [rad]")
-    cutting_speed_m_s = property(lambda self: float(self._v[kernels.O_SPEED]), doc="edge speed into the soil")
-    wedge_failure_force_n = property(lambda self: float(self._v[kernels.O_FAIL]),
-                                     doc="failure force of the wedge with the truth terms [N]")
-    cutting_force = property(lambda self: self._v[kernels.O_FCUT:kernels.O_FCUT + 3],
-                             doc="wedge force on the bucket [N]")
-    bearing_force = property(lambda self: self._v[kernels.O_FBEAR:kernels.O_FBEAR + 3],
-                             doc="bearing and friction on the outer surface [N]")
-    rock_force = property(lambda self: self._v[kernels.O_FROCK:kernels.O_FROCK + 3], doc="rock contact force [N]")
-    force = property(lambda self: self._v[kernels.O_FORCE:kernels.O_FORCE + 3],
-                     doc="total soil force on the bucket, load weight included [N]")
-    torque = property(lambda self: self._v[kernels.O_TORQUE:kernels.O_TORQUE + 3],
-                      doc="total moment about the bucket's centre of mass [N m]")
-    cut_volume_m3 = property(lambda self: float(self._v[kernels.O_CUT]), doc="soil cut this step [m^3]")
-    max_penetration_m = property(lambda self: float(self._v[kernels.O_PMAX]),
-                                 doc="deepest outer-surface sample below the surface [m]")
+    depth_m = _scalar("depth_m", "mean edge depth below the surface [m]")
+    rake_rad = _scalar("rake_rad", "rake of the blade [rad]")
+    cutting_speed_m_s = _scalar("cutting_speed_m_s", "edge speed into the soil [m/s]")
+    wedge_failure_force_n = _scalar("wedge_failure_force_n", "failure force of the wedge with the truth terms [N]")
+    cutting_force = _vector("cutting_force_n", "wedge force on the bucket [N]")
+    bearing_force = _vector("bearing_force_n", "bearing and friction on the outer surface [N]")
+    rock_force = _vector("rock_force_n", "rock contact force [N]")
+    force = _vector("force_n", "total soil force on the bucket, load weight included [N]")
+    torque = _vector("torque_nm", "total moment about the bucket's centre of mass [N m]")
+    cut_volume_m3 = _scalar("cut_volume_m3", "soil cut this step [m^3]")
+    max_penetration_m = _scalar("max_penetration_m", "deepest outer-surface sample below the surface [m]")
 
     @property
     def load_weight(self) -> np.ndarray:
         """Weight of the load in the bucket [N]."""
-        return np.array([0.0, 0.0, self._v[kernels.O_WEIGHT]])
+        return np.array([0.0, 0.0, self._v[_OUT["load_weight_z_n"]]])
+
+    @property
+    def record(self) -> np.ndarray:
+        """All of the step's output, as a ``(1,)`` :data:`~excavsim.world.soil_records.OUT` record (a view)."""
+        return self._v.view(soil_records.OUT)
 
     def __repr__(self) -> str:
         return (f"SoilContact(t={self.time:.3f}, depth={self.depth_m:.3f}, force={np.round(self.force, 1)}, "
@@ -138,6 +153,12 @@ class SoilModel:
         scene: the scene configuration (soil preset, settlement, truth terms, bucket handling).
         soil: the soil parameters.
         rng: the episode's random generator (heterogeneity field, rocks).
+
+    Attributes:
+        params: the kernel's constants, a :data:`~excavsim.world.soil_records.PARAMS` record built
+            from ``scene`` and ``soil``; a field changed here changes the steps that follow.
+        strength: (n_rows, n_cols) soil-strength factor on the grid's cells [-].
+        rocks: (n_rocks, 4) buried rocks: centre x, y, z and radius [m].
     """
 
     def __init__(self, model: mujoco.MjModel, scene: SceneConfig, soil: SoilParams, rng: np.random.Generator):
@@ -153,59 +174,61 @@ class SoilModel:
                                        scene.truth.heterogeneity_length_m, rng)
         self.rocks = np.ascontiguousarray(self._place_rocks(rng))
         g, gamma = self.gravity, soil.density_kg_m3
+        self._gamma_g = gamma * g
         n_c, n_q, n_g = bearing_factors(soil.phi)
-        self._k_rest = (1.0 - math.sin(soil.phi)) * gamma * g
-        self._q_ult0 = soil.cohesion_pa * n_c + 0.5 * gamma * g * self.bucket.width * n_g
-        self._q_ult_slope = gamma * g * n_q
-        self._k_mob = self._q_ult0 / scene.bucket.bearing_mobilisation_m
-        self._active = self.bucket.arc_length > _EDGE_EXCLUSION_M
-        n_prof, n_w, _ = self.bucket.points.shape
-        self._sigma = np.zeros(n_prof * n_w)
-        self._active_flat = np.repeat(self._active, n_w)
-        self._normals_flat_body = np.repeat(self.bucket.normals, n_w, axis=0)
-        self._areas_flat = np.repeat(self.bucket.areas, n_w)
-        self._points_flat_body = self.bucket.points.reshape(-1, 3)
-        half = self.bucket.width / n_w / 2
-        edge = self.bucket.edge
-        self._edge_body = np.ascontiguousarray(edge)
-        self._edge_ends_body = np.stack([edge[0] - [0, half, 0], edge[-1] + [0, half, 0]])
-        self._edge_pack = np.ascontiguousarray(np.vstack([self._edge_body, self._edge_ends_body,
-                                                          self.bucket.load_centroid]))
-        self._surf_pack = np.ascontiguousarray(np.column_stack([
-            self._points_flat_body, self._normals_flat_body, self._areas_flat, self._active_flat.astype(float)]))
+        q_ult0 = soil.cohesion_pa * n_c + 0.5 * gamma * g * self.bucket.width * n_g
+        self.params = soil_records.filled(
+            soil_records.PARAMS,
+            gamma_g_n_m3=self._gamma_g,
+            cohesion_pa=soil.cohesion_pa,
+            adhesion_pa=soil.adhesion_pa,
+            sin_delta=math.sin(soil.delta),
+            cos_delta=math.cos(soil.delta),
+            mu=math.tan(soil.delta),
+            rake_min_rad=max(self.table.rake_min, MIN_RAKE_RAD),
+            table_rake0_rad=self.table.rake_min,
+            table_rake_step_rad=self.table.rake_step,
+            cut_stiffness_n_per_m=scene.bucket.cut_stiffness_n_per_m,
+            load_surcharge_fraction=scene.bucket.load_surcharge_fraction,
+            capacity_m3=self.heaped_capacity,
+            speed_coefficient_s_per_m=scene.truth.speed_coefficient_s_per_m,
+            sawtooth_amplitude=scene.truth.sawtooth_amplitude,
+            k_rest_pa_per_m=(1.0 - math.sin(soil.phi)) * gamma * g,
+            q_ult0_pa=q_ult0,
+            q_ult_slope_pa_per_m=gamma * g * n_q,
+            k_mob_pa_per_m=q_ult0 / scene.bucket.bearing_mobilisation_m,
+            friction_velocity_m_s=scene.bucket.friction_velocity_m_s,
+            friction_mass_kg=scene.bucket.friction_mass_kg,
+            rock_stiffness_n_per_m=scene.bucket.rock_stiffness_n_per_m,
+        )
+        grid, b = self.grid, self.bucket
+        self._grid_record = soil_records.filled(soil_records.GRID, x0_m=grid.x0, y0_m=grid.y0, cell_m=grid.cell,
+                                                z0_m=grid.z0)
+        n_prof, n_w, _ = b.points.shape
+        half = b.width / n_w / 2
+        self._edge = np.ascontiguousarray(b.edge)
+        self._bucket_record = soil_records.filled(
+            soil_records.BUCKET, body_id=b.body_id, tip_site_id=b.tip_site_id, width_m=b.width,
+            edge_ends_m=np.stack([b.edge[0] - [0, half, 0], b.edge[-1] + [0, half, 0]]),
+            load_centroid_m=b.load_centroid)
+        self._surface = soil_records.filled(
+            soil_records.SURFACE_SAMPLE, n_prof * n_w, point_m=b.points.reshape(-1, 3),
+            normal=np.repeat(b.normals, n_w, axis=0), area_m2=np.repeat(b.areas, n_w),
+            active=np.repeat(b.arc_length > _EDGE_EXCLUSION_M, n_w))
         tb = self.table
-        self._table_pack = np.ascontiguousarray(np.stack([tb.beta, tb.n_gamma, tb.n_c, tb.n_a, tb.denominator]))
-        self._gamma_g = soil.density_kg_m3 * self.gravity
-        p = np.zeros(kernels.P_LEN)
-        p[kernels.P_GAMMA_G] = self._gamma_g
-        p[kernels.P_COHESION] = soil.cohesion_pa
-        p[kernels.P_ADHESION] = soil.adhesion_pa
-        p[kernels.P_SIN_DELTA] = math.sin(soil.delta)
-        p[kernels.P_COS_DELTA] = math.cos(soil.delta)
-        p[kernels.P_WIDTH] = self.bucket.width
-        p[kernels.P_K_CUT] = scene.bucket.cut_stiffness_n_per_m
-        p[kernels.P_SPEED] = scene.truth.speed_coefficient_s_per_m
-        p[kernels.P_SAW] = scene.truth.sawtooth_amplitude
-        p[kernels.P_LOAD_SURCHARGE] = scene.bucket.load_surcharge_fraction
-        p[kernels.P_CAPACITY] = self.heaped_capacity
-        p[kernels.P_K_REST] = self._k_rest
-        p[kernels.P_Q0] = self._q_ult0
-        p[kernels.P_Q_SLOPE] = self._q_ult_slope
-        p[kernels.P_K_MOB] = self._k_mob
-        p[kernels.P_MU] = math.tan(soil.delta)
-        p[kernels.P_V_EPS] = scene.bucket.friction_velocity_m_s
-        p[kernels.P_K_ROCK] = scene.bucket.rock_stiffness_n_per_m
-        p[kernels.P_RAKE_MIN] = max(self.table.rake_min, MIN_RAKE_RAD)
-        p[kernels.P_M_REF] = scene.bucket.friction_mass_kg
-        self._params = p
-        self._state = np.zeros(kernels.S_LEN)
-        self._out = np.zeros(kernels.O_LEN)
+        self._table = soil_records.filled(soil_records.WEDGE_ROW, len(tb.rake), beta_rad=tb.beta, n_gamma=tb.n_gamma,
+                                          n_c=tb.n_c, n_a=tb.n_a, denominator=tb.denominator)
+        self._pressure = np.zeros(n_prof * n_w)
+        self._state = np.zeros(1, soil_records.STATE)
+        self._load_m3 = self._state["load_m3"]  # field views, read and set from Python
+        self._cut_force_n = self._state["cut_force_n"]
+        self._out = np.zeros(1, soil_records.OUT)
+        self._out_f8 = self._out.view(np.float64)  # the same bytes: a step's snapshot is a plain copy
+        self._window = self._out["window"][0]
         self._vel6 = np.zeros(6)
         self.spoil = 0.0
         self._since_settle = 0.0
-        self._window = np.zeros(4, np.int64)
         self._hfield = self.grid.hfield_view(model)
-        self._load_centroid = self.bucket.load_centroid
         self.initial_volume = self.volumes().total
         self.grid.write_hfield(self._hfield)
 
@@ -230,33 +253,29 @@ class SoilModel:
     @property
     def load(self) -> float:
         """Soil in the bucket [m^3]."""
-        return float(self._state[kernels.S_LOAD])
+        return float(self._load_m3[0])
 
     @load.setter
     def load(self, value: float) -> None:
-        self._state[kernels.S_LOAD] = value
+        self._load_m3[0] = value
 
     @property
     def cut_force_state(self) -> float:
         """The elastic cutting force built up in the wedge ahead of the edge [N]."""
-        return float(self._state[kernels.S_CUT_FORCE])
+        return float(self._cut_force_n[0])
 
     def step(self, data: mujoco.MjData, dt: float) -> SoilContact:
         """Advance the soil by one control step of ``dt`` seconds and return its action on the bucket."""
         b = self.bucket
         grid = self.grid
-        cfg = self.scene.bucket
         mujoco.mj_objectVelocity(self.model, data, mujoco.mjtObj.mjOBJ_BODY, b.body_id, self._vel6, 0)
-        self._params[kernels.P_DT] = dt
-        out = self._out
-        tb = self.table
-        kernels.soil_step(grid.heights, grid.x0, grid.y0, grid.cell, grid.z0, data.xpos, data.xmat, data.xipos,
-                          data.site_xmat, b.body_id, b.tip_site_id, self._vel6, self._edge_pack, self._surf_pack,
-                          self._sigma, tb.rake_min, tb.rake_step, self._table_pack, self.strength, self.rocks,
-                          self._state, self._params, self._window, out)
-        out = out.copy()
-        cut_volume = float(out[kernels.O_CUT])
-        spilled = cut_volume - float(out[kernels.O_TAKE])
+        kernels.soil_step(grid.heights, self.strength, self._grid_record, (data.xpos, data.xmat, data.xipos,
+                          data.site_xmat), self._vel6, self._bucket_record, self._edge, self._surface, self._table,
+                          self.rocks, self.params, dt, self._state, self._pressure, self._out)
+        out = self._out_f8.copy()  # this step's own snapshot
+        cut_volume = float(out[_OUT["cut_volume_m3"]])
+        spilled = cut_volume - float(out[_OUT["taken_volume_m3"]])
+        depth = out[_OUT["depth_m"]]
         poured = 0.0
         if cut_volume > 0:
             w = self._window
@@ -264,9 +283,9 @@ class SoilModel:
             if spilled > 0:  # full bucket: the cut soil piles up just ahead of the edge
                 rot = data.xmat[b.body_id].reshape(3, 3)
                 edge = b.edge @ rot.T + data.xpos[b.body_id]
-                drop = edge + out[kernels.O_AHEAD:kernels.O_AHEAD + 3] * (2 * grid.cell)
+                drop = edge + out[_OUT["ahead"]] * (2 * grid.cell)
                 self.spoil += grid.deposit(drop[:, 0], drop[:, 1], np.full(len(drop), spilled / len(drop)))
-        elif out[kernels.O_DEPTH] == 0.0 and self.load > 0.0:
+        elif depth == 0.0 and self.load > 0.0:
             poured = self._pour(data, out)
         if cut_volume > 0 or poured > 0:
             window = grid.peek_dirty()
@@ -274,7 +293,7 @@ class SoilModel:
                 grid.write_hfield(self._hfield, window)
         # The bucket holds up the faces it has just cut: settle only once the edge is out of the soil.
         self._since_settle += dt
-        if self._since_settle >= self.scene.settle.interval_s - 1e-12 and out[kernels.O_DEPTH] == 0.0:
+        if self._since_settle >= self.scene.settle.interval_s - 1e-12 and depth == 0.0:
             self.settle_changes()
         return SoilContact(float(data.time), out, spilled, poured)
 
@@ -297,10 +316,11 @@ class SoilModel:
         # the load's weight in the wrench was computed before pouring
         dw = self._gamma_g * poured
         arm = rot @ b.load_centroid + org - data.xipos[b.body_id]
-        out[kernels.O_WEIGHT] += dw
-        out[kernels.O_FORCE + 2] += dw
-        out[kernels.O_TORQUE] += arm[1] * dw
-        out[kernels.O_TORQUE + 1] -= arm[0] * dw
+        force, torque = out[_OUT["force_n"]], out[_OUT["torque_nm"]]
+        out[_OUT["load_weight_z_n"]] += dw
+        force[2] += dw
+        torque[0] += arm[1] * dw
+        torque[1] -= arm[0] * dw
         return poured
 
     # -- settlement -----------------------------------------------------------------------------

@@ -1,0 +1,238 @@
+"""The records the compiled soil kernel reads and writes: numpy structured dtypes with named fields.
+
+:func:`excavsim.world.kernels.soil_step` takes the grid's and the bucket's geometry, the wedge table,
+its parameters, its state and its output as these records and reads and writes them by field name
+(numba compiles a field access to a load at a fixed offset, and a sub-array field to a view). A new
+term of the model is a field here, set in :class:`~excavsim.world.soil.SoilModel`, and used in the
+kernel. Single records (the grid, the bucket, the parameters, the state, the output) travel as
+arrays of shape ``(1,)``, per-sample records (the bucket surface, the wedge table) as ``(n,)``.
+
+Frames: "body" is the bucket body frame, "world" MuJoCo's world frame. 3-vector fields are ``(3,)``
+float64 sub-arrays. The records are aligned (``align=True``) and the output's fields are all 8 bytes
+wide, so that a step's output is copied and read as plain float64 (:func:`float64_slots`).
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+_F8 = np.float64
+_V3 = (3,)  # the shape of a 3-vector field
+
+GRID = np.dtype([
+    ("x0_m", _F8),
+    ("y0_m", _F8),
+    ("cell_m", _F8),
+    ("z0_m", _F8),
+], align=True)
+"""Where the terrain grid lies (:class:`~excavsim.world.terrain.SoilGrid`; ``heights[row, col]``).
+
+Fields:
+    x0_m, y0_m: world position of sample (0, 0) [m]; columns run along x, rows along y.
+    cell_m: sample spacing [m].
+    z0_m: world height of the box floor, height 0 of the grid [m].
+"""
+
+BUCKET = np.dtype([
+    ("body_id", np.int64),
+    ("tip_site_id", np.int64),
+    ("width_m", _F8),
+    ("edge_ends_m", _F8, (2, 3)),
+    ("load_centroid_m", _F8, _V3),
+], align=True)
+"""The bucket's fixed geometry besides its samples (:class:`~excavsim.world.bucket.BucketGeometry`).
+
+Fields:
+    body_id: MuJoCo id of the bucket body (its ``xpos``, ``xmat``, ``xipos`` rows are read).
+    tip_site_id: MuJoCo id of the ``bucket_tip`` site, whose frame gives the tip axes ``x_t``, ``z_t``.
+    width_m: inner width of the bucket, the width that cuts [m].
+    edge_ends_m: (2, 3) the two ends of the cutting edge, half a width sample beyond the outer edge
+        samples, body frame [m].
+    load_centroid_m: where the load's weight acts, the centroid of the bucket interior, body frame [m].
+"""
+
+SURFACE_SAMPLE = np.dtype([
+    ("point_m", _F8, _V3),
+    ("normal", _F8, _V3),
+    ("area_m2", _F8),
+    ("active", np.bool_),
+], align=True)
+"""One sample of the bucket's outer surface, where bearing pressure and friction act.
+
+Fields:
+    point_m: the sample point, body frame [m].
+    normal: outward unit normal of the outer surface there, body frame.
+    area_m2: surface area the sample stands for [m^2].
+    active: whether it bears on the soil; False on the cutting face near the edge, whose resistance
+        the wedge model already accounts for.
+"""
+
+WEDGE_ROW = np.dtype([
+    ("beta_rad", _F8),
+    ("n_gamma", _F8),
+    ("n_c", _F8),
+    ("n_a", _F8),
+    ("denominator", _F8),
+], align=True)
+"""One rake of the wedge table (:class:`~excavsim.mechanics.wedge.WedgeTable`), row ``i`` at rake
+``table_rake0_rad + i * table_rake_step_rad`` (:data:`PARAMS`); linear interpolation between rows.
+
+Fields:
+    beta_rad: critical failure angle beta [rad].
+    n_gamma, n_c, n_a: the N factors of weight, cohesion and adhesion (eqs. 5, 8) [-].
+    denominator: the denominator D of eq. 5, which divides the surcharge's weight [-].
+"""
+
+PARAMS = np.dtype([
+    ("gamma_g_n_m3", _F8),
+    ("cohesion_pa", _F8),
+    ("adhesion_pa", _F8),
+    ("sin_delta", _F8),
+    ("cos_delta", _F8),
+    ("mu", _F8),
+    ("rake_min_rad", _F8),
+    ("table_rake0_rad", _F8),
+    ("table_rake_step_rad", _F8),
+    ("cut_stiffness_n_per_m", _F8),
+    ("load_surcharge_fraction", _F8),
+    ("capacity_m3", _F8),
+    ("speed_coefficient_s_per_m", _F8),
+    ("sawtooth_amplitude", _F8),
+    ("k_rest_pa_per_m", _F8),
+    ("q_ult0_pa", _F8),
+    ("q_ult_slope_pa_per_m", _F8),
+    ("k_mob_pa_per_m", _F8),
+    ("friction_velocity_m_s", _F8),
+    ("friction_mass_kg", _F8),
+    ("rock_stiffness_n_per_m", _F8),
+], align=True)
+"""The constants of the bucket-soil interaction over an episode (see :mod:`excavsim.world.soil`).
+
+Fields:
+    gamma_g_n_m3: unit weight of the soil, density times gravity [N/m^3].
+    cohesion_pa, adhesion_pa: the soil's cohesion c and the soil-tool adhesion c_a [Pa].
+    sin_delta, cos_delta: of the soil-tool friction angle delta, which sets the wedge force's
+        direction (eq. 8) [-].
+    mu: soil-tool friction coefficient ``tan(delta)`` of the outer surface [-].
+    rake_min_rad: the wedge factors are held at this rake below it [rad].
+    table_rake0_rad, table_rake_step_rad: the wedge table's uniform rake grid, first rake and
+        spacing [rad].
+    cut_stiffness_n_per_m: how fast the cutting force builds with the edge's travel into soil [N/m].
+    load_surcharge_fraction: share of the load in the bucket that bears on the wedge [-].
+    capacity_m3: heaped capacity of the bucket; cut soil beyond it spills ahead [m^3].
+    speed_coefficient_s_per_m: truth term, the failure force grows by ``1 + k v`` with the edge
+        speed ``v`` (Fig. 63) [s/m].
+    sawtooth_amplitude: truth term, the fraction of the failure force that builds up and is
+        released over each failure surface (Fig. 54) [-].
+    k_rest_pa_per_m: at-rest earth pressure per metre of depth, ``K0 gamma g`` [Pa/m].
+    q_ult0_pa, q_ult_slope_pa_per_m: bearing capacity at the surface and its growth with depth,
+        ``q_ult = q_ult0 + slope p`` [Pa], [Pa/m].
+    k_mob_pa_per_m: bearing pressure mobilized per metre the surface moves into the soil [Pa/m].
+    friction_velocity_m_s: slip speed below which friction is regularized, at least [m/s].
+    friction_mass_kg: lower bound on the bucket's effective mass that keeps the friction's implied
+        damping stable over a control step [kg].
+    rock_stiffness_n_per_m: contact stiffness of buried rocks on the edge samples [N/m].
+"""
+
+STATE = np.dtype([
+    ("prev_edge_ends_m", _F8, (2, 3)),
+    ("prev_edge_centre_m", _F8, _V3),
+    ("cut_force_n", _F8),
+    ("shear_travel_m", _F8),
+    ("load_m3", _F8),
+    ("has_prev", np.bool_),
+], align=True)
+"""What the interaction carries from one control step to the next (besides the bearing pressures).
+
+Fields:
+    prev_edge_ends_m: (2, 3) the cutting edge's two ends at the last step, world frame [m].
+    prev_edge_centre_m: the centre of the edge samples at the last step, world frame [m].
+    cut_force_n: the elastic cutting force built up in the wedge ahead of the edge [N].
+    shear_travel_m: the edge's total travel into soil, the phase of the saw-tooth [m].
+    load_m3: soil in the bucket [m^3].
+    has_prev: False until the first step has set the previous edge.
+"""
+
+OUT = np.dtype([
+    ("depth_m", _F8),
+    ("rake_rad", _F8),
+    ("cutting_speed_m_s", _F8),
+    ("wedge_failure_force_n", _F8),
+    ("cutting_force_n", _F8, _V3),
+    ("bearing_force_n", _F8, _V3),
+    ("rock_force_n", _F8, _V3),
+    ("force_n", _F8, _V3),
+    ("torque_nm", _F8, _V3),
+    ("cut_volume_m3", _F8),
+    ("taken_volume_m3", _F8),
+    ("max_penetration_m", _F8),
+    ("ahead", _F8, _V3),
+    ("edge_centre_m", _F8, _V3),
+    ("load_weight_z_n", _F8),
+    ("window", np.int64, (4,)),
+], align=True)
+"""What one control step of the interaction produces (forces on the bucket, world frame).
+
+Fields:
+    depth_m: mean depth of the edge samples below the surface just ahead of them [m].
+    rake_rad: rake of the blade [rad].
+    cutting_speed_m_s: the edge's speed into the soil, against the wedge force [m/s].
+    wedge_failure_force_n: failure force of the wedge with the truth terms [N].
+    cutting_force_n: the wedge's force on the bucket [N].
+    bearing_force_n: bearing pressure and friction on the outer surface [N].
+    rock_force_n: the rocks' push on the edge samples [N].
+    force_n: the total, cutting + bearing + rocks + the load's weight [N].
+    torque_nm: the total moment about the bucket's centre of mass [N m].
+    cut_volume_m3: soil cut from the terrain this step [m^3].
+    taken_volume_m3: the part of it that entered the bucket; the rest spills ahead [m^3].
+    max_penetration_m: deepest outer-surface sample below the surface [m].
+    ahead: horizontal unit vector along which the blade pushes the soil, where spill lands.
+    edge_centre_m: centre of the edge samples [m].
+    load_weight_z_n: vertical component of the load's weight (negative, downwards) [N].
+    window: the rows and columns changed by the cut, ``[r0, r1, c0, c1)``; ``r0 > r1`` when none.
+"""
+
+
+def filled(dtype: np.dtype, n: int = 1, **fields) -> np.ndarray:
+    """``n`` records of ``dtype`` (a ``(n,)`` array) with every field set from ``fields``.
+
+    A field's value is broadcast over the records (a scalar, or a 3-vector for a 3-vector field) or
+    gives one per record (shape ``(n, ...)``). Every field must be given, so that a field added to a
+    dtype cannot be left at zero by mistake.
+
+    Raises:
+        TypeError: ``fields`` miss a field of ``dtype`` or name one it does not have.
+    """
+    missing = [name for name in dtype.names if name not in fields]
+    unknown = [name for name in fields if name not in dtype.names]
+    if missing or unknown:
+        raise TypeError(f"record fields: missing {missing}, unknown {unknown}; the fields are {list(dtype.names)}")
+    out = np.zeros(n, dtype)
+    for name, value in fields.items():
+        out[name] = value
+    return out
+
+
+def float64_slots(dtype: np.dtype) -> dict[str, int | slice]:
+    """Where each float64 field of ``dtype`` lies in a record's float64 view (``rec.view(np.float64)``).
+
+    A plain float64 copy of a record is much cheaper than numpy's field-by-field copy of a
+    structured array; these are the positions to read it at: an index for a scalar field, a slice
+    for a sub-array field (flattened). Fields of other types are left out.
+
+    Raises:
+        TypeError: ``dtype`` has no float64 view (its size or a float64 field's offset is not a
+            multiple of 8 bytes).
+    """
+    if dtype.itemsize % 8:
+        raise TypeError(f"a record of {dtype.itemsize} bytes has no float64 view; use align=True")
+    slots: dict[str, int | slice] = {}
+    for name in dtype.names:
+        field, offset = dtype.fields[name][:2]
+        if field.base != np.float64:
+            continue
+        if offset % 8:
+            raise TypeError(f"field {name!r} at byte {offset} is not on a float64 boundary; use align=True")
+        start, size = offset // 8, int(np.prod(field.shape, dtype=int))
+        slots[name] = start if field.shape == () else slice(start, start + size)
+    return slots
