@@ -82,7 +82,7 @@ class SettleConfig(StrictModel):
 
 
 class SoilTruthConfig(StrictModel):
-    """What the static wedge model misses: truth-only terms of the world's soil (DESIGN.md §1).
+    """What the static wedge model misses: truth-only terms of the world's soil (the planner never sees them).
 
     The planner's nominal model is eq. 8 alone; the world adds these so that predictions are
     approximate, as they were on the real testbed (000_a3ca905d8c6d92bf.txt §5.1.3).

@@ -181,7 +181,7 @@ def test_scene_builder_uses_pymjcf_and_keeps_unprefixed_names():
 
 
 def test_the_planner_and_map_builder_import_no_simulator():
-    """DESIGN.md §2: planning (and what it consumes) knows nothing of MuJoCo or Rerun."""
+    """At run time too (the contracts check the import graph): planning and learning load no MuJoCo or Rerun."""
     import subprocess
     import sys
 

@@ -16,6 +16,7 @@ import numpy as np
 
 from excavsim import constants
 from excavsim.errors import ModelError
+from excavsim.readouts import element_id
 
 
 def _polygon_centroid(xz: np.ndarray) -> tuple[np.ndarray, float]:
@@ -62,15 +63,13 @@ class BucketGeometry:
     @classmethod
     def from_model(cls, model: mujoco.MjModel, *, spacing_m: float = 0.02, n_width: int = 7) -> BucketGeometry:
         """Sample the bucket profile of ``model`` every ``spacing_m`` along it, ``n_width`` across."""
-        body = mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_BODY, constants.BUCKET_BODY)
-        tip = mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_SITE, constants.BUCKET_TIP_SITE)
-        if body < 0 or tip < 0:
-            raise ModelError("the model has no bucket body or bucket_tip site")
+        body = element_id(model, "body", constants.BUCKET_BODY)
+        tip = element_id(model, "site", constants.BUCKET_TIP_SITE)
         corners = []
         for i in range(constants.N_BUCKET_PROFILE_SITES):
-            sid = mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_SITE, f"{constants.BUCKET_PROFILE_SITE_PREFIX}{i}")
-            if sid < 0 or model.site_bodyid[sid] != body:
-                raise ModelError(f"profile site {i} missing or not on the bucket body")
+            sid = element_id(model, "site", f"{constants.BUCKET_PROFILE_SITE_PREFIX}{i}")
+            if model.site_bodyid[sid] != body:
+                raise ModelError(f"profile site {i} is not on the {constants.BUCKET_BODY!r} body")
             corners.append(model.site_pos[sid].copy())
         corners = np.asarray(corners)
         if np.abs(corners[:, 1]).max() > 1e-9:
@@ -78,9 +77,7 @@ class BucketGeometry:
         xz = corners[:, [0, 2]]
 
         def numeric(name: str) -> float:
-            nid = mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_NUMERIC, name)
-            if nid < 0:
-                raise ModelError(f"custom numeric {name!r} missing from the model")
+            nid = element_id(model, "numeric", name)
             return float(model.numeric_data[model.numeric_adr[nid]])
 
         width = numeric(constants.BUCKET_WIDTH_NUMERIC)

@@ -8,7 +8,7 @@ F/T sensor measures it. Forces are held constant over the physics substeps of a 
 
 Model (and where it simplifies):
 
-* **Cutting** (DESIGN.md §3): samples swept by the cutting edge are lowered to the edge's height; the
+* **Cutting** (§7.1, §5.1.2): samples swept by the cutting edge are lowered to the edge's height; the
   removed volume enters the bucket up to its heaped capacity; beyond it the cut soil is deposited
   just ahead of the edge (surcharge) and spreads by settlement. Only the edge reshapes the terrain:
   the bottom and back of the bucket press on the soil (below) but do not displace it.

@@ -21,6 +21,7 @@ import numpy as np
 
 from excavsim import constants
 from excavsim.errors import ModelError
+from excavsim.readouts import element_id
 
 
 @dataclasses.dataclass
@@ -46,10 +47,8 @@ class SoilGrid:
     @classmethod
     def from_model(cls, model: mujoco.MjModel, fill_height_m: float) -> SoilGrid:
         """A flat fill at ``fill_height_m`` over the hfield of ``model`` (its soil geom's placement)."""
-        hid = mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_HFIELD, constants.SOIL_HFIELD)
-        gid = mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_GEOM, constants.SOIL_GEOM)
-        if hid < 0 or gid < 0:
-            raise ModelError(f"the model has no hfield/geom named {constants.SOIL_HFIELD!r}")
+        hid = element_id(model, "hfield", constants.SOIL_HFIELD)
+        gid = element_id(model, "geom", constants.SOIL_GEOM)
         data = mujoco.MjData(model)
         mujoco.mj_kinematics(model, data)
         sx, sy, elevation, _ = model.hfield_size[hid]
@@ -174,7 +173,7 @@ class SoilGrid:
     # -- MuJoCo view ----------------------------------------------------------------------------
     def hfield_view(self, model: mujoco.MjModel) -> np.ndarray:
         """The model's soil hfield data as a writable (n_rows, n_cols) view."""
-        hid = mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_HFIELD, constants.SOIL_HFIELD)
+        hid = element_id(model, "hfield", constants.SOIL_HFIELD)
         nrow, ncol = int(model.hfield_nrow[hid]), int(model.hfield_ncol[hid])
         if (nrow, ncol) != self.heights.shape:
             raise ModelError(f"hfield is {nrow}x{ncol}, the soil grid {self.heights.shape}")
