@@ -1,0 +1,107 @@
+"""``configs/planner.yaml`` and ``configs/trenches/*.yaml``: the planner's rules, grid and objective; trench goals."""
+
+from __future__ import annotations
+
+import pathlib
+
+from pydantic import Field, model_validator
+
+from excavsim import constants
+from excavsim.config.loader import StrictModel, load_config
+
+class TrenchGoal(StrictModel):
+    """``configs/trenches/*.yaml``: a trench to dig, as a 2-D profile in the arm plane (§3.4, Fig. 37).
+
+    The arm plane is set by ``waist_deg``; x is the radial distance from the waist axis. The trench
+    opens between ``near_x_m`` (towards the robot) and ``far_x_m`` at ``surface_z_m`` and goes down
+    ``depth_m``, with walls at the given angles from horizontal (90 = vertical). Its width is the
+    bucket's. Nothing below the profile may be cut; above it everything may.
+    """
+
+    name: str = Field(default="", description="label for logs")
+    waist_deg: float = Field(default=0.0, ge=-45, le=100, description="waist angle of the arm plane [deg]")
+    near_x_m: float = Field(gt=0, le=4, description="radial distance of the trench's near edge [m]")
+    far_x_m: float = Field(gt=0, le=4, description="radial distance of the trench's far edge [m]")
+    surface_z_m: float = Field(default=0.5, ge=0, le=1.4, description="height the depth is measured from [m]")
+    depth_m: float = Field(gt=0, le=1.0, description="depth of the trench bottom [m]")
+    near_wall_deg: float = Field(default=60.0, gt=0, le=90, description="near wall angle from horizontal [deg]")
+    far_wall_deg: float = Field(default=60.0, gt=0, le=90, description="far wall angle from horizontal [deg]")
+
+    @model_validator(mode="after")
+    def _order(self) -> TrenchGoal:
+        if self.far_x_m <= self.near_x_m:
+            raise ValueError(f"far_x_m={self.far_x_m} must be greater than near_x_m={self.near_x_m}")
+        return self
+
+
+class PlannerGrid(StrictModel):
+    """The discretized action space (k, alpha, d1) of the trenching action (§3.4.1, ch. 6)."""
+
+    k_min_m: float = Field(default=1.4, gt=0, le=4)
+    k_max_m: float = Field(default=3.3, gt=0, le=4)
+    k_step_m: float = Field(default=0.1, gt=0, le=1)
+    alpha_min_deg: float = Field(default=0.0, ge=0, le=89)
+    alpha_max_deg: float = Field(default=45.0, ge=0, le=89)
+    alpha_step_deg: float = Field(default=5.0, gt=0, le=45)
+    d1_min_m: float = Field(default=0.02, gt=0, le=1)
+    d1_max_m: float = Field(default=0.50, gt=0, le=1.5)
+    d1_step_m: float = Field(default=0.01, gt=0, le=0.5)
+
+    @model_validator(mode="after")
+    def _ranges(self) -> PlannerGrid:
+        for lo, hi in (("k_min_m", "k_max_m"), ("alpha_min_deg", "alpha_max_deg"), ("d1_min_m", "d1_max_m")):
+            if getattr(self, lo) > getattr(self, hi):
+                raise ValueError(f"{lo}={getattr(self, lo)} exceeds {hi}={getattr(self, hi)}")
+        return self
+
+
+class PlannerConfig(StrictModel):
+    """``configs/planner.yaml``: the trenching action's rules, the search grid and the objective."""
+
+    epsilon_deg: float = Field(default=10.0, ge=0, le=45, description="rake = alpha + epsilon while penetrating")
+    omega_deg_per_m: float = Field(default=50.0, ge=0, le=500, description="rake decrease per metre of drag")
+    zeta_deg: float = Field(default=8.0, ge=-30, le=60, description="smallest rake during the drag, zeta(omega)")
+    sample_spacing_m: float = Field(default=0.025, gt=0, le=0.2, description="trajectory sample spacing [m]")
+    d2_max_m: float = Field(default=1.2, gt=0, le=3, description="longest drag considered [m]")
+    curl_end_pitch_deg: float = Field(default=-30.0, ge=-120, le=60, description="pitch at the end of the curl")
+    curl_radii_m: list[float] = Field(default=[0.35, 0.4, 0.5, 0.6, 0.8], min_length=1,
+                                      description="curl radii tried, smallest first (§3.4.2.4)")
+    curl_samples: int = Field(default=10, ge=2, le=100, description="samples along the curl")
+    curl_exit_pitch_deg: float = Field(
+        default=0.0, ge=-120, le=60, description="the pitch the bucket must have reached when its edge leaves the soil"
+    )
+    fill_fraction: float = Field(default=1.0, gt=0, le=2, description="volume limit as a fraction of capacity")
+    objective: str = Field(default="lexicographic",
+                           description="volume | peak_torque | cumulative_torque | lexicographic (eq. 44)")
+    volume_threshold: float = Field(default=0.9, ge=0, le=2,
+                                    description="eq. 44: digs must sweep this fraction of capacity")
+    min_volume_fraction: float = Field(default=0.1, ge=0, le=1, description="below this: no dig")
+    shaping_tolerance_m: float = Field(default=0.005, ge=0, le=0.1)
+    fallback_clearance_m: float = Field(default=0.01, ge=0, le=0.2,
+                                        description="boundary-following digs stay this far above the goal [m]")
+    fallback_bottom_step_m: float = Field(default=0.1, gt=0, le=1, description="spacing of bottom fallback digs [m]")
+    fallback_min_volume_fraction: float = Field(default=0.02, ge=0, le=1,
+                                                description="a boundary dig must sweep this fraction of capacity")
+    surface_tolerance_m: float = Field(default=0.01, ge=0, le=0.2)
+    payload_com_tip_m: list[float] = Field(default=[-0.2, 0.12], min_length=2, max_length=2,
+                                           description="centre of the load in the tip frame (x, z) [m]")
+    grid: PlannerGrid = PlannerGrid()
+
+    @model_validator(mode="after")
+    def _objective(self) -> PlannerConfig:
+        allowed = ("volume", "peak_torque", "cumulative_torque", "lexicographic")
+        if self.objective not in allowed:
+            raise ValueError(f"objective={self.objective!r}; allowed: {', '.join(allowed)}")
+        if sorted(self.curl_radii_m) != list(self.curl_radii_m) or min(self.curl_radii_m) <= 0:
+            raise ValueError(f"curl_radii_m={self.curl_radii_m} must be positive and increasing")
+        return self
+
+
+def load_planner_config(path: str | pathlib.Path | None = None) -> PlannerConfig:
+    """Load ``configs/planner.yaml`` (or ``path``)."""
+    return load_config(path or constants.PLANNER_YAML, PlannerConfig)
+
+
+def load_trench_goal(path: str | pathlib.Path) -> TrenchGoal:
+    """Load a trench goal (``configs/trenches/*.yaml``)."""
+    return load_config(path, TrenchGoal)

@@ -1,0 +1,64 @@
+"""``configs/sensing.yaml``: the laser scanner and its errors, the elevation map, the F/T sensor's rate."""
+
+from __future__ import annotations
+
+import pathlib
+
+from pydantic import Field
+
+from excavsim import constants
+from excavsim.config.loader import StrictModel, load_config
+
+class ScannerConfig(StrictModel):
+    """The laser range scanner (000_a3ca905d8c6d92bf.txt §7.1.2) and its errors."""
+
+    n_azimuth: int = Field(default=200, ge=4, le=4000, description="rays across the image")
+    n_elevation: int = Field(default=200, ge=4, le=4000, description="rays down the image")
+    margin_deg: float = Field(default=1.0, ge=0, le=20, description="field of view beyond the box corners [deg]")
+    range_noise_m: float = Field(default=0.01, ge=0, le=1, description="std of Gaussian range noise [m]")
+    scale_drift_per_scan: float = Field(
+        default=0.002, ge=0, le=0.1, description="std of the scale's random-walk step between scans"
+    )
+    offset_drift_m_per_scan: float = Field(
+        default=0.005, ge=0, le=1, description="std of the offset's random-walk step between scans [m]"
+    )
+    pose_error_deg: float = Field(
+        default=0.15, ge=0, le=10, description="std of the mount's fixed misalignment per axis, per episode [deg]"
+    )
+    drift_memory: float = Field(
+        default=0.95, ge=0, le=1, description="fraction of the scale/offset error kept from one scan to the next"
+    )
+    grazing_dropout_deg: float = Field(
+        default=80.0, gt=0, le=90, description="incidence from the surface normal beyond which returns drop out [deg]"
+    )
+    dropout_probability: float = Field(default=0.002, ge=0, le=1, description="random dropout probability per ray")
+    outlier_probability: float = Field(default=0.002, ge=0, le=1, description="probability of a wild range per ray")
+    max_range_m: float = Field(default=8.0, gt=0, le=100, description="no return beyond this range [m]")
+    target_rays: int = Field(default=3, ge=1, le=15, description="rays per side of the patch aimed at each target")
+
+
+class ElevationMapConfig(StrictModel):
+    """How scans become an elevation map (§7.1.2)."""
+
+    cell_size_m: float = Field(default=0.05, ge=0.01, le=0.5, description="map cell size [m]")
+    n_scans: int = Field(default=10, ge=1, le=100, description="range images median-filtered per map")
+    calibrate: bool = Field(default=True, description="fit scale and offset to the surveyed targets every scan")
+
+
+class ForceSensorConfig(StrictModel):
+    """The wrist F/T sensor as the robot reads it (§7.1.3)."""
+
+    rate_hz: float = Field(default=10.0, gt=0, le=1000, description="sample rate of F/T readings [Hz]")
+
+
+class SensingConfig(StrictModel):
+    """``configs/sensing.yaml``: scanner, elevation map and F/T sensor."""
+
+    scanner: ScannerConfig = ScannerConfig()
+    map: ElevationMapConfig = ElevationMapConfig()
+    force_sensor: ForceSensorConfig = ForceSensorConfig()
+
+
+def load_sensing_config(path: str | pathlib.Path | None = None) -> SensingConfig:
+    """Load ``configs/sensing.yaml`` (or ``path``)."""
+    return load_config(path or constants.SENSING_YAML, SensingConfig)
