@@ -309,7 +309,8 @@ def bench_planner(*, n_loop: int = 150) -> list[Row]:
     soil = get_soil("testbed_sand")
     width = float(model.numeric(constants.BUCKET_WIDTH_NUMERIC).data[0])
     capacity = float(model.numeric(constants.BUCKET_CAPACITY_NUMERIC).data[0])
-    planner = TrenchPlanner(arm, table, limits, width, capacity, load_trench_goal(constants.TRENCHES_DIR / "straight.yaml"),
+    goal = load_trench_goal(constants.TRENCHES_DIR / "straight.yaml")
+    planner = TrenchPlanner(arm, table, limits, width, capacity, goal,
                             load_planner_config(), WedgePredictor(soil, width), soil.density_kg_m3)
     emap = ElevationMap(0.55, -1.5, 0.05, np.full((60, 60), 0.5), np.ones((60, 60), bool), 0.0)
     result = {}
@@ -404,7 +405,8 @@ def bench_episode(*, dig_budget: int = 20, seed: int = 0) -> list[Row]:
     other = wall - sim.step_s - planning - phases.scan_s
     return [
         ("episode: wall time", wall, "s", f"{n} digs ({sum(d.kind != 'planned' for d in res.digs)} fallback), "
-                                         f"{100 * res.removed_fraction:.0f} % removed, ended {res.end}; target <= 60 s"),
+                                         f"{100 * res.removed_fraction:.0f} % removed, ended {res.end}; "
+                                         "target <= 60 s"),
         ("episode: wall time per dig", wall / max(n, 1), "s", "scan + map + plan + dig + settle"),
         ("episode: simulated / wall", res.sim_time_s / wall, "x", f"{res.sim_time_s:.0f} s simulated; target >= 50"),
         ("episode: bare arm, same commands", res.sim_time_s / t_bare, "x", "simulated / wall, soil off, no loop"),

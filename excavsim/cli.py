@@ -262,7 +262,8 @@ def build_parser() -> argparse.ArgumentParser:
     trench.add_argument("--spec", metavar="YAML", help="an episode specification (goal, soil, seed, budget, "
                                                        "configuration overrides; e.g. configs/regress/small_sand.yaml)")
     trench.add_argument("--goal", metavar="NAME|YAML",
-                        help="trench goal: a name of configs/trenches (sand, straight, small) or a YAML file (default sand)")
+                        help="trench goal: a name of configs/trenches (sand, straight, small) or a YAML file "
+                             "(default sand)")
     trench.add_argument("--soil", metavar="NAME", help="soil preset of configs/soils.yaml (default: the scene's)")
     trench.add_argument("--dig-budget", type=int, metavar="N", help="most digs to try (default 20)")
     trench.add_argument("--record", metavar="FILE.rrd", help="record the episode to a Rerun file (see `replay`)")

@@ -135,9 +135,11 @@ def format_episode(res: EpisodeResult) -> str:
                      f"{1000 * d.bucket_m3:6.1f} {d.efficiency:5.2f} {d.outcome:<15} {d.stall_joint or '-':<18} "
                      f"{d.peak_torque_nm[3]:10.0f}")
     lines += ["", f"ended: {res.reason}",
-              f"removed {1000 * res.removed_m3:.1f} l of {1000 * res.goal_m3:.1f} l ({100 * res.removed_fraction:.0f} %); "
+              f"removed {1000 * res.removed_m3:.1f} l of {1000 * res.goal_m3:.1f} l "
+              f"({100 * res.removed_fraction:.0f} %); "
               f"over-dig max {100 * res.overdig_max_m:.1f} cm (RMS {100 * res.overdig_rms_m:.1f}); under-dig max "
               f"{100 * res.underdig_max_m:.1f} cm (RMS {100 * res.underdig_rms_m:.1f})",
               f"{len(res.digs)} digs, {sum(d.stall_joint is not None for d in res.digs)} stalls; simulated "
-              f"{res.sim_time_s:.0f} s in {res.wall_time_s:.1f} s wall; soil volume change {res.volume_change_m3:.1e} m^3"]
+              f"{res.sim_time_s:.0f} s in {res.wall_time_s:.1f} s wall; "
+              f"soil volume change {res.volume_change_m3:.1e} m^3"]
     return "\n".join(lines)

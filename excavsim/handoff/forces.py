@@ -3,10 +3,11 @@
 The planner's force constraint (000_a3ca905d8c6d92bf.txt §5.3) takes any object with a ``predict``
 method (:class:`ForcePredictor`); the nominal one is the wedge model (eq. 8,
 :class:`~excavsim.planning.predictor.WedgePredictor`) with the configured soil, which the world's
-soil deliberately differs from. Learned predictors (§5.2, :mod:`excavsim.learning`) plug in too: besides depth, rake and swept volume, every query carries
-a :class:`DigContext` with what their bases (eqs. 15-17) need, namely the tip poses, where each sample lies
-on its dig (entry ``k``, approach angle ``alpha``, distance moved along ``d1`` and along ``d2``,
-Fig. 66) and the mapped surface the candidates were planned on. The wedge model ignores it.
+soil deliberately differs from. Learned predictors (§5.2, :mod:`excavsim.learning`) plug in too:
+besides depth, rake and swept volume, every query carries a :class:`DigContext` with what their
+bases (eqs. 15-17) need, namely the tip poses, where each sample lies on its dig (entry ``k``,
+approach angle ``alpha``, distance moved along ``d1`` and along ``d2``, Fig. 66) and the mapped
+surface the candidates were planned on. The wedge model ignores it.
 """
 
 from __future__ import annotations

@@ -83,9 +83,10 @@ def collect_dataset(*, soil: str | None = None, digs: int = 30, seed: int = 0, g
     while len(parts) < digs:
         sim = Simulation(cfg.robot, cfg.scene, seed=1000 * seed + bed)
         collector = _Collector(parts, digs, bed, wall0, say)
-        result = run_episode(sim, seed=1000 * seed + bed, goal=cfg.goal, dig_budget=min(digs_per_bed, digs - len(parts)),
-                             done_fraction=None, planner_cfg=cfg.planner, executor_cfg=cfg.executor,
-                             sensing_cfg=cfg.sensing, digs=source, observer=collector)
+        budget = min(digs_per_bed, digs - len(parts))
+        result = run_episode(sim, seed=1000 * seed + bed, goal=cfg.goal, dig_budget=budget, done_fraction=None,
+                             planner_cfg=cfg.planner, executor_cfg=cfg.executor, sensing_cfg=cfg.sensing, digs=source,
+                             observer=collector)
         if not result.digs:
             raise ExcavsimError(f"no feasible dig sweeping {100 * min_volume_fraction:.0f} % of the bucket in "
                                 f"a fresh bed of {sim.scene.soil} for goal {goal!r}: lower min_volume_fraction")

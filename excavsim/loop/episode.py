@@ -26,7 +26,7 @@ from collections.abc import Callable
 import numpy as np
 
 from excavsim.config import ExecutorConfig, PlannerConfig, SensingConfig, TrenchGoal
-from excavsim.handoff.dig import DigPlan, ExecutionRecord
+from excavsim.handoff.dig import Dig, DigPlan, ExecutionRecord
 from excavsim.handoff.episode import DigMetrics, EpisodeObserver, EpisodeResult
 from excavsim.handoff.goal import goal_profile
 from excavsim.handoff.maps import ElevationMap
@@ -63,8 +63,8 @@ def trench_footprint(sim: Simulation, goal: TrenchGoal, width: float) -> tuple[n
     return mask, goal_profile(goal, radial)
 
 
-def map_done(emap: ElevationMap, goal: TrenchGoal, arm: PlanarArm, width: float, *, done_fraction: float, tolerance_m: float,
-             initial_z: float) -> tuple[bool, float]:
+def map_done(emap: ElevationMap, goal: TrenchGoal, arm: PlanarArm, width: float, *, done_fraction: float,
+             tolerance_m: float, initial_z: float) -> tuple[bool, float]:
     """Whether the trench meets its tolerance on the scanned map, and the removed fraction there."""
     x = np.linspace(goal.near_x_m, goal.far_x_m, 60)
     pts = arm.plane_to_world(math.radians(goal.waist_deg), np.stack([x, np.zeros_like(x)], axis=-1))
@@ -121,8 +121,8 @@ def run_episode(sim: Simulation, *, seed: int = 0, goal: TrenchGoal | None = Non
             park(sim, rig)
             emap, acc = scan(sim, rig)
             obs.scanned(i + 1, emap, acc)
-            done, frac = map_done(emap, goal, arm, width, done_fraction=done_fraction if done_fraction else 1.0,
-                                  tolerance_m=tolerance_m, initial_z=goal.surface_z_m)
+            done, frac = map_done(emap, goal, arm, width, tolerance_m=tolerance_m, initial_z=goal.surface_z_m,
+                                  done_fraction=1.0 if done_fraction is None else done_fraction)
             say(f"dig {i + 1}: map {100 * frac:.0f} % of the goal removed (map RMS {100 * acc.rms_m:.1f} cm)")
             if done and done_fraction is not None:
                 end = "done"
@@ -162,7 +162,7 @@ def run_episode(sim: Simulation, *, seed: int = 0, goal: TrenchGoal | None = Non
         obs.finished(result)
 
 
-def dig_metrics(index: int, dig, rec: ExecutionRecord, *, capacity: float, sim_s: float,
+def dig_metrics(index: int, dig: Dig, rec: ExecutionRecord, *, capacity: float, sim_s: float,
                 ft_rate_hz: float) -> DigMetrics:
     """One dig's metrics. Torques cover the soil-loaded part of the dig (touch-down to the end of the
     lift-out): the moves through the air to the spoil and back are the servo's business, not the dig's."""

@@ -14,8 +14,9 @@ The processing is the thesis' (Figs. 101-102 and the text around them):
    conservatively: repeatedly with the highest observed neighbour, i.e. assuming soil is there, so
    the planner never counts on empty space it has not seen.
 
-The :class:`~excavsim.handoff.maps.ElevationMap` it builds is a value type of the hand-off package; :func:`map_accuracy` compares it with the true terrain
-(privileged data, for tests and logging only).
+The :class:`~excavsim.handoff.maps.ElevationMap` it builds is a value type of the hand-off package;
+:func:`map_accuracy` compares it with the true terrain (privileged data, for tests and logging
+only).
 """
 
 from __future__ import annotations

@@ -104,7 +104,7 @@ def environment_wrench(sensor_force: np.ndarray, sensor_torque: np.ndarray, *, s
 
 
 def _cross3(a: np.ndarray, b: np.ndarray) -> np.ndarray:
-    """Cross product of two 3-vectors (np.cross costs ~20 us of Python for one pair)."""
+    """Cross product of two 3-vectors (``np.cross`` has a large fixed cost per call for one pair)."""
     return np.array([a[1] * b[2] - a[2] * b[1], a[2] * b[0] - a[0] * b[2], a[0] * b[1] - a[1] * b[0]])
 
 
