@@ -43,6 +43,7 @@ class ElevationMapConfig(StrictModel):
     cell_size_m: float = Field(default=0.05, ge=0.01, le=0.5, description="map cell size [m]")
     n_scans: int = Field(default=10, ge=1, le=100, description="range images median-filtered per map")
     calibrate: bool = Field(default=True, description="fit scale and offset to the surveyed targets every scan")
+    level: bool = Field(default=True, description="level the map to the surveyed tops of the box's walls")
 
 
 class ForceSensorConfig(StrictModel):

@@ -27,6 +27,7 @@ class ScanGeometry:
         target_ranges: (n_targets, k) surveyed ranges along those rays [m].
         area: (x0, x1, y0, y1) the soil area inside the walls, world [m].
         wall_top_z: height of the walls' tops [m].
+        wall_thickness_m: thickness of the walls, whose tops surround the area [m].
     """
 
     origin: np.ndarray
@@ -35,6 +36,7 @@ class ScanGeometry:
     target_ranges: np.ndarray
     area: tuple[float, float, float, float]
     wall_top_z: float
+    wall_thickness_m: float = 0.05
 
     @property
     def image_shape(self) -> tuple[int, int]:

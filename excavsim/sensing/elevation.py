@@ -7,10 +7,14 @@ The processing is the thesis' (Figs. 101-102 and the text around them):
    rejection (a target hidden by a pile or a wild range), applied to the whole image as
    ``(r - offset) / scale``.
 2. **Median filter** across N images (default 10), per pixel, ignoring dropouts.
-3. **Binning**: pixels become world points along the known ray directions; points inside the soil
+3. **Levelling** (ours, not the thesis'): the points that fall on the surveyed tops of the box's
+   walls fit a plane of the height error (:func:`wall_levelling`), subtracted from every point. The
+   range calibration cannot see a misaligned mount, which tilts and lifts the map by a centimetre
+   or two: enough to make a finished trench look 5 % short of its goal, or done when it is not.
+4. **Binning**: pixels become world points along the known ray directions; points inside the soil
    area (less a 3 cm margin at the walls, whose faces would otherwise be read as soil) are reduced
    to their median height per cell of the map (default 5 cm).
-4. **Unobserved cells** (occluded, grazing, off the field of view) are flagged and filled
+5. **Unobserved cells** (occluded, grazing, off the field of view) are flagged and filled
    conservatively: repeatedly with the highest observed neighbour, i.e. assuming soil is there, so
    the planner never counts on empty space it has not seen.
 
@@ -125,6 +129,56 @@ def fill_unobserved(heights: np.ndarray, observed: np.ndarray) -> np.ndarray:
     return h
 
 
+@dataclasses.dataclass(frozen=True)
+class Levelling:
+    """The height error plane of a scan, fitted to the points on the walls' tops.
+
+    ``z_error = a + b x + c y`` [m] over the box, ``coefficients = (a, b, c)``; ``n_points`` points
+    on the wall tops took part, their residual about the plane has RMS ``rms_m``.
+    """
+
+    coefficients: tuple[float, float, float]
+    n_points: int
+    rms_m: float
+
+    def error_at(self, x: np.ndarray, y: np.ndarray) -> np.ndarray:
+        a, b, c = self.coefficients
+        return a + b * np.asarray(x) + c * np.asarray(y)
+
+
+def wall_levelling(points: np.ndarray, geometry: ScanGeometry, *, band_m: float = 0.06, reject_m: float = 0.02,
+                   min_points: int = 50) -> Levelling | None:
+    """The height error plane of a scan's points (n, 3), from those on the tops of the box's walls.
+
+    The walls' tops are surveyed (``geometry.wall_top_z``, ``wall_thickness_m``): the points whose
+    (x, y) lie on them (1 cm in from their edges) and whose height is within ``band_m`` of their
+    top are fitted with a plane of the height error (least squares, twice more without the points
+    ``reject_m`` off). The scanner mount's misalignment, which the range calibration against the
+    targets (:func:`calibrate`) cannot see, tilts and lifts the whole map by a centimetre or two;
+    this plane measures it. None when fewer than ``min_points`` points fall on the tops.
+    """
+    x0, x1, y0, y1 = geometry.area
+    t, m = geometry.wall_thickness_m, 0.01
+    x, y, z = points[:, 0], points[:, 1], points[:, 2]
+    on_x = ((x > x0 - t + m) & (x < x0 - m)) | ((x > x1 + m) & (x < x1 + t - m))
+    on_y = ((y > y0 - t + m) & (y < y0 - m)) | ((y > y1 + m) & (y < y1 + t - m))
+    top = ((on_x & (y > y0 - t) & (y < y1 + t)) | (on_y & (x > x0 - t) & (x < x1 + t)))
+    top &= np.abs(z - geometry.wall_top_z) < band_m
+    if top.sum() < min_points:
+        return None
+    a_mat = np.column_stack([np.ones(int(top.sum())), x[top], y[top]])
+    err = z[top] - geometry.wall_top_z
+    use = np.ones(len(err), bool)
+    for _ in range(3):
+        coef, *_ = np.linalg.lstsq(a_mat[use], err[use], rcond=None)
+        res = err - a_mat @ coef
+        use = np.abs(res) <= reject_m
+        if use.sum() < min_points:
+            return None
+    return Levelling((float(coef[0]), float(coef[1]), float(coef[2])), int(use.sum()),
+                     float(np.sqrt(np.mean(res[use] ** 2))))
+
+
 def build_map(images: Sequence[RangeImage], geometry: ScanGeometry, config: ElevationMapConfig | None = None,
               ) -> tuple[ElevationMap, list[Calibration]]:
     """Turn range images into an elevation map (calibrate, median-filter, bin, fill).
@@ -146,6 +200,11 @@ def build_map(images: Sequence[RangeImage], geometry: ScanGeometry, config: Elev
     r = median_ranges(images, cals)
     pts = geometry.origin + geometry.directions * r[..., None]
     ok = np.isfinite(r)
+    if config.level:  # the height error plane of the mount's misalignment, from the walls' tops
+        levelling = wall_levelling(pts[ok], geometry)
+        if levelling is not None:
+            pts = pts.copy()
+            pts[..., 2] -= levelling.error_at(pts[..., 0], pts[..., 1])
     x0, x1, y0, y1 = geometry.area
     cell = config.cell_size_m
     nx = int(round((x1 - x0) / cell))

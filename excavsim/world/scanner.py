@@ -80,6 +80,8 @@ class LaserScanner:
         rot = data.site_xmat[site].reshape(3, 3).copy()
         self.boxes = np.ascontiguousarray(_occluders(model, data))
         wall_top = float(max(self.boxes[:, 2] + self.boxes[:, 14])) if len(self.boxes) else 1.0
+        walls = self.boxes[np.abs(self.boxes[:, 2] + self.boxes[:, 14] - wall_top) < 1e-3]
+        thickness = float(2 * walls[:, 12:14].min()) if len(walls) else 0.05
         area = (grid.x0, grid.x1, grid.y0, grid.y1)
         # field of view: the soil volume's corners (floor to wall top) plus a margin
         corners = np.array([[x, y, z] for x in area[:2] for y in area[2:] for z in (grid.z0, wall_top)])
@@ -93,7 +95,8 @@ class LaserScanner:
         d_local = np.stack([np.cos(ee) * np.sin(aa), np.sin(ee), np.cos(ee) * np.cos(aa)], axis=-1)
         directions = d_local @ rot.T
         t_dirs, t_ranges = self._target_rays(model, data, origin)
-        self.geometry = ScanGeometry(origin, np.ascontiguousarray(directions), t_dirs, t_ranges, area, wall_top)
+        self.geometry = ScanGeometry(origin, np.ascontiguousarray(directions), t_dirs, t_ranges, area, wall_top,
+                                     thickness)
         self.scale_error = 0.0
         self.offset = 0.0
         # The mount's true orientation differs from the surveyed one by a small fixed rotation.
