@@ -62,4 +62,4 @@ def test_an_unreachable_demo_dig_is_refused_with_a_clear_message():
 def test_cli_demo_runs(capsys):
     assert main(["demo", "--seed", "3"]) == 0
     out = capsys.readouterr().out
-    assert "scripted" in out and "wrist peak" in out
+    assert "scripted" in out and "wrist pred/meas" in out

@@ -248,13 +248,20 @@ def test_a_planned_dig_in_flat_sand_follows_its_path(flat_run):
 
 @pytest.mark.parametrize("bias", [0.05, -0.05])
 def test_touch_down_finds_the_surface_when_the_map_is_biased(arm, reach_table, bias):
-    """§7.1.3: the offset between planned and found contact estimates the map's error."""
+    """§7.1.3: the offset between planned and found contact estimates the map's error; the dig moves
+    by it, at most ``touch_shift_max_m``."""
     sim = Simulation(seed=1)
     plan = planned_dig(sim, arm, reach_table, flat_map(0.5 + bias))
-    rec = run_dig(sim, arm, load_executor_config(), plan)
+    cfg = load_executor_config()
+    rec = run_dig(sim, arm, cfg, plan)
     assert rec.touch_offset_m == pytest.approx(-bias, abs=0.03)
-    assert rec.planned_path[0, 1] == pytest.approx(plan.poses[0, 1] + rec.touch_offset_m)  # the dig moved
+    shift = np.clip(rec.touch_offset_m, -cfg.touch_shift_max_m, cfg.touch_shift_max_m)
+    assert rec.planned_path[0, 1] == pytest.approx(plan.poses[0, 1] + shift)  # the dig moved, within the cap
     assert rec.outcome in ("completed", "stalled")
+    uncapped = cfg.model_copy(update={"touch_shift_max_m": 1.0})
+    sim = Simulation(seed=1)
+    rec = run_dig(sim, arm, uncapped, plan)
+    assert rec.planned_path[0, 1] == pytest.approx(plan.poses[0, 1] + rec.touch_offset_m)  # the whole offset
 
 
 def test_a_touch_down_that_finds_nothing_aborts_and_parks(arm, reach_table):

@@ -8,7 +8,7 @@ import pytest
 from excavsim.config import load_planner_config
 from excavsim.planning.objectives import choose, cumulative_torque
 
-CFG = load_planner_config()  # eq. 44 at 90 % of capacity; below 10 %: no dig
+CFG = load_planner_config().model_copy(update={"min_volume_fraction": 0.1})  # eq. 44 at 90 %; below 10 %: no dig
 CAPACITY = 0.02  # [m^3]: 90 % is 18 l, 10 % 2 l
 FEASIBLE = np.array([True, True, True, True, True, False])
 VOLUME = np.array([0.0190, 0.0185, 0.0100, 0.0199, 0.0015, 0.0300])

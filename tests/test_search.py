@@ -113,7 +113,7 @@ def test_objectives_pick_what_they_promise(arm, reach_table, straight_plan):
     vol = make_planner(arm, reach_table, objective="volume").plan(flat_map())
     peak = make_planner(arm, reach_table, objective="peak_torque").plan(flat_map())
     assert vol.volume_m3 == pytest.approx(np.nanmax(vol.volume))
-    useful = vol.feasible & (vol.volume >= 0.1 * CAPACITY)
+    useful = vol.feasible & (vol.volume >= planner.cfg.min_volume_fraction * CAPACITY)
     assert np.nanmax(np.abs(peak.torques) / LIMITS) == pytest.approx(np.nanmin(vol.peak_torque_ratio[useful]), rel=1e-6)
     assert lex.volume_m3 >= 0.9 * CAPACITY and vol.volume_m3 >= lex.volume_m3
 

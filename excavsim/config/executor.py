@@ -33,6 +33,8 @@ class ExecutorConfig(StrictModel):
     touch_search_m: float = Field(default=0.15, gt=0, le=1, description="how far below the map to keep seeking [m]")
     touch_warn_m: float = Field(default=0.04, gt=0, le=1,
                                 description="contact this far from the map is reported (§7.1.3 failure modes) [m]")
+    touch_shift_max_m: float = Field(default=0.01, ge=0, le=1,
+                                     description="the dig shifts by the touch-down offset, at most this far [m]")
     lead_in_clearance_m: float = Field(default=0.03, ge=0, le=0.5,
                                        description="height above the shifted entry at which the bucket turns to the "
                                                    "entry pitch before going in [m]")

@@ -75,7 +75,7 @@ class PlannerConfig(StrictModel):
                            description="volume | peak_torque | cumulative_torque | lexicographic (eq. 44)")
     volume_threshold: float = Field(default=0.9, ge=0, le=2,
                                     description="eq. 44: digs must sweep this fraction of capacity")
-    min_volume_fraction: float = Field(default=0.1, ge=0, le=1, description="below this: no dig")
+    min_volume_fraction: float = Field(default=0.05, ge=0, le=1, description="below this: no dig")
     shaping_tolerance_m: float = Field(default=0.005, ge=0, le=0.1)
     fallback_clearance_m: float = Field(default=0.01, ge=0, le=0.2,
                                         description="boundary-following digs stay this far above the goal [m]")
@@ -83,6 +83,10 @@ class PlannerConfig(StrictModel):
     fallback_min_volume_fraction: float = Field(default=0.02, ge=0, le=1,
                                                 description="a boundary dig must sweep this fraction of capacity")
     surface_tolerance_m: float = Field(default=0.01, ge=0, le=0.2)
+    wall_clearance_m: float = Field(default=0.05, ge=0, le=0.5,
+                                    description="the bucket keeps this far from the soil box's walls [m]")
+    touchdown_reach_m: float = Field(default=0.05, ge=0, le=0.5,
+                                     description="the arm must reach this far below a dig's entry (touch-down) [m]")
     payload_com_tip_m: list[float] = Field(default=[-0.2, 0.12], min_length=2, max_length=2,
                                            description="centre of the load in the tip frame (x, z) [m]")
     grid: PlannerGrid = PlannerGrid()

@@ -61,6 +61,17 @@ def touch_pitch(plan: DigPlan, arm: PlanarArm, cfg: ExecutorConfig) -> float:
     return float(entry[2])
 
 
+def expected_contact_z(plan: DigPlan, arm: PlanarArm, pitch: float) -> float:
+    """The tip's height when the bucket, descending vertically over the entry at ``pitch`` [rad], first
+    meets the mapped surface of ``plan`` (§7.1.3): where its lowest point over the map touches, which
+    on a slope is the heel or the bottom, not the edge (Fig. 105). Without a surface: the entry's height."""
+    entry = plan.poses[0]
+    if plan.surface is None:
+        return float(entry[1])
+    pts = arm.bucket_points(np.array([entry[0], 0.0, pitch]))  # the outline with the tip at height 0
+    return float(np.max(plan.surface(pts[:, 0]) - pts[:, 1]))
+
+
 def dig_script(plan: DigPlan, arm: PlanarArm, cfg: ExecutorConfig, park: np.ndarray) -> Script:
     """The trenching dig script with this plan's numbers (see the module docstring); ``park`` (6,)
     is the model's park keyframe [rad]. Its paths (touchdown, dig, lift, dump) are laid out by the
@@ -155,13 +166,15 @@ class DigExecutor:
         """
         sim = self.sim
         announce = on_phase or (lambda _name, _rec: None)
-        rec = ExecutionRecord(planned_volume_m3=plan.volume_m3, touch_expected_z=float(plan.poses[0, 1]))
+        expected = expected_contact_z(plan, self.arm, touch_pitch(plan, self.arm, self.cfg))
+        rec = ExecutionRecord(planned_volume_m3=plan.volume_m3, touch_expected_z=expected)
         script = dig_script(plan, self.arm, self.cfg, self.park)
         rec.script_text = script.describe()
         engine = ScriptEngine(script)
         joints = [[self._names.index(j) for j in sub.joints] for sub in script.subscripts]
         paths: list[PathFollower | None] = [None] * len(joints)  # the path each sub-script follows
         stall = _StallWatch(self.cfg, sim.torque_limit[self._arm_idx])
+        weighed: list[float] = []  # F/T weight of the load while the lifted bucket is held [N]
         target = sim.observe().q.copy()  # hold still until the first commands; this reading draws F/T noise too
         obs = sim.observe()
         while True:
@@ -186,6 +199,8 @@ class DigExecutor:
             if paths[ARM_SUB] is not None and paths[ARM_SUB].in_cut:
                 paths[ARM_SUB] = self._watch_stall(stall, paths[ARM_SUB], obs, target, rec)
             self._record(rec, obs, reading)
+            if engine.current(ARM_SUB).name == "hold lifted":  # weigh the load (the environment pulls down)
+                weighed.append(-float(reading.force_world[2]))
             timed_out_before = len(engine.timeouts)
             engine.end_tick(sense)
             for late in engine.timeouts[timed_out_before:]:
@@ -199,6 +214,7 @@ class DigExecutor:
                 break
         if engine.stop is not None:
             self._conclude(rec, engine.stop, bool(engine.timeouts), announce)
+        rec.lifted_load_n = float(np.median(weighed)) if weighed else math.nan
         names = [tr.name for tr in engine.transitions if tr.subscript == ARM_SUB]
         times = [tr.time for tr in engine.transitions if tr.subscript == ARM_SUB] + [obs.time]
         rec.phase_times = {n: times[i + 1] - times[i] for i, n in enumerate(names)}
@@ -229,9 +245,8 @@ class DigExecutor:
         """At contact (the bucket tip at ``tip``): record the touch-down (§7.1.3), shift the planned path
         by its offset, and lead in to it. Returns the path and the length of its lead-in [m]."""
         cfg = self.cfg
-        entry = plan.poses[0]
         rec.touch_found_z = float(tip[1])
-        rec.touch_offset_m = float(tip[1] + cfg.touch_sink_m - entry[1])
+        rec.touch_offset_m = float(tip[1] + cfg.touch_sink_m - rec.touch_expected_z)
         if abs(rec.touch_offset_m) > cfg.touch_warn_m:
             kind = "below" if rec.touch_offset_m < 0 else "above"
             rec.warnings.append(
@@ -239,7 +254,9 @@ class DigExecutor:
                 + ("the map is high, or the bucket overshot before the force registered (Fig. 104)"
                    if kind == "below" else "the map is low, or terrain interferes before the entry (Fig. 105)"))
         shifted = plan.poses.copy()
-        shifted[:, 1] += float(np.clip(rec.touch_offset_m, *plan.shift_bounds_m))
+        lo, hi = plan.shift_bounds_m
+        shifted[:, 1] += float(np.clip(rec.touch_offset_m, max(lo, -cfg.touch_shift_max_m),
+                                       min(hi, cfg.touch_shift_max_m)))
         rec.planned_path = shifted
         # lead-in: back up clear of the soil, turn to the entry pitch in the air, go in
         clear = shifted[0, 1] + cfg.lead_in_clearance_m

@@ -14,6 +14,8 @@ from typing import NamedTuple
 
 import numpy as np
 
+from excavsim.handoff.goal import SurfaceProfile
+
 
 class TrenchAction(NamedTuple):
     """One trenching dig (§3.4.1): enter at ``k``, penetrate ``d1`` at ``alpha``, drag ``d2``, curl.
@@ -44,6 +46,9 @@ class DigPlan:
             The loop bounds it below by the path's clearance above the goal, so that a map error
             never makes the executor cut below the goal; a boundary-following dig is not shifted
             up either, since its job is the goal's shape, not the planned volume.
+        surface: the mapped surface along the arm plane that the dig was planned on; touch-down
+            then expects contact where the whole bucket first meets it, not where the tip does
+            (Fig. 105: the bucket's heel on a slope touches first). None: at the entry's height.
     """
 
     poses: np.ndarray
@@ -51,6 +56,7 @@ class DigPlan:
     waist: float
     volume_m3: float
     shift_bounds_m: tuple[float, float] = (-math.inf, math.inf)
+    surface: SurfaceProfile | None = None
 
 
 @dataclasses.dataclass
@@ -71,6 +77,9 @@ class ExecutionRecord:
         planned_volume_m3: the swept volume the planner predicted.
         bucket_volume_m3: soil in the bucket at lift-out: privileged truth, filled in by the loop
             from the world (NaN when the dig never lifted out).
+        lifted_load_n: the load's weight as the F/T sensor weighed it while the lifted bucket was
+            held (the median vertical force of the environment on the bucket) [N]: what the robot
+            itself knows it brought up; NaN when the dig never lifted out.
         script_text: the script as run (:meth:`~excavsim.execution.script.Script.describe`).
         compliance: rise of the dig path per control step with compliance on [m].
     """
@@ -90,6 +99,7 @@ class ExecutionRecord:
     stall: dict | None = None
     planned_volume_m3: float = 0.0
     bucket_volume_m3: float = float("nan")
+    lifted_load_n: float = float("nan")
     script_text: str = ""
     compliance: list[float] = dataclasses.field(default_factory=list)
 
@@ -131,6 +141,8 @@ class Dig:
         planning_s: wall time spent choosing it [s].
         shift_up: whether the touch-down offset may shift the path up (a planned dig digs the volume
             it planned; a boundary-following dig keeps to the goal's shape and is never shifted up).
+        predicted_peak_nm: (3,) the largest static torque the planner predicts along the path at
+            shoulder, elbow and wrist pitch [N m] (NaN when it made no prediction).
     """
 
     kind: str
@@ -140,3 +152,4 @@ class Dig:
     action: TrenchAction | None
     planning_s: float
     shift_up: bool = True
+    predicted_peak_nm: np.ndarray = dataclasses.field(default_factory=lambda: np.full(3, np.nan))

@@ -83,6 +83,14 @@ class DigMetrics:
 
     Peak and cumulative joint torques cover the soil-loaded part of the dig (touch-down to the end
     of the lift-out), sampled at the F/T rate.
+
+    Attributes:
+        predicted_m3, bucket_m3: the swept volume the dig was chosen for, and the soil in the bucket
+            at lift-out (truth) [m^3]; weighed_m3: the load as the F/T sensor weighed it [m^3].
+        peak_torque_nm: (6,) measured peak actuator torques [N m]; predicted_peak_nm: (3,) the
+            planner's predicted peak static torques at shoulder, elbow, wrist pitch [N m] (NaN: none).
+        failure: what went wrong as the robot sees it (stall, no contact, timeout, simulation failure,
+            little soil: less than 1 l weighed), or None.
     """
 
     index: int
@@ -97,6 +105,14 @@ class DigMetrics:
     sim_s: float
     peak_torque_nm: np.ndarray
     cumulative_torque_nm_s: float
+    predicted_peak_nm: np.ndarray = dataclasses.field(default_factory=lambda: np.full(3, np.nan))
+    weighed_m3: float = float("nan")
+    failure: str | None = None
+
+    @property
+    def failed(self) -> bool:
+        """The dig failed in the world: a stall, no contact, a timeout, or under 1 l in the bucket (truth)."""
+        return self.failure not in (None, "little soil") or not self.bucket_m3 >= 0.001
 
 
 @dataclasses.dataclass
@@ -124,22 +140,25 @@ class EpisodeResult:
 def format_episode(res: EpisodeResult) -> str:
     """The per-dig table and the episode summary."""
     lines = ["", f"{'dig':>3} {'k m':>5} {'alpha':>5} {'d1 m':>5} {'d2 m':>5} {'plan l':>7} {'dug l':>6} "
-                 f"{'eff':>5} {'outcome':<15} {'stall':<18} {'wrist peak':>10}"]
+                 f"{'eff':>5} {'outcome':<15} {'failure':<12} {'stall':<18} {'wrist pred/meas':>15}"]
     for d in res.digs:
         if d.action is None:  # a boundary-following fallback dig
             act = f"{d.kind[len('fallback: '):]:>23.23}"
         else:
             k, a, d1, d2 = d.action
             act = f"{k:5.2f} {math.degrees(a):5.0f} {d1:5.2f} {d2:5.2f}"
+        wrist = f"{d.predicted_peak_nm[2]:.0f}/{d.peak_torque_nm[3]:.0f}"
         lines.append(f"{d.index:>3} {act} {1000 * d.predicted_m3:7.1f} "
-                     f"{1000 * d.bucket_m3:6.1f} {d.efficiency:5.2f} {d.outcome:<15} {d.stall_joint or '-':<18} "
-                     f"{d.peak_torque_nm[3]:10.0f}")
-    lines += ["", f"ended: {res.reason}",
+                     f"{1000 * d.bucket_m3:6.1f} {d.efficiency:5.2f} {d.outcome:<15} {d.failure or '-':<12} "
+                     f"{d.stall_joint or '-':<18} {wrist:>15}")
+    lines += ["", "wrist pred/meas: the planner's predicted and the measured peak wrist-pitch torque [N m]",
+              f"ended: {res.reason}",
               f"removed {1000 * res.removed_m3:.1f} l of {1000 * res.goal_m3:.1f} l "
               f"({100 * res.removed_fraction:.0f} %); "
               f"over-dig max {100 * res.overdig_max_m:.1f} cm (RMS {100 * res.overdig_rms_m:.1f}); under-dig max "
               f"{100 * res.underdig_max_m:.1f} cm (RMS {100 * res.underdig_rms_m:.1f})",
-              f"{len(res.digs)} digs, {sum(d.stall_joint is not None for d in res.digs)} stalls; simulated "
+              f"{len(res.digs)} digs, {sum(d.stall_joint is not None for d in res.digs)} stalls, "
+              f"{sum(d.failed for d in res.digs)} failed (stall, no contact, timeout or under 1 l); simulated "
               f"{res.sim_time_s:.0f} s in {res.wall_time_s:.1f} s wall; "
               f"soil volume change {res.volume_change_m3:.1e} m^3"]
     return "\n".join(lines)

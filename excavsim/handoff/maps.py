@@ -76,6 +76,12 @@ class ElevationMap:
     def shape(self) -> tuple[int, int]:
         return self.heights.shape
 
+    @property
+    def extent(self) -> tuple[float, float, float, float]:
+        """(x0, x1, y0, y1): the area the map covers, the soil inside the box's walls [m]."""
+        ny, nx = self.heights.shape
+        return self.x0, self.x0 + nx * self.cell, self.y0, self.y0 + ny * self.cell
+
     def centres(self) -> tuple[np.ndarray, np.ndarray]:
         """World x (nx,) and y (ny,) of the cell centres."""
         ny, nx = self.heights.shape

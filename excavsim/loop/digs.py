@@ -1,10 +1,12 @@
 """Where each cycle's dig comes from: the planner (with its fallback), a random feasible dig, or a script.
 
 The episode driver (:func:`~excavsim.loop.episode.run_episode`) asks a :class:`DigSource` for one
-dig per cycle, on the map it just scanned:
+dig per cycle, on the map it just scanned, and tells it afterwards how the dig went:
 
 * :class:`PlannedDigs` (the default): the planner's choice (000_a3ca905d8c6d92bf.txt ch. 6), or,
-  when its best dig is below the minimum utility, the boundary-following fallback of §7.2;
+  when its best dig is below the minimum utility, the boundary-following fallback of §7.2; with a
+  :class:`~excavsim.planning.experience.DigExperience` it plans on the map as the executed digs
+  corrected it and never repeats a failed dig on unchanged terrain;
 * :class:`RandomFeasibleDigs`: a seeded random dig of the planner's feasible set that sweeps enough
   soil, so that force data cover the action space (§5.2.4; what ``excavsim learn`` digs);
 * :class:`ScriptedDigs`: given trenching actions, one per cycle (``excavsim demo``).
@@ -15,15 +17,14 @@ from __future__ import annotations
 import dataclasses
 import math
 from collections.abc import Sequence
-from typing import Protocol
 
 import numpy as np
 
-from excavsim.handoff.dig import Dig, TrenchAction
-from excavsim.handoff.goal import SurfaceProfile
+from excavsim.handoff.dig import Dig, ExecutionRecord, TrenchAction
 from excavsim.handoff.maps import ElevationMap
 from excavsim.loop.rig import Rig
 from excavsim.planning import fallback
+from excavsim.planning.experience import DigExperience, Failure
 from excavsim.planning.search import PlanResult
 
 
@@ -44,30 +45,76 @@ class Choice:
     note: str = ""
 
 
-class DigSource(Protocol):
-    """Chooses the dig of each cycle on the scanned map."""
+class DigSource:
+    """Chooses the dig of each cycle on the scanned map, and hears how it went (subclasses choose)."""
+
+    def belief(self, rig: Rig, emap: ElevationMap) -> ElevationMap:
+        """The map as this source believes it (the scanned one, unless experience corrected it)."""
+        return emap
 
     def choose(self, rig: Rig, emap: ElevationMap) -> Choice:
-        """The dig for this cycle (see :class:`Choice`)."""
-        ...
+        """The dig for this cycle on ``emap`` (the believed map; see :class:`Choice`)."""
+        raise NotImplementedError
+
+    def learned(self, rig: Rig, index: int, dig: Dig, record: ExecutionRecord, emap: ElevationMap) -> str | None:
+        """After dig ``index`` (chosen on ``emap``) ran: what was learned, as a line of text, or None."""
+        return None
 
 
-class PlannedDigs:
-    """The planner's dig, or the boundary-following fallback (§7.2) when none reaches the minimum utility."""
+def predicted_peaks(rig: Rig, poses: np.ndarray, phases: np.ndarray, emap: ElevationMap) -> np.ndarray:
+    """(3,) the planner's largest predicted static torque along a trenching path [N m]."""
+    _, torques = rig.planner.path_loads(poses, phases, rig.planner.surface(emap))
+    return np.abs(torques).max(axis=0)
+
+
+class PlannedDigs(DigSource):
+    """The planner's dig, or the boundary-following fallback (§7.2) when none reaches the minimum utility.
+
+    Args:
+        experience: the episode's memory of its digs; None plans every cycle afresh, as the thesis does.
+    """
+
+    def __init__(self, experience: DigExperience | None = None):
+        self.experience = experience
+        self._surface = None  # the scanned map's profile this cycle (before the experience's bounds)
+
+    def belief(self, rig: Rig, emap: ElevationMap) -> ElevationMap:
+        if self.experience is None:
+            return emap
+        self._surface = rig.planner.surface(emap)
+        return self.experience.belief(emap, rig.arm, math.radians(rig.goal.waist_deg), rig.width, self._surface)
 
     def choose(self, rig: Rig, emap: ElevationMap) -> Choice:
-        plan = rig.planner.plan(emap)
+        planner, exp = rig.planner, self.experience
+        surface = self._surface if self._surface is not None else planner.surface(emap)
+        exclude = exp.excluded(planner.grid_k, planner.grid_alpha, planner.grid_d1, surface) if exp else None
+        plan = planner.plan(emap, exclude=exclude, torque_margin=exp.torque_margin() if exp else 1.0)
         if plan.action is not None:
-            return Choice(Dig("planned", plan.poses, plan.phases, plan.volume_m3, plan.action, plan.seconds), plan=plan)
-        boundary, why = fallback.choose(rig.planner, emap)
+            peaks = np.abs(plan.torques).max(axis=0)
+            return Choice(Dig("planned", plan.poses, plan.phases, plan.volume_m3, plan.action, plan.seconds,
+                              predicted_peak_nm=peaks), plan=plan)
+        skip = (lambda d: exp.failed_before("fallback: " + d.label, surface)) if exp else None
+        boundary, why = fallback.choose(planner, emap, skip=skip)
         if boundary is None:
             return Choice(None, f"no dig of minimum utility ({plan.reason}), and no fallback: {why}", plan)
         dig = Dig("fallback: " + boundary.label, boundary.poses, boundary.phases, boundary.volume_m3, None,
-                  plan.seconds + boundary.seconds, shift_up=False)
+                  plan.seconds + boundary.seconds, shift_up=False, predicted_peak_nm=boundary.peak_torques_nm)
         return Choice(dig, plan=plan, note=f"  planner: {plan.reason}; falling back to a {why}")
 
+    def learned(self, rig: Rig, index: int, dig: Dig, record: ExecutionRecord, emap: ElevationMap) -> str | None:
+        if self.experience is None:
+            return None
+        surface = self._surface if self._surface is not None else rig.planner.surface(emap)
+        failure: Failure | None = self.experience.learn(index, dig, record, surface, rig.planner.density)
+        if failure is None:
+            return None
+        what = "its neighbourhood" if failure.action is not None else "this boundary dig"
+        bound = "; the map along its path is clipped to the edge's height" if failure.kind == "little soil" else ""
+        return f"  learned: {failure.kind} ({1000 * failure.load_m3:.1f} l weighed): {what} is not planned again " \
+               f"until the terrain there changes{bound}"
 
-class RandomFeasibleDigs:
+
+class RandomFeasibleDigs(DigSource):
     """A random dig of the planner's feasible set sweeping at least ``min_volume_fraction`` of the
     bucket (instead of the planner's choice), so that the digs cover the action space.
 
@@ -89,12 +136,12 @@ class RandomFeasibleDigs:
         c = tuple(cells[self.rng.integers(len(cells))])
         action = TrenchAction(float(plan.grid_k[c[0]]), float(plan.grid_alpha[c[1]]), float(plan.grid_d1[c[2]]),
                               float(plan.d2[c]))
-        surface = SurfaceProfile.from_map(emap, rig.arm, math.radians(rig.goal.waist_deg), rig.width)
-        poses, phases = rig.planner.trajectory(action, surface)
-        return Choice(Dig("random feasible", poses, phases, float(plan.volume[c]), action, plan.seconds), plan=plan)
+        poses, phases = rig.planner.trajectory(action, rig.planner.surface(emap))
+        return Choice(Dig("random feasible", poses, phases, float(plan.volume[c]), action, plan.seconds,
+                          predicted_peak_nm=predicted_peaks(rig, poses, phases, emap)), plan=plan)
 
 
-class ScriptedDigs:
+class ScriptedDigs(DigSource):
     """The given trenching actions, one per cycle, each with the planner's trajectory rules (§3.4)
     and without its constraints: the caller vouches for them (an unreachable path stalls or fails
     in the executor, as it would on the machine).
@@ -112,7 +159,8 @@ class ScriptedDigs:
             return Choice(None, f"all {len(self.actions)} scripted digs done")
         action = self.actions[self._next]
         self._next += 1
-        surface = SurfaceProfile.from_map(emap, rig.arm, math.radians(rig.goal.waist_deg), rig.width)
+        surface = rig.planner.surface(emap)
         poses, phases = rig.planner.trajectory(action, surface)
         swept = rig.planner.swept_volume(poses, surface)
-        return Choice(Dig("scripted", poses, phases, swept, action, 0.0))
+        return Choice(Dig("scripted", poses, phases, swept, action, 0.0,
+                          predicted_peak_nm=predicted_peaks(rig, poses, phases, emap)))

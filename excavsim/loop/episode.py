@@ -32,8 +32,12 @@ from excavsim.handoff.goal import goal_profile
 from excavsim.handoff.maps import ElevationMap
 from excavsim.loop.digs import DigSource, PlannedDigs
 from excavsim.loop.rig import bucket_witness, go_home, make_rig, park, scan
+from excavsim.mechanics.wedge import G_M_S2
+from excavsim.planning.experience import DigExperience, failure_kind
 from excavsim.robot.kinematics import PlanarArm
 from excavsim.world.simulation import Simulation
+
+MIN_USEFUL_M3 = 0.001  # a dig that brings up less than 1 l failed (the measure campaigns report)
 
 
 class MapWriter(EpisodeObserver):
@@ -93,7 +97,8 @@ def run_episode(sim: Simulation, *, seed: int = 0, goal: TrenchGoal | None = Non
             volume is removed and no cell is more than ``tolerance_m`` above the goal; None never
             stops early (digging for data).
         planner_cfg, executor_cfg, sensing_cfg: configurations (default: ``configs/``).
-        digs: where each cycle's dig comes from (default :class:`~excavsim.loop.digs.PlannedDigs`).
+        digs: where each cycle's dig comes from (default :class:`~excavsim.loop.digs.PlannedDigs` with
+            the episode's :class:`~excavsim.planning.experience.DigExperience`).
         progress: called with a line of text per scan and per dig.
         observer: sees the episode (see :class:`~excavsim.handoff.episode.EpisodeObserver`).
 
@@ -102,7 +107,7 @@ def run_episode(sim: Simulation, *, seed: int = 0, goal: TrenchGoal | None = Non
     """
     say = progress or (lambda _s: None)
     obs = observer or EpisodeObserver()
-    source = digs or PlannedDigs()
+    source = digs or PlannedDigs(DigExperience())
     wall0 = time.perf_counter()
     rig = make_rig(sim, seed=seed, goal=goal, planner_cfg=planner_cfg, executor_cfg=executor_cfg,
                    sensing_cfg=sensing_cfg)
@@ -119,8 +124,9 @@ def run_episode(sim: Simulation, *, seed: int = 0, goal: TrenchGoal | None = Non
     try:
         for i in range(dig_budget + 1):
             park(sim, rig)
-            emap, acc = scan(sim, rig)
-            obs.scanned(i + 1, emap, acc)
+            scanned, acc = scan(sim, rig)
+            obs.scanned(i + 1, scanned, acc)
+            emap = source.belief(rig, scanned)  # the scanned map, as the executed digs corrected it
             done, frac = map_done(emap, goal, arm, width, tolerance_m=tolerance_m, initial_z=goal.surface_z_m,
                                   done_fraction=1.0 if done_fraction is None else done_fraction)
             say(f"dig {i + 1}: map {100 * frac:.0f} % of the goal removed (map RMS {100 * acc.rms_m:.1f} cm)")
@@ -144,16 +150,20 @@ def run_episode(sim: Simulation, *, seed: int = 0, goal: TrenchGoal | None = Non
             t0 = sim.time
             clearance = float(np.min(dig.poses[:, 1] - goal_profile(goal, dig.poses[:, 0])))
             bounds = (-max(clearance, 0.0), math.inf if dig.shift_up else 0.0)
-            rec = rig.executor.run(DigPlan(dig.poses, dig.phases, math.radians(goal.waist_deg), dig.volume_m3, bounds),
-                                   on_phase=witness)
+            plan = DigPlan(dig.poses, dig.phases, math.radians(goal.waist_deg), dig.volume_m3, bounds,
+                           surface=rig.planner.surface(emap))
+            rec = rig.executor.run(plan, on_phase=witness)
             sim.settle_soil()
             metrics = dig_metrics(i + 1, dig, rec, capacity=capacity, sim_s=float(sim.time - t0),
-                                  ft_rate_hz=rig.executor.ft.rate_hz)
+                                  ft_rate_hz=rig.executor.ft.rate_hz, density_kg_m3=rig.planner.density)
             metrics_list.append(metrics)
             obs.dug(i + 1, rec, metrics)
             say(f"  {dig.kind} {rec.outcome}: {1000 * dig.volume_m3:.1f} l planned, "
                 f"{1000 * rec.bucket_volume_m3:.1f} l dug"
                 + (f", stall at {metrics.stall_joint}" if metrics.stall_joint else ""))
+            lesson = source.learned(rig, i + 1, dig, rec, emap)
+            if lesson:
+                say(lesson)
         result = episode_result(sim, metrics_list, end, reason, mask=mask, z_goal=z_goal, h0=h0, v0=v0,
                                 wall_s=time.perf_counter() - wall0)
         return result
@@ -163,7 +173,7 @@ def run_episode(sim: Simulation, *, seed: int = 0, goal: TrenchGoal | None = Non
 
 
 def dig_metrics(index: int, dig: Dig, rec: ExecutionRecord, *, capacity: float, sim_s: float,
-                ft_rate_hz: float) -> DigMetrics:
+                ft_rate_hz: float, density_kg_m3: float) -> DigMetrics:
     """One dig's metrics. Torques cover the soil-loaded part of the dig (touch-down to the end of the
     lift-out): the moves through the air to the spoil and back are the servo's business, not the dig's."""
     lo, hi = rec.in_soil_window()
@@ -171,12 +181,14 @@ def dig_metrics(index: int, dig: Dig, rec: ExecutionRecord, *, capacity: float, 
     sel = (tt >= lo) & (tt <= hi) if rec.torques else np.zeros(0, bool)
     torques = np.asarray(rec.torques)[sel] if sel.any() else np.zeros((1, 6))
     dt = 1.0 / ft_rate_hz
+    weighed = rec.lifted_load_n / (density_kg_m3 * G_M_S2) if math.isfinite(rec.lifted_load_n) else 0.0
     return DigMetrics(
         index=index, kind=dig.kind, action=dig.action, outcome=rec.outcome, predicted_m3=dig.volume_m3,
         bucket_m3=rec.bucket_volume_m3, efficiency=rec.bucket_volume_m3 / capacity,
         stall_joint=rec.stall["joint"] if rec.stall else None, planning_s=dig.planning_s,
         sim_s=sim_s, peak_torque_nm=np.abs(torques).max(axis=0),
-        cumulative_torque_nm_s=float(np.abs(torques).sum() * dt))
+        cumulative_torque_nm_s=float(np.abs(torques).sum() * dt), predicted_peak_nm=dig.predicted_peak_nm,
+        weighed_m3=float(weighed), failure=failure_kind(rec, weighed, MIN_USEFUL_M3))
 
 
 def episode_result(sim: Simulation, digs: list[DigMetrics], end: str, reason: str, *, mask: np.ndarray,

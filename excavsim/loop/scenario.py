@@ -47,6 +47,9 @@ class EpisodeSpec(StrictModel):
     planner: dict[str, Any] = Field(default_factory=dict, description="overrides of configs/planner.yaml")
     executor: dict[str, Any] = Field(default_factory=dict, description="overrides of configs/executor.yaml")
     sensing: dict[str, Any] = Field(default_factory=dict, description="overrides of configs/sensing.yaml")
+    memory: bool = Field(
+        default=True, description="remember failed digs and where digs found no soil, and plan around them "
+                                  "(excavsim.planning.experience); false plans every dig afresh, as the thesis")
     predictor: str = Field(
         default="wedge", description="the planner's force predictor: wedge (nominal, eq. 8) or a learning method "
                                      "of excavsim.learning.predictors.METHODS, learned online from this episode's digs")
@@ -133,7 +136,9 @@ def run_spec(spec: EpisodeSpec, *, progress: Callable[[str], None] | None = None
             configs/robot.yaml and configs/scene.yaml).
     """
     from excavsim.handoff.episode import ObserverGroup
+    from excavsim.loop.digs import PlannedDigs
     from excavsim.loop.episode import run_episode
+    from excavsim.planning.experience import DigExperience
     from excavsim.world.simulation import Simulation
 
     r = ResolvedSpec(spec, robot_path=robot_path, scene_path=scene_path)
@@ -142,9 +147,11 @@ def run_spec(spec: EpisodeSpec, *, progress: Callable[[str], None] | None = None
 
         observer = ObserverGroup(OnlineLearning(spec.predictor, progress=progress), observer)
     sim = Simulation(r.robot, r.scene, seed=spec.seed)
+    digs = PlannedDigs(DigExperience() if spec.memory else None)
     return run_episode(sim, seed=spec.seed, goal=r.goal, dig_budget=spec.dig_budget,
                        done_fraction=spec.done_fraction, tolerance_m=spec.tolerance_m, planner_cfg=r.planner,
-                       executor_cfg=r.executor, sensing_cfg=r.sensing, progress=progress, observer=observer)
+                       executor_cfg=r.executor, sensing_cfg=r.sensing, digs=digs, progress=progress,
+                       observer=observer)
 
 
 def episode_summary(res) -> dict[str, Any]:
@@ -160,6 +167,10 @@ def episode_summary(res) -> dict[str, Any]:
     out: dict[str, Any] = {
         "end": res.end, "reason": res.reason, "digs": n, "fallback_digs": sum(d.kind != "planned" for d in digs),
         "stalls": sum(d.stall_joint is not None for d in digs),
+        "failed_digs": sum(d.failed for d in digs), "failed_fraction": sum(d.failed for d in digs) / n if n else 0.0,
+        "no_contact_digs": sum(d.outcome == "no contact" for d in digs),
+        "little_soil_digs": sum(d.outcome != "no contact" and d.stall_joint is None and not d.bucket_m3 >= 0.001
+                                for d in digs),
         "goal_l": 1000 * res.goal_m3, "removed_l": 1000 * res.removed_m3, "removed_fraction": res.removed_fraction,
         "dug_l_per_dig": 1000 * sum(d.bucket_m3 for d in digs) / n if n else 0.0,
         "planned_l_per_dig": 1000 * sum(d.predicted_m3 for d in digs) / n if n else 0.0,

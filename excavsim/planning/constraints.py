@@ -11,7 +11,8 @@ every sample passes; the searches also count the leading samples that pass, to b
   (:func:`sensible`), and the curl has turned the bucket to ``curl_exit_pitch_deg`` before the edge
   leaves the soil (:func:`sensible_curl`): soil must not spill as the bucket moves through the air;
 * **volume** (§4.3.2): the swept volume at most ``fill_fraction`` x capacity;
-* **reachability** (§4.3.3, App. 1): the (z, pitch) lookup table first, exact elbow-up IK on the survivors;
+* **reachability** (§4.3.3, App. 1): the (z, pitch) lookup table first, exact elbow-up IK on the survivors,
+  and the touch-down below the entry (:func:`touchdown`, §7.1.3);
 * **force** (§5.3, eq. 28): predicted soil forces (any :class:`~excavsim.handoff.forces.ForcePredictor`)
   and the swept soil's weight turned into joint torques ``tau = tau_grav - J^T F`` (eqs. 28-31,
   App. 2) within the relief limits at every sample (§5.3.3).
@@ -40,8 +41,14 @@ def shaping(poses: np.ndarray, goal: TrenchGoal, tolerance_m: float) -> np.ndarr
 
 
 def sensible(poses: np.ndarray, surface: SurfaceProfile, tolerance_m: float) -> np.ndarray:
-    """(...,) whether each penetrate or drag pose (..., 3) is in the soil, within ``tolerance_m`` (§4.3.6)."""
-    return poses[..., 1] <= surface(poses[..., 0]) + tolerance_m
+    """(...,) whether each penetrate or drag pose (..., 3) is in the soil, within ``tolerance_m`` (§4.3.6).
+
+    In the soil means below the mapped surface and inside the soil box: beyond its walls there is
+    no soil (and a bucket dragged into a wall stalls), so the whole bucket must keep the surface's
+    ``clearance_m`` from them (:meth:`~excavsim.handoff.goal.SurfaceProfile.in_box`); the thesis'
+    feasible sets end at the box's walls too (§4.4, Fig. 38).
+    """
+    return (poses[..., 1] <= surface(poses[..., 0]) + tolerance_m) & surface.in_box(poses)
 
 
 def sensible_curl(curl: np.ndarray, surface: SurfaceProfile, tolerance_m: float, exit_pitch_rad: float
@@ -50,12 +57,12 @@ def sensible_curl(curl: np.ndarray, surface: SurfaceProfile, tolerance_m: float,
 
     The sensible constraint on the curl (§4.3.6): the bucket must have curled enough to hold its
     load when the edge first rises ``tolerance_m`` above the mapped surface; what follows the exit
-    is the lift-out. A curl that stays in the soil passes.
+    is the lift-out. A curl that stays in the soil passes. The whole curl stays inside the box.
     """
     above = curl[..., 1] > surface(curl[..., 0]) + tolerance_m
     first = np.argmax(above, axis=-1)
     exit_pitch = np.take_along_axis(curl[..., 2], first[..., None], axis=-1)[..., 0]
-    return ~above.any(axis=-1) | (exit_pitch <= exit_pitch_rad)
+    return (~above.any(axis=-1) | (exit_pitch <= exit_pitch_rad)) & np.all(surface.in_box(curl), axis=-1)
 
 
 def volume(swept_m3: np.ndarray, limit_m3: float) -> np.ndarray:
@@ -113,6 +120,18 @@ def reachability(poses: np.ndarray, statics: ArmStatics) -> tuple[np.ndarray, np
         q[ok] = qi
         ok[ok] = oki
     return ok.reshape(poses.shape[:-1]), q.reshape(poses.shape)
+
+
+def touchdown(entries: np.ndarray, statics: ArmStatics, depth_m: float) -> np.ndarray:
+    """(...,) whether the arm reaches ``depth_m`` below each entry pose (..., 3), at its pitch.
+
+    Part of the reachability constraint: before a dig the bucket descends over the entry until the
+    F/T sensor finds the soil (§7.1.3), which may lie below the map (its error, Fig. 104). A dig
+    whose entry is at the edge of the workspace cannot search below it and ends "no contact".
+    """
+    lowered = np.array(entries, dtype=float, copy=True)
+    lowered[..., 1] -= depth_m
+    return reachability(lowered, statics)[0]
 
 
 def torque_ratio(poses: np.ndarray, depth: np.ndarray, load_m3: np.ndarray, *, statics: ArmStatics,

@@ -24,13 +24,14 @@ from __future__ import annotations
 import dataclasses
 import math
 import time
+from collections.abc import Callable
 
 import numpy as np
 
 from excavsim.handoff.goal import SurfaceProfile
 from excavsim.handoff.maps import ElevationMap
 from excavsim.planning.action import running_total, soil_depth
-from excavsim.planning.constraints import force, sensible, shaping, volume
+from excavsim.planning.constraints import force, sensible, shaping, touchdown, volume
 from excavsim.planning.search import TrenchPlanner
 
 
@@ -46,6 +47,7 @@ class FallbackDig:
     reachable: bool
     shaping: bool
     seconds: float = 0.0
+    peak_torques_nm: np.ndarray = dataclasses.field(default_factory=lambda: np.full(3, np.nan))
 
     @property
     def feasible(self) -> bool:
@@ -143,23 +145,38 @@ def _verdict(planner: TrenchPlanner, label: str, poses: np.ndarray, phases: np.n
              surface: SurfaceProfile) -> FallbackDig:
     vcum = running_total(planner.swept(poses, surface))
     reach, _ = planner.reach(poses[None])
+    reachable = bool(reach.all() and touchdown(poses[0], planner.statics, planner.cfg.touchdown_reach_m))
     peak = math.inf
-    if reach.all():
-        _, _, ratio = planner.torque_ratio(poses, soil_depth(poses, surface), vcum)
+    peaks = np.full(3, np.nan)
+    if reachable:
+        _, tau, ratio = planner.torque_ratio(poses, soil_depth(poses, surface), vcum)
         peak = float(ratio.max())
+        peaks = np.abs(tau).max(axis=0)
     within = bool(np.all(shaping(poses, planner.goal, planner.cfg.shaping_tolerance_m)))
-    return FallbackDig(label, poses, phases, float(vcum[-1]), peak, bool(reach.all()), within)
+    return FallbackDig(label, poses, phases, float(vcum[-1]), peak, reachable, within, peak_torques_nm=peaks)
 
 
-def choose(planner: TrenchPlanner, emap: ElevationMap) -> tuple[FallbackDig | None, str]:
-    """The first feasible boundary dig of minimum volume, or None with the reason."""
+def choose(planner: TrenchPlanner, emap: ElevationMap, *, skip: Callable[[FallbackDig], bool] | None = None
+           ) -> tuple[FallbackDig | None, str]:
+    """The first feasible boundary dig of minimum volume, or None with the reason.
+
+    Args:
+        skip: a candidate for which it returns True is passed over (a boundary dig that failed
+            before on the same terrain: :class:`~excavsim.planning.experience.DigExperience`).
+    """
     t0 = time.perf_counter()
     cands = candidates(planner, emap)
     vmin = planner.cfg.fallback_min_volume_fraction * planner.capacity
+    skipped = 0
     for dig in cands:
         if dig.feasible and dig.volume_m3 >= vmin:
+            if skip is not None and skip(dig):
+                skipped += 1
+                continue
             dig.seconds = time.perf_counter() - t0
             return dig, f"boundary dig: {dig.label}"
     why = (f"none of {len(cands)} boundary digs stays within the goal, is reachable within the torque limits "
            f"and sweeps {1000 * vmin:.1f} l") if cands else "no soil left above the boundary path"
+    if skipped:
+        why += f" ({skipped} feasible ones failed before on the same terrain)"
     return None, why

@@ -29,7 +29,7 @@ from excavsim.handoff.goal import SurfaceProfile
 from excavsim.planning.action import (curl, curl_radius, padded_distances, penetrate, penetration_samples,
                                       running_total, soil_depth, swept)
 from excavsim.planning.constraints import (ArmStatics, force, reachability, sensible, sensible_curl, shaping,
-                                           torque_ratio, volume)
+                                           torque_ratio, touchdown, volume)
 from excavsim.planning.objectives import cumulative_torque, torque_sum
 
 NO_DIG = -1  # drag index of a cell with no feasible drag
@@ -129,7 +129,7 @@ class Feasibility:
         shape_ok = np.all(shaping(pen, self.goal, cfg.shaping_tolerance_m), axis=1)
         sense_ok = np.all(sensible(pen, surface, cfg.surface_tolerance_m), axis=1)
         steps = swept(pen, surface, self.width)
-        reach_ok = self._reach(pen).all(axis=1)
+        reach_ok = self._reach(pen).all(axis=1) & touchdown(pen[:, 0], self.statics, cfg.touchdown_reach_m)
         vcum = running_total(steps)
         depth = soil_depth(pen, surface)
         peak = np.full(m, np.inf)
@@ -184,7 +184,8 @@ class Feasibility:
         peak_line = np.maximum.accumulate(np.where(np.isfinite(ratio), ratio, np.inf), axis=1)
         shape_ok = cumall(shape_i)[li, last] & shaping(end, self.goal, cfg.shaping_tolerance_m)
         sense_ok = cumall(sense_i)[li, last] & sensible(end, surface, cfg.surface_tolerance_m)
-        reach_ok = cumall(reach_i)[li, last] & end_reach
+        entry_ok = touchdown(line[:, 0], self.statics, cfg.touchdown_reach_m)
+        reach_ok = cumall(reach_i)[li, last] & end_reach & entry_ok[li]
         peak = np.where(reach_ok, np.maximum(peak_line[li, last], ratio_e), np.inf)
         seg_len = np.linalg.norm(end[:, :2] - prev[:, :2], axis=1)
         cum = cum_i[li, last] + torque_sum(tau_e) * seg_len

@@ -29,7 +29,7 @@ from excavsim.handoff.goal import SurfaceProfile
 from excavsim.handoff.maps import ElevationMap
 from excavsim.planning import action as geometry
 from excavsim.planning.constraints import (CONSTRAINTS, ArmStatics, force, reachability, sensible, sensible_curl,
-                                           shaping, torque_ratio, volume)
+                                           shaping, torque_ratio, touchdown, volume)
 from excavsim.planning.feasibility import NO_DIG, CellVerdicts, Feasibility, prune_along_d1
 from excavsim.planning.objectives import choose
 from excavsim.robot.kinematics import PlanarArm
@@ -119,7 +119,8 @@ class TrenchPlanner:
 
     def surface(self, emap: ElevationMap) -> SurfaceProfile:
         """The mapped surface along the goal's arm plane, averaged across the bucket width."""
-        return SurfaceProfile.from_map(emap, self.arm, math.radians(self.goal.waist_deg), self.width)
+        return SurfaceProfile.from_map(emap, self.arm, math.radians(self.goal.waist_deg), self.width,
+                                       clearance_m=self.cfg.wall_clearance_m)
 
     # -- the action's geometry ------------------------------------------------------------------
     def penetrate(self, k: np.ndarray, alpha: np.ndarray, d1: np.ndarray, surface: SurfaceProfile) -> np.ndarray:
@@ -160,6 +161,15 @@ class TrenchPlanner:
         """Soil a tip path (S, 3) sweeps between the mapped surface and itself, times the bucket width [m^3]."""
         return float(self.swept(poses, surface).sum())
 
+    def path_loads(self, poses: np.ndarray, phases: np.ndarray, surface: SurfaceProfile
+                   ) -> tuple[np.ndarray, np.ndarray]:
+        """The predicted soil forces (S, 2) [N] and static joint torques (S, 3) [N m] along one trenching
+        path (S, 3) with its phases (S,), the soil swept so far loading the bucket (eq. 28)."""
+        vcum = geometry.running_total(self.swept(poses, surface))
+        prog = trajectory_progress(poses, phases, math.radians(self.cfg.epsilon_deg))
+        forces, torques, _ = self.torque_ratio(poses, geometry.soil_depth(poses, surface), vcum, prog, surface)
+        return forces, torques
+
     # -- reachability and loads -----------------------------------------------------------------
     def reach(self, poses: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """Reachability (...,) and joint angles (..., 3) of tip poses (..., 3) (the reachability constraint)."""
@@ -186,7 +196,8 @@ class TrenchPlanner:
         (:meth:`penetrate`) and drags ``drag`` (m, J, 3) (:meth:`drag`) are given, judged cell by cell."""
         return self.feasibility(surface, vmax).evaluate(pen, drag, prune)
 
-    def plan(self, emap: ElevationMap, *, prune: bool = True, classify_limits: bool = False) -> PlanResult:
+    def plan(self, emap: ElevationMap, *, prune: bool = True, classify_limits: bool = False,
+             exclude: np.ndarray | None = None, torque_margin: float = 1.0) -> PlanResult:
         """Choose one dig on ``emap`` by exhaustive search over the grid (see the module docstring).
 
         Args:
@@ -197,6 +208,13 @@ class TrenchPlanner:
             classify_limits: also search once more with the force constraint off, so that
                 ``limiting`` tells geometry-limited cells (1) from force-limited ones (2, feasible
                 but for force: Fig. 87). Without it, every infeasible cell is marked 1.
+            exclude: (n_k, n_alpha, n_d1) bool, cells not to choose although they may be feasible
+                (what failed before: :class:`~excavsim.planning.experience.DigExperience`); they stay
+                in ``feasible`` and the masks, and are counted in ``counts["excluded"]``.
+            torque_margin: the force constraint keeps every predicted joint torque within the limits
+                divided by this factor (>= 1): a margin for what the force model under-predicts,
+                learned from the digs' measured torques
+                (:meth:`~excavsim.planning.experience.DigExperience.torque_margin`).
         """
         t0 = time.perf_counter()
         cfg = self.cfg
@@ -224,7 +242,9 @@ class TrenchPlanner:
         idx = np.nonzero(alive)[0]
         counts["evaluated"] = idx.size
         if idx.size:
-            feas = self.feasibility(surface, vmax)
+            if not (math.isfinite(torque_margin) and torque_margin >= 1.0):
+                raise ExcavsimError(f"torque_margin must be a finite factor >= 1; given {torque_margin!r}")
+            feas = self.feasibility(surface, vmax, limits=self.limits / torque_margin)
             lines = feas.penetration_lines(self.grid_k, self.grid_alpha, self.grid_d1, k, alpha, d1)
             out = feas.evaluate(pen[idx], drag_all[idx], prune, lines.take(idx))
             res_j[idx], res_r[idx] = out.j, out.radius
@@ -243,7 +263,14 @@ class TrenchPlanner:
         masks["shaping"] &= pen_shape
         masks["sensible"] &= pen_sense
 
-        choice, utility, reason = choose(feasible, res["volume"], res["peak"], res["cum"], cfg, self.capacity)
+        allowed = feasible
+        if exclude is not None:
+            exclude = np.asarray(exclude, dtype=bool).reshape(-1)
+            if exclude.shape != (n,):
+                raise ExcavsimError(f"exclude must have the grid's shape {shape}; given {exclude.size} cells")
+            allowed = feasible & ~exclude
+            counts["excluded"] = int((feasible & exclude).sum())
+        choice, utility, reason = choose(allowed, res["volume"], res["peak"], res["cum"], cfg, self.capacity)
         action = None
         poses = np.zeros((0, 3))
         phases = np.zeros(0, np.int8)
@@ -254,9 +281,7 @@ class TrenchPlanner:
             c = choice
             action = TrenchAction(float(k[c]), float(alpha[c]), float(d1[c]), int(res_j[c]) * cfg.sample_spacing_m)
             poses, phases = self.trajectory(action, surface, radius=float(res_r[c]))
-            vcum = geometry.running_total(self.swept(poses, surface))
-            prog = trajectory_progress(poses, phases, math.radians(cfg.epsilon_deg))
-            forces, torques, _ = self.torque_ratio(poses, geometry.soil_depth(poses, surface), vcum, prog, surface)
+            forces, torques = self.path_loads(poses, phases, surface)
             vol = float(res["volume"][c])
         return PlanResult(
             action=action, reason=reason, utility=utility, volume_m3=vol, poses=poses, phases=phases, forces=forces,
@@ -283,7 +308,8 @@ class TrenchPlanner:
         in_soil = bool(np.all(sensible(body, surface, cfg.surface_tolerance_m)))
         exit_ok = bool(sensible_curl(curl, surface, cfg.surface_tolerance_m, math.radians(cfg.curl_exit_pitch_deg)))
         vcum = geometry.running_total(self.swept(poses, surface))
-        reachable = bool(self.reach(poses[None])[0].all())
+        reachable = bool(self.reach(poses[None])[0].all()
+                         and touchdown(poses[0], self.statics, cfg.touchdown_reach_m))
         force_ok = False
         if reachable:
             prog = trajectory_progress(poses, phases, math.radians(cfg.epsilon_deg))

@@ -95,6 +95,17 @@ def arm_from_model(model, *, tol: float = 1e-9) -> PlanarArm:
     gvec = m.opt.gravity
     if abs(gvec[0]) > tol or abs(gvec[1]) > tol:
         raise ModelError(f"gravity must be vertical, got {gvec}")
+
+    # The bucket's profile (the bucket_profile_* sites) in the tip frame, in the plane: at the zero
+    # configuration the blade points along blade_angle0, i.e. pitch rho0 = blade_angle0 - pi.
+    rho0 = blade_angle0 - np.pi
+    x_t = np.array([-np.cos(rho0), -np.sin(rho0)])
+    z_t = np.array([-np.sin(rho0), np.cos(rho0)])
+    outline = []
+    for i in range(constants.N_BUCKET_PROFILE_SITES):
+        sid = _named_id(m, mujoco.mjtObj.mjOBJ_SITE, f"{constants.BUCKET_PROFILE_SITE_PREFIX}{i}")
+        r = to_plane(d.site_xpos[sid]) - tip
+        outline.append([float(r @ x_t), float(r @ z_t)])
     return PlanarArm(
         waist_axis_xy=origin[:2].copy(),
         waist_sign=waist_sign,
@@ -108,6 +119,7 @@ def arm_from_model(model, *, tol: float = 1e-9) -> PlanarArm:
         link_masses=masses,
         link_coms=coms,
         gravity=float(-gvec[2]),
+        bucket_outline=np.array(outline),
     )
 
 

@@ -26,6 +26,8 @@ import dataclasses
 
 import numpy as np
 
+from excavsim.handoff.goal import outline_points
+
 _TWO_PI = 2.0 * np.pi
 
 
@@ -64,6 +66,9 @@ class PlanarArm:
         link_coms: centre of mass of each link relative to its joint axis at zero configuration, in
             the arm plane [m], shape (3, 2).
         gravity: magnitude of gravity [m/s^2].
+        bucket_outline: (m, 2) the bucket's profile in the tip frame, (along the blade from heel to
+            cutting edge, normal to the blade into the bucket) [m]: where the bucket is around its
+            tip (:meth:`bucket_points`); empty for an arm built without it (the tip alone).
     """
 
     waist_axis_xy: np.ndarray
@@ -78,11 +83,17 @@ class PlanarArm:
     link_masses: np.ndarray
     link_coms: np.ndarray
     gravity: float
+    bucket_outline: np.ndarray = dataclasses.field(default_factory=lambda: np.zeros((0, 2)))
 
     def fingerprint(self) -> bytes:
         """Bytes that change whenever any kinematic or limit parameter changes (for cache keys)."""
         parts = [np.asarray(getattr(self, f.name), dtype=float).tobytes() for f in dataclasses.fields(self)]
         return b"|".join(parts)
+
+    def bucket_points(self, poses: np.ndarray) -> np.ndarray:
+        """The bucket's outline in the arm plane at tip poses (..., 3): (..., m + 1, 2) [m], the tip first."""
+        outline = np.concatenate([np.zeros((1, 2)), np.asarray(self.bucket_outline, dtype=float).reshape(-1, 2)])
+        return outline_points(poses, outline)
 
     # ------------------------------------------------------------------ forward kinematics
     def _link_angles(self, q: np.ndarray) -> np.ndarray:
