@@ -182,3 +182,32 @@ def test_touch_down_expects_contact_where_the_bucket_first_meets_the_map(arm, re
     on_slope = DigPlan(poses, np.zeros(2, np.int8), 0.0, 0.01, surface=slope)
     assert expected_contact_z(on_slope, arm, math.radians(10.0)) > 0.55
     assert expected_contact_z(DigPlan(poses, np.zeros(2, np.int8), 0.0, 0.01), arm, 0.2) == 0.5
+
+
+def test_the_torque_margin_learns_from_digs_near_the_limit_only():
+    """Measured against predicted peak wrist torque: digs far below the relief limit say nothing of
+    the risk; one that came near it, or stalled (counted 25 % beyond the limit), sets the margin."""
+    path = np.column_stack([np.linspace(2.4, 2.0, 10), np.full(10, 0.45), np.full(10, 0.5)])
+    experience = DigExperience()
+    surface = type("Flat", (), {"__call__": lambda self, x: np.full(np.shape(x), 0.5)})()
+
+    def record(peak_nm, outcome="completed"):
+        rec = ExecutionRecord(outcome=outcome, executed_path=list(path), lifted_load_n=200.0,
+                              times=[1.0, 2.0], torques=[np.zeros(6), np.array([0, 0, 0, peak_nm, 0, 0])],
+                              phase_starts={"touch-down": 0.5, "dig": 1.0, "lift out": 2.0},
+                              phase_times={"touch-down": 0.5, "dig": 1.0, "lift out": 0.5})
+        if outcome == "stalled":
+            rec.stall = {"joint": "wrist_pitch_joint", "time": 2.0, "tip": path[-1], "torque": peak_nm}
+        return rec
+
+    def dig(predicted_nm):
+        return Dig("planned", path, np.ones(10, np.int8), 0.01, TrenchAction(2.4, 0.3, 0.1, 0.3), 0.0,
+                   predicted_peak_nm=np.array([1000.0, 500.0, predicted_nm]))
+
+    experience.learn(1, dig(300.0), record(450.0), surface, 2000.0, wrist_limit_nm=1000.0)  # far below
+    assert experience.torque_margin() == 1.0
+    experience.learn(2, dig(700.0), record(950.0), surface, 2000.0, wrist_limit_nm=1000.0)  # near it
+    assert experience.torque_margin() == pytest.approx(950.0 / 700.0)
+    experience.learn(3, dig(800.0), record(1000.0, "stalled"), surface, 2000.0, wrist_limit_nm=1000.0)
+    ratios = [950.0 / 700.0, 1.25 * 1000.0 / 800.0]
+    assert experience.torque_margin() == pytest.approx(np.quantile(ratios, 0.8))

@@ -109,21 +109,34 @@ def cross_validate(data: ForceDataset, *, soil: SoilParams, width: float, method
     return out
 
 
-def format_table4(results: Sequence[CVResult], data: ForceDataset, *, folds: int = 10) -> str:
-    """Table 4: mean absolute error of |F| by method (rows) and basis (columns)."""
+def format_table4(results: Sequence[CVResult], data: ForceDataset, *, folds: int = 10,
+                  beside: Sequence[CVResult] | None = None) -> str:
+    """Table 4: mean absolute error of |F| by method (rows) and basis (columns).
+
+    With ``beside`` (the same methods under another protocol) each cell shows both, ``results``
+    first and ``beside`` in parentheses: whole digs held out, the primary figure, with the thesis'
+    shuffled samples beside it.
+    """
     bases = [b for b in BASES if any(r.basis == b for r in results)]
     heads = [f"{b.capitalize()} (eq. {get_basis(b).equation})" for b in bases]
     soil = data.meta.get("soil", "?")
+    other = {(r.method, r.basis): r.mae for r in beside} if beside is not None else {}
+
+    def cell(method, basis, mae):
+        if beside is None:
+            return f"{mae:>22.1f}"
+        return f"{mae:>13.1f} ({other.get((method, basis), float('nan')):5.1f})"
+
     lines = [f"Table 4  Mean absolute error [N] between predicted and observed magnitude of the force "
              f"({folds}-fold cross-validation; {len(data)} samples of {data.n_digs} digs in {soil}; "
              f"mean observed |F| {magnitude(data.forces).mean():.0f} N)",
              f"{'':<42}" + "".join(f"{h:>22}" for h in heads)]
     for method in dict.fromkeys(r.method for r in results if r.basis is not None):
         row = {r.basis: r.mae for r in results if r.method == method}
-        lines.append(f"{LABELS[method]:<42}" + "".join(f"{row.get(b, float('nan')):>22.1f}" for b in bases))
+        lines.append(f"{LABELS[method]:<42}" + "".join(cell(method, b, row.get(b, float("nan"))) for b in bases))
     for r in results:
         if r.basis is None:
-            lines.append(f"{r.label:<42}{r.mae:>22.1f}   (no basis)")
+            lines.append(f"{r.label:<42}{cell(r.method, None, r.mae)}   (no basis)")
     return "\n".join(lines)
 
 

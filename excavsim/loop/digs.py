@@ -105,7 +105,8 @@ class PlannedDigs(DigSource):
         if self.experience is None:
             return None
         surface = self._surface if self._surface is not None else rig.planner.surface(emap)
-        failure: Failure | None = self.experience.learn(index, dig, record, surface, rig.planner.density)
+        failure: Failure | None = self.experience.learn(index, dig, record, surface, rig.planner.density,
+                                                        wrist_limit_nm=float(rig.planner.limits[2]))
         if failure is None:
             return None
         what = "its neighbourhood" if failure.action is not None else "this boundary dig"

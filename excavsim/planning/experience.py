@@ -21,11 +21,12 @@ execution record and the F/T sensor's weighing of the lifted load, never the wor
 
 * the **torque margin**: the force model is static (eq. 8) and misses what the world adds (speed,
   the bucket's bearing, the load in the curl), so the wrist meets more torque than predicted. The
-  ratio of the measured to the predicted peak wrist torque of every planned dig is kept (for a
-  stall, whose measured peak is the relief limit, the demand is taken ``stall_excess`` above it), and
-  the planner keeps its predicted torques within the limits divided by an upper quantile of those
-  ratios (:meth:`DigExperience.torque_margin`): a peak-aware force constraint learned from the
-  residuals.
+  ratio of the measured to the predicted peak wrist torque is kept for every planned dig that
+  brought the wrist to within ``margin_near`` of its relief limit (for a stall, whose measured peak
+  is the limit, the demand is taken ``stall_excess`` above it; digs that stayed well below the limit
+  say nothing of the risk), and the planner keeps its predicted torques within the limits divided
+  by an upper quantile of those ratios (:meth:`DigExperience.torque_margin`): a peak-aware force
+  constraint learned from the residuals where they matter.
 
 Not from the thesis, which plans every dig afresh; it is the loop's answer to "never the same
 failing dig planned again blindly". numpy only.
@@ -118,13 +119,14 @@ class DigExperience:
         cut_margin_m: the bound lies this far above the executed edge [m].
         margin_quantile, margin_max: the torque margin is this quantile of the measured/predicted
             ratios, at most ``margin_max``; margin_min_predicted_nm: digs predicted below this wrist
-            torque do not count (their ratio is the bucket's weight, not the soil) [N m].
+            torque do not count (their ratio is the bucket's weight, not the soil) [N m];
+            margin_near: only digs whose measured wrist peak reached this fraction of its limit count.
         stall_excess: a stalled dig's demand, as a multiple of its measured (relief-limited) peak (tuned).
     """
 
     def __init__(self, *, min_load_m3: float = 0.001, terrain_change_m: float = 0.03, neighbourhood: int = 1,
                  cut_margin_m: float = 0.005, margin_quantile: float = 0.8, margin_max: float = 2.0,
-                 margin_min_predicted_nm: float = 100.0, stall_excess: float = 1.25):
+                 margin_min_predicted_nm: float = 100.0, margin_near: float = 0.9, stall_excess: float = 1.25):
         self.min_load_m3 = float(min_load_m3)
         self.terrain_change_m = float(terrain_change_m)
         self.neighbourhood = int(neighbourhood)
@@ -133,18 +135,20 @@ class DigExperience:
         self.margin_max = float(margin_max)
         self.margin_min_predicted_nm = float(margin_min_predicted_nm)
         self.stall_excess = float(stall_excess)
+        self.margin_near = float(margin_near)
         self.torque_ratios: list[float] = []  # measured / predicted peak wrist torque of planned digs
         self.failures: list[Failure] = []
         self.cuts: list[CutBound] = []
 
     # -- learning -------------------------------------------------------------------------------
     def learn(self, index: int, dig: Dig, record: ExecutionRecord, surface: SurfaceProfile,
-              density_kg_m3: float) -> Failure | None:
+              density_kg_m3: float, *, wrist_limit_nm: float = math.inf) -> Failure | None:
         """Remember what dig ``index`` met.
 
         Args:
             surface: the scanned surface it was planned on (before this memory's corrections).
             density_kg_m3: the soil density the planner assumes, to turn the weighed load into a volume.
+            wrist_limit_nm: the wrist pitch's relief limit (for the torque margin) [N m].
 
         Returns:
             The failure, or None when the dig succeeded.
@@ -153,7 +157,8 @@ class DigExperience:
         kind = failure_kind(record, load, self.min_load_m3)
         predicted = float(dig.predicted_peak_nm[2])
         measured = measured_peak_nm(record)[3]
-        if dig.action is not None and predicted >= self.margin_min_predicted_nm and math.isfinite(measured):
+        near = measured >= self.margin_near * wrist_limit_nm
+        if dig.action is not None and predicted >= self.margin_min_predicted_nm and near:
             excess = self.stall_excess if kind == "stall" else 1.0  # a stall's demand lies beyond the limit
             self.torque_ratios.append(excess * measured / predicted)
         x0, x1 = float(dig.poses[:, 0].min()), float(dig.poses[:, 0].max())
