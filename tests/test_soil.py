@@ -216,6 +216,25 @@ def test_full_bucket_spills_ahead_and_conserves_volume():
     assert soil.volumes().total == pytest.approx(v0, rel=1e-12)
 
 
+def test_a_spill_is_spread_over_the_failure_wedge_not_stacked_in_one_row():
+    """Eq. 7 spreads the displaced soil uniformly over the wedge: while a full bucket keeps cutting,
+    the soil it cannot take lies over the wedge's length ahead of the edge. Stacked in the row just
+    ahead (as before), 1 cm of spill per step would stand as a column tens of cm high."""
+    sim = Simulation(scene=quiet_scene(), seed=8)
+    grid = sim.soil.grid
+    drv = Driver(sim)
+    h0 = grid.heights.copy()
+    c = drv.drag(2.35, 1.6, 0.15, math.radians(30), above=0.15)
+    spilled = sum(x.spilled_volume_m3 for x in c)
+    assert spilled > 0.005
+    rise = grid.heights - h0
+    ahead = rise > 1e-9
+    # the spill lies on many rows of cells along the drag, not in a few
+    assert len(np.unique(np.nonzero(ahead)[1])) >= 8
+    # the highest pile is within a few times what a uniform layer over the wedge gives: one step's
+    # wedge at 15 cm depth and a 30 deg rake is d (cot 30 + cot beta), about half a metre long
+    assert rise.max() < 0.15
+
 def test_dump_empties_the_bucket_where_it_falls():
     sim = Simulation(scene=quiet_scene(), seed=9)
     soil = sim.soil

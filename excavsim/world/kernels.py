@@ -156,6 +156,7 @@ def soil_step(heights, strength, grid, mj_arrays, bucket_vel6, bucket, edge, sur
 
     # wedge failure force (eq. 8 + adhesion + surcharge) with the truth terms
     f_fail = 0.0
+    wedge_len = 0.0
     if depth > 0.0:
         rk = max(rake, p.rake_min_rad)
         ng = _interp_uniform(t_rake0, t_step, table.n_gamma, rk)
@@ -251,6 +252,7 @@ def soil_step(heights, strength, grid, mj_arrays, bucket_vel6, bucket, edge, sur
     o.rake_rad = rake
     o.cutting_speed_m_s = speed
     o.wedge_failure_force_n = f_fail
+    o.wedge_length_m = wedge_len
     _set3(o.cutting_force_n, fcx, fcy, fcz)
     _set3(o.bearing_force_n, fb[0], fb[1], fb[2])
     _set3(o.rock_force_n, frx, fry, frz)

@@ -61,6 +61,7 @@ from excavsim.world.settle import SettleResult, settle
 from excavsim.world.terrain import SoilGrid
 
 _EDGE_EXCLUSION_M = 0.03  # profile within this arc length of the edge belongs to the cutting face
+_MAX_SPILL_ROWS = 24  # most rows of cells along the wedge a spill is spread over
 
 
 @dataclasses.dataclass(frozen=True)
@@ -280,11 +281,8 @@ class SoilModel:
         if cut_volume > 0:
             w = self._window
             grid.mark(int(w[0]), int(w[1]), int(w[2]), int(w[3]))
-            if spilled > 0:  # full bucket: the cut soil piles up just ahead of the edge
-                rot = data.xmat[b.body_id].reshape(3, 3)
-                edge = b.edge @ rot.T + data.xpos[b.body_id]
-                drop = edge + out[_OUT["ahead"]] * (2 * grid.cell)
-                self.spoil += grid.deposit(drop[:, 0], drop[:, 1], np.full(len(drop), spilled / len(drop)))
+            if spilled > 0:  # full bucket: the cut soil stays ahead of the edge, spread over the wedge
+                self.spoil += self._spill_ahead(data, out, spilled)
         elif depth == 0.0 and self.load > 0.0:
             poured = self._pour(data, out)
         if cut_volume > 0 or poured > 0:
@@ -296,6 +294,19 @@ class SoilModel:
         if self._since_settle >= self.scene.settle.interval_s - 1e-12 and depth == 0.0:
             self.settle_changes()
         return SoilContact(float(data.time), out, spilled, poured)
+
+    def _spill_ahead(self, data: mujoco.MjData, out: np.ndarray, volume_m3: float) -> float:
+        """Deposit ``volume_m3`` of cut soil that the full bucket cannot take over the failure wedge
+        ahead of the edge, uniformly (eq. 7's assumption: the displaced soil is spread over the wedge),
+        from one cell ahead of the edge to the wedge's length; returns what fell outside the box."""
+        b, grid = self.bucket, self.grid
+        rot = data.xmat[b.body_id].reshape(3, 3)
+        edge = b.edge @ rot.T + data.xpos[b.body_id]
+        length = float(out[_OUT["wedge_length_m"]])
+        n_along = int(min(max(round(length / grid.cell), 1), _MAX_SPILL_ROWS))
+        reach = np.linspace(grid.cell, max(length, grid.cell), n_along)
+        drop = (edge[:, None, :] + reach[None, :, None] * out[_OUT["ahead"]]).reshape(-1, 3)
+        return grid.deposit(drop[:, 0], drop[:, 1], np.full(len(drop), volume_m3 / len(drop)))
 
     def _pour(self, data: mujoco.MjData, out: np.ndarray) -> float:
         """Let the load beyond what the tilted bucket holds pour over its lower lip; returns the volume."""

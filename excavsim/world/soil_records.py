@@ -158,6 +158,7 @@ OUT = np.dtype([
     ("rake_rad", _F8),
     ("cutting_speed_m_s", _F8),
     ("wedge_failure_force_n", _F8),
+    ("wedge_length_m", _F8),
     ("cutting_force_n", _F8, _V3),
     ("bearing_force_n", _F8, _V3),
     ("rock_force_n", _F8, _V3),
@@ -178,6 +179,8 @@ Fields:
     rake_rad: rake of the blade [rad].
     cutting_speed_m_s: the edge's speed into the soil, against the wedge force [m/s].
     wedge_failure_force_n: failure force of the wedge with the truth terms [N].
+    wedge_length_m: length of the failure wedge ahead of the edge, ``d (cot rho + cot beta)`` [m]
+        (0 out of the soil).
     cutting_force_n: the wedge's force on the bucket [N].
     bearing_force_n: bearing pressure and friction on the outer surface [N].
     rock_force_n: the rocks' push on the edge samples [N].
