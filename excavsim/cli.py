@@ -144,9 +144,11 @@ def _cmd_learn(args: argparse.Namespace) -> int:
 
 
 def _cmd_validate(args: argparse.Namespace) -> int:
-    from excavsim.config import RobotConfig, SceneConfig, SensingConfig, SoilsFile, load_config
+    from excavsim.config import (ExecutorConfig, PlannerConfig, RobotConfig, SceneConfig, SensingConfig, SoilsFile,
+                                 load_config)
 
-    kinds = {"robot": RobotConfig, "scene": SceneConfig, "soils": SoilsFile, "sensing": SensingConfig}
+    kinds = {"robot": RobotConfig, "scene": SceneConfig, "soils": SoilsFile, "sensing": SensingConfig,
+             "planner": PlannerConfig, "executor": ExecutorConfig}
     load_config(args.file, kinds[args.kind])
     print(f"{args.file}: valid {kinds[args.kind].__name__}")
     return 0
@@ -172,6 +174,8 @@ def _cmd_plan(args: argparse.Namespace) -> int:
 
     goal = resolve_goal(args.goal or "straight")
     config = load_planner_config(args.planner_config)
+    if args.no_volume_constraint:
+        config = config.model_copy(update={"volume_constraint": False})
     robot = load_robot_config(args.robot_config)
     soil = get_soil(args.soil)
     if args.map:
@@ -189,16 +193,19 @@ def _cmd_plan(args: argparse.Namespace) -> int:
     arm = arm_from_model(model)
     width = float(model.numeric(constants.BUCKET_WIDTH_NUMERIC).data[0])
     capacity = float(model.numeric(constants.BUCKET_CAPACITY_NUMERIC).data[0])
-    print(f"excavsim plan: trench {goal.name or args.goal!r} on {map_label}, soil {args.soil}, "
-          f"objective {config.objective}")
+    volume_rule = (f"volume <= {config.fill_fraction:g} x capacity" if config.volume_constraint
+                   else "volume constraint off")
+    print(f"excavsim plan: trench {goal.name or args.goal!r} on {map_label}, soil {args.soil}, wrist {wrist:.0f} N m, "
+          f"objective {config.objective}, {volume_rule}")
     t0 = time.perf_counter()
     table = load_or_build(arm)  # built and cached on first use (a few seconds)
     t_table = time.perf_counter() - t0
-    planner = TrenchPlanner(arm, table, limits, width, capacity, goal, config, WedgePredictor(soil, width),
+    planner = TrenchPlanner(arm, table, limits, width, capacity, goal, config,
+                            WedgePredictor(soil, width, capacity_m3=config.heaped_capacity_factor * capacity),
                             soil.density_kg_m3)
     # The figures show every constraint's set over the whole grid, so they need the unpruned search
     # (same answer, slower); without figures the planner searches as the loop does.
-    result = planner.plan(emap, prune=args.no_figures, classify_limits=not args.no_figures)
+    result = planner.plan(emap, prune=args.no_figures, classify_limits=True)
 
     rows = []
     if result.action is None:
@@ -213,11 +220,12 @@ def _cmd_plan(args: argparse.Namespace) -> int:
         for name, peak, limit in zip(("shoulder", "elbow", "wrist pitch"), peaks, limits):
             rows.append((f"torque {name}", f"peak {peak:7.0f} N m of {limit:7.0f} N m ({100 * peak / limit:3.0f} %)"))
     counts = result.counts
-    n_force = int(np.sum(~result.feasible & (result.limiting == 2)))
-    n_geometry = int(np.sum(~result.feasible)) - n_force
-    rows.append(("cells", f"{int(result.feasible.sum())} feasible of {counts['cells']} (geometry-limited "
-                          f"{n_geometry}, force-limited {n_force}); evaluated {counts['evaluated']}, "
-                          f"pruned along d1 {counts['pruned_d1']}"))
+    lim = result.limiting
+    n_short, n_none = int(np.sum(result.feasible & (lim == 3))), int(np.sum(~result.feasible & (lim == 2)))
+    rows.append(("cells", f"{int(result.feasible.sum())} feasible of {counts['cells']}; evaluated "
+                          f"{counts['evaluated']}, pruned along d1 {counts['pruned_d1']}"))
+    rows.append(("force-limited", f"{n_short + n_none} cells (Fig. 87): {n_short} feasible with the drag cut short "
+                                  f"by the torque limits, {n_none} with no drag within them"))
     search = "pruned search" if args.no_figures else "unpruned: every constraint on every cell, for the figures"
     rows.append(("time", f"planning {result.seconds:.2f} s ({search}); reachability table {t_table:.1f} s"))
     width_col = max(len(r[0]) for r in rows)
@@ -239,6 +247,47 @@ def _cmd_plan(args: argparse.Namespace) -> int:
         print("figures:")
         for p in paths:
             print(f"  {p}")
+    return 0
+
+
+def _cmd_experiment(args: argparse.Namespace) -> int:
+    import pathlib
+
+    from excavsim.loop.experiment import (experiment_names, format_comparison, format_means, load_experiment,
+                                          run_experiment)
+
+    if args.list or not args.names:
+        for name in experiment_names():
+            print(f"{name}: {load_experiment(name).title}")
+        return 0
+    names = experiment_names() if args.names == ["all"] else args.names
+    specs = [load_experiment(n) for n in names]  # every name checked before anything runs
+    if args.dig_budget is not None:
+        if args.dig_budget < 1:
+            raise ExcavsimError(f"--dig-budget must be at least 1; given {args.dig_budget}")
+        specs = [s.model_copy(update={"runs": [r.model_copy(update={"dig_budget": args.dig_budget}) for r in s.runs]})
+                 for s in specs]
+    if args.seeds < 1:
+        raise ExcavsimError(f"--seeds must be at least 1; given {args.seeds}")
+    if args.seeds > 1:  # every run once per seed: seed, seed + 1, ...
+        def reseeded(r, i):
+            return r.model_copy(update={"seed": r.seed + i, "name": f"{r.name}-s{r.seed + i}"})
+
+        specs = [s.model_copy(update={"runs": [reseeded(r, i) for r in s.runs for i in range(args.seeds)]})
+                 for s in specs]
+    out = pathlib.Path(args.out)
+    results = {}
+    for exp in specs:
+        print(f"excavsim experiment {exp.name}: {exp.title}")
+        runs = run_experiment(exp, out / exp.name, progress=print if args.verbose else None)
+        results[exp.name] = (exp, runs)
+        print((out / exp.name / "summary.txt").read_text())
+        print(f"wrote {out / exp.name}/sections.png, digs.csv, digs.txt, summary.txt\n")
+    if len(results) > 1 or args.seeds > 1:
+        table = format_comparison(results) + "\n\npooled over each experiment's runs:\n" + format_means(results)
+        (out / "comparison.txt").write_text(table + "\n")
+        print(table)
+        print(f"wrote {out / 'comparison.txt'}")
     return 0
 
 
@@ -306,7 +355,8 @@ def build_parser() -> argparse.ArgumentParser:
     campaign.set_defaults(func=_cmd_campaign)
 
     validate = sub.add_parser("validate", help="check a configuration file and report every problem")
-    validate.add_argument("kind", choices=["robot", "scene", "soils", "sensing"], help="what the file configures")
+    validate.add_argument("kind", choices=["robot", "scene", "soils", "sensing", "planner", "executor"],
+                          help="what the file configures")
     validate.add_argument("file", help="the YAML file")
     validate.set_defaults(func=_cmd_validate)
 
@@ -321,8 +371,25 @@ def build_parser() -> argparse.ArgumentParser:
     plan.add_argument("--wrist-limit", metavar="NM", type=float,
                       help="wrist pitch torque limit [N m] (default: the robot configuration's)")
     plan.add_argument("--out", metavar="DIR", default="runs/plan", help="where the figures go (default runs/plan)")
+    plan.add_argument("--no-volume-constraint", action="store_true",
+                      help="switch the volume constraint off: only the force constraint bounds how much a dig "
+                           "sweeps (§7.2.2, Figs. 115-117; the setting of the Fig. 87 comparison)")
     plan.add_argument("--no-figures", action="store_true", help="only print the plan (pruned search, faster)")
     plan.set_defaults(func=_cmd_plan)
+
+    exp = sub.add_parser("experiment", help="run the thesis' trenching experiments (Figs. 113-117): section "
+                                            "figures, dig tables, summaries")
+    exp.add_argument("names", nargs="*", metavar="NAME",
+                     help="experiments of configs/experiments (fig113 ... fig117), YAML files, or 'all'; "
+                          "none: list them")
+    exp.add_argument("--list", action="store_true", help="list the experiments and exit")
+    exp.add_argument("--out", metavar="DIR", default="runs/experiments",
+                     help="output directory, one subdirectory per experiment (default runs/experiments)")
+    exp.add_argument("--dig-budget", type=int, metavar="N", help="override every run's dig budget")
+    exp.add_argument("--seeds", type=int, default=1, metavar="N",
+                     help="run every run with N seeds (its own, then the next N - 1) and pool them (default 1)")
+    exp.add_argument("--verbose", action="store_true", help="print every scan and dig")
+    exp.set_defaults(func=_cmd_experiment)
 
     learn = sub.add_parser("learn", help="learn to predict soil forces: data from digs, Tables 4-5, Fig. 81, "
                                          "nominal vs learned in the loop")

@@ -94,6 +94,16 @@ def test_cli_reports_a_bad_config_without_traceback_and_exits_non_zero(tmp_path,
 def test_cli_validates_a_good_config(capsys):
     assert main(["validate", "robot", str(constants.ROBOT_YAML)]) == 0
     assert "valid RobotConfig" in capsys.readouterr().out
+    assert main(["validate", "planner", str(constants.PLANNER_YAML)]) == 0
+    assert "valid PlannerConfig" in capsys.readouterr().out
+
+
+def test_cli_names_a_bad_planner_objective_and_what_is_allowed(tmp_path, capsys):
+    path = tmp_path / "planner.yaml"
+    path.write_text(constants.PLANNER_YAML.read_text().replace("auxiliary: peak_torque", "auxiliary: volume"))
+    assert main(["validate", "planner", str(path)]) == 2
+    err = capsys.readouterr().err
+    assert "auxiliary='volume'" in err and "peak_torque, cumulative_torque" in err and "Traceback" not in err
 
 
 # ---------------------------------------------------------------- property-based mutation

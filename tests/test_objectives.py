@@ -26,6 +26,18 @@ def test_eq44_takes_the_smallest_peak_torque_among_digs_reaching_the_volume_thre
     assert CFG.objective == "lexicographic"
 
 
+def test_eq44_with_the_cumulative_torque_as_auxiliary_criterion():
+    """Figs. 113-114: J = 0 up to the threshold z, J2 = 1 / cumulative torque above it (maximized)."""
+    cfg = CFG.model_copy(update={"auxiliary": "cumulative_torque"})
+    c, utility, reason = choose(FEASIBLE, VOLUME, PEAK, CUM, cfg, CAPACITY)
+    assert c == 1 and utility == pytest.approx(1 / 800.0) and "min cumulative torque" in reason
+    # J1 must exceed z (eq. 44's ">"): a dig sweeping exactly z x capacity has J = 0
+    at_z = VOLUME.copy()
+    at_z[1] = 0.9 * CAPACITY
+    c, *_ = choose(FEASIBLE, at_z, PEAK, CUM, cfg, CAPACITY)
+    assert c == 0
+
+
 def test_eq44_takes_the_largest_volume_when_no_dig_reaches_the_threshold():
     c, utility, reason = _choose(volume=np.minimum(VOLUME, 0.017))
     assert c in (0, 3) and utility == 0.0 and "max volume" in reason

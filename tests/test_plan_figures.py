@@ -100,7 +100,8 @@ def test_limit_classes_count_pruned_cells_as_geometry_limited(coarse_plan):
     full = planner.plan(flat_map(), prune=False, classify_limits=True)
     assert pruned.counts["pruned_d1"] > 0
     classes = figures.limit_classes(pruned)
-    np.testing.assert_array_equal(classes == figures.FEASIBLE, pruned.feasible)
+    feasible = (classes == figures.GEOMETRY_LIMITED) | (classes == figures.FORCE_LIMITED)
+    np.testing.assert_array_equal(feasible, pruned.feasible)
     np.testing.assert_array_equal(classes, figures.limit_classes(full))  # same map as the full search
 
 

@@ -105,7 +105,7 @@ def test_a_weaker_wrist_shrinks_the_feasible_set_and_shortens_the_dig(arm, reach
     assert np.sum(weak.feasible & ~strong.feasible) <= 0.02 * weak.feasible.sum()
     ds, dw = strong.action, weak.action
     assert dw[3] < ds[3] or dw[2] * math.sin(dw[1]) < ds[2] * math.sin(ds[1])  # shorter or shallower
-    assert (weak.limiting == 2).sum() > (strong.limiting == 2).sum()
+    assert (weak.limiting >= 2).sum() > (strong.limiting >= 2).sum()  # 2, 3: the force constraint binds
 
 
 def test_objectives_pick_what_they_promise(arm, reach_table, straight_plan):
@@ -173,4 +173,31 @@ def test_classifying_the_limits_leaves_the_planner_untouched(arm, reach_table):
     plain = planner.plan(flat_map())
     assert classified.action == plain.action
     np.testing.assert_array_equal(classified.feasible, plain.feasible)
-    assert (classified.limiting == 2).any() and not np.any(classified.feasible & (classified.limiting != 0))
+    assert (classified.limiting >= 2).any()
+    assert np.all(np.isin(classified.limiting[classified.feasible], (0, 3)))
+    assert np.all(np.isin(classified.limiting[~classified.feasible], (1, 2)))
+
+
+def test_the_force_constraint_binds_at_steep_alpha_and_long_d1_in_the_testbed_sand(arm, reach_table):
+    """Fig. 87: with the volume constraint off (§7.2.2: the force constraint takes its place), the
+    force constraint, not geometry, limits digs of steep approach angles and long penetrations in
+    the testbed sand, on a region that grows when the wrist's limit falls from 1000 to 500 N m. The
+    force model sees what a full bucket cannot take stay ahead of the blade as surcharge (eq. 7)."""
+    s = get_soil("testbed_sand")
+    found = {}
+    for wrist in (1000.0, 500.0):
+        planner = make_planner(arm, reach_table, limits=np.array([25000.0, 12000.0, wrist]), volume_constraint=False)
+        planner.predictor = WedgePredictor(s, WIDTH, capacity_m3=planner.cfg.heaped_capacity_factor * CAPACITY)
+        res = planner.plan(flat_map(), classify_limits=True)
+        found[wrist] = (res, (res.limiting >= 2))
+    (_, f1000), (r500, f500) = found[1000.0], found[500.0]
+    assert f1000.sum() > 0
+    assert f500.sum() > 2 * f1000.sum()
+    _, alpha, d1 = np.meshgrid(r500.grid_k, r500.grid_alpha, r500.grid_d1, indexing="ij")
+    free = r500.feasible & (r500.limiting == 0)  # feasible cells whose drag geometry ends
+    assert alpha[f500].mean() > alpha[free].mean() + math.radians(10)
+    assert d1[f500].mean() > d1[free].mean()
+    # With the volume constraint on, a bucketful of this sand stays within 500 N m: no force limit.
+    on = make_planner(arm, reach_table, limits=np.array([25000.0, 12000.0, 500.0])).plan(flat_map(),
+                                                                                        classify_limits=True)
+    assert not (on.limiting >= 2).any()

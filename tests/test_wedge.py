@@ -342,3 +342,25 @@ def test_bad_arguments_are_refused_with_the_allowed_values(sand):
         wedge_force_components(0.1, 0.5, sand, 0.3, frame="world")
     with pytest.raises(WedgeError, match="positive friction angle"):
         WedgeTable.build(0.0, 0.0)
+
+
+def test_the_nominal_predictor_bears_in_full_what_the_bucket_cannot_take(sand, sand_table):
+    """WedgePredictor's surcharge (eq. 7, Fig. 57): Q = s min(v, C) + max(v - C, 0), so beyond the
+    capacity C every extra litre adds its whole weight over D, and below it only the share s."""
+    from excavsim.planning.predictor import WedgePredictor
+
+    s, cap, width, depth, rake = 0.3, 0.025, 0.3, 0.15, math.radians(40)
+    pred = WedgePredictor(sand, width, surcharge_fraction=s, capacity_m3=cap)
+    blade_only = WedgePredictor(sand, width, surcharge_fraction=s)
+
+    def magnitude(p, v):
+        return float(np.hypot(*p.predict(np.array([depth]), np.array([rake]), np.array([v]))[0]))
+
+    d = wedge_denominator(rake, critical_beta(rake, sand.phi, sand.delta), sand.phi, sand.delta)
+    gamma = sand.density_kg_m3 * G_M_S2
+    assert magnitude(pred, 0.02) == pytest.approx(magnitude(blade_only, 0.02), rel=1e-12)  # room left
+    assert magnitude(pred, 0.035) - magnitude(pred, 0.03) == pytest.approx(gamma * 0.005 / d, rel=1e-3)
+    assert magnitude(blade_only, 0.035) - magnitude(blade_only, 0.03) == pytest.approx(s * gamma * 0.005 / d,
+                                                                                        rel=1e-3)
+    with pytest.raises(ValueError, match="capacity_m3 must be positive"):
+        WedgePredictor(sand, width, capacity_m3=0.0)

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import math
 import pathlib
 
 from pydantic import Field, model_validator
@@ -71,10 +72,16 @@ class PlannerConfig(StrictModel):
         default=0.0, ge=-120, le=60, description="the pitch the bucket must have reached when its edge leaves the soil"
     )
     fill_fraction: float = Field(default=1.0, gt=0, le=2, description="volume limit as a fraction of capacity")
+    volume_constraint: bool = Field(default=True, description="apply the volume constraint (§4.3.2); off, only "
+                                    "the force constraint keeps digs to what the bucket can take (§7.2.2)")
+    heaped_capacity_factor: float = Field(default=1.25, ge=1, le=2, description="the load the bucket holds before "
+                                          "cut soil stays ahead of it, x struck capacity (the force model's belief)")
     objective: str = Field(default="lexicographic",
                            description="volume | peak_torque | cumulative_torque | lexicographic (eq. 44)")
     volume_threshold: float = Field(default=0.9, ge=0, le=2,
-                                    description="eq. 44: digs must sweep this fraction of capacity")
+                                    description="eq. 44: digs must sweep more than this fraction of capacity")
+    auxiliary: str = Field(default="peak_torque", description="eq. 44's auxiliary criterion J2 among the digs over "
+                           "the volume threshold: peak_torque | cumulative_torque")
     min_volume_fraction: float = Field(default=0.05, ge=0, le=1, description="below this: no dig")
     shaping_tolerance_m: float = Field(default=0.005, ge=0, le=0.1)
     fallback_clearance_m: float = Field(default=0.01, ge=0, le=0.2,
@@ -91,11 +98,18 @@ class PlannerConfig(StrictModel):
                                            description="centre of the load in the tip frame (x, z) [m]")
     grid: PlannerGrid = PlannerGrid()
 
+    def volume_limit_m3(self, capacity_m3: float) -> float:
+        """The volume constraint's largest swept volume for a bucket of ``capacity_m3`` [m^3]
+        (``inf`` with the constraint off)."""
+        return self.fill_fraction * capacity_m3 if self.volume_constraint else math.inf
+
     @model_validator(mode="after")
     def _objective(self) -> PlannerConfig:
         allowed = ("volume", "peak_torque", "cumulative_torque", "lexicographic")
         if self.objective not in allowed:
             raise ValueError(f"objective={self.objective!r}; allowed: {', '.join(allowed)}")
+        if self.auxiliary not in ("peak_torque", "cumulative_torque"):
+            raise ValueError(f"auxiliary={self.auxiliary!r}; allowed: peak_torque, cumulative_torque")
         if sorted(self.curl_radii_m) != list(self.curl_radii_m) or min(self.curl_radii_m) <= 0:
             raise ValueError(f"curl_radii_m={self.curl_radii_m} must be positive and increasing")
         return self

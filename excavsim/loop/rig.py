@@ -77,7 +77,8 @@ def make_rig(sim: Simulation, *, seed: int = 0, goal: TrenchGoal | None = None,
     width = float(sim.model.numeric(constants.BUCKET_WIDTH_NUMERIC).data[0])
     capacity = float(sim.model.numeric(constants.BUCKET_CAPACITY_NUMERIC).data[0])
     planner = TrenchPlanner(arm, load_or_build(arm), sim.torque_limit[1:4], width, capacity, goal, planner_cfg,
-                            WedgePredictor(nominal, width), nominal.density_kg_m3)
+                            WedgePredictor(nominal, width, capacity_m3=planner_cfg.heaped_capacity_factor * capacity),
+                            nominal.density_kg_m3)
     home, park_q = sim.index.home, sim.index.park
     executor = DigExecutor(sim, arm, executor_cfg, ForceSensor.from_config(sim.model, sensing_cfg.force_sensor),
                            park_q)

@@ -148,7 +148,7 @@ class CellEvaluator:
         self.shape = planner.grid_shape
         self.k, self.alpha, self.d1 = planner.grid_cells()
         n = self.k.size
-        self.vmax = cfg.fill_fraction * planner.capacity
+        self.vmax = cfg.volume_limit_m3(planner.capacity)
         # plan's d1 pruning: alive up to the first penetration that cuts through the goal.
         pen = planner.penetrate(self.k, self.alpha, self.d1, self.surface)
         self.alive = prune_along_d1(np.all(shaping(pen, planner.goal, cfg.shaping_tolerance_m), axis=1), self.shape)
@@ -192,8 +192,7 @@ def cell_energy(ev: CellEvaluator, cells: np.ndarray, objective: str) -> np.ndar
     v_goal = p.cfg.min_volume_fraction * p.capacity
     if objective == "lexicographic":
         v_goal = max(v_goal, p.cfg.volume_threshold * p.capacity)
-        good = peak
-    elif objective == "peak_torque":
+    if objective == "peak_torque" or (objective == "lexicographic" and p.cfg.auxiliary == "peak_torque"):
         good = peak
     else:
         x = cum / (p.limits.sum() * _CUM_SCALE_M)

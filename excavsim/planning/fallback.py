@@ -100,7 +100,7 @@ def candidates(planner: TrenchPlanner, emap: ElevationMap) -> list[FallbackDig]:
     surface = planner.surface(emap)
     line, (i_far, i_near) = boundary_polyline(planner)
     phase = np.where(np.arange(len(line)) < i_far, 0, 1).astype(np.int8)
-    vmax = cfg.fill_fraction * planner.capacity
+    vmax = cfg.volume_limit_m3(planner.capacity)
     soil = sensible(line, surface, cfg.surface_tolerance_m)
     seg = np.concatenate([[0.0], planner.swept(line, surface)])  # volume swept reaching sample i
 

@@ -3,7 +3,7 @@
 * :func:`plot_feasible_sets`: each constraint's set of actions as solid cubes in (k, alpha, d1)
   space, and their composites (Figs. 38-49, 85);
 * :func:`plot_limits`: where the geometric constraints and where the force constraint limit the
-  dig (Fig. 87);
+  dig, in (alpha, d1) per entry point k (Fig. 87);
 * :func:`plot_dig`: the chosen dig in the arm plane over the mapped surface and the goal, with the
   predicted force and joint torques along it.
 
@@ -32,27 +32,40 @@ from excavsim.planning.constraints import CONSTRAINTS
 from excavsim.planning.search import PlanResult
 from excavsim.robot.kinematics import PlanarArm
 
-FEASIBLE, GEOMETRY_LIMITED, FORCE_LIMITED = 0, 1, 2
+GEOMETRY_LIMITED, NO_DIG, FORCE_NO_DIG, FORCE_LIMITED = 0, 1, 2, 3  # the codes of PlanResult.limiting
 PHASE_NAMES = ("penetrate", "drag", "curl")
 PHASE_COLOURS = ("#1f77b4", "#2ca02c", "#d62728")
 JOINT_NAMES = ("shoulder", "elbow", "wrist pitch")
-_LIMIT_COLOURS = ("#4daf4a", "#f2f2f2", "#1a1a1a")  # Fig. 87: geometry white, force black
+_LIMIT_COLOURS = ("#ffffff", "#c6d3e0", "#1a1a1a", "#5a5a5a")  # Fig. 87: geometry white, force black
+_LIMIT_LABELS = ("feasible, d2 set by geometry", "no geometric dig", "force: no dig within the limits",
+                 "force: d2 cut short")
 _CUBE_COLOURS = {"shaping": "#8c6d31", "sensible": "#6b6ecf", "volume": "#e7969c", "reachability": "#7b9ed6",
                  "force": "#bd9e39", "geometric": "#9c9ede", "feasible": "#4daf4a", "feasible_volume": "#31a354"}
 
 
 def limit_classes(result: PlanResult) -> np.ndarray:
-    """What limits each cell: ``FEASIBLE`` (0), ``GEOMETRY_LIMITED`` (1) or ``FORCE_LIMITED`` (2).
+    """What limits each cell (Fig. 87), from ``result.feasible`` and ``result.limiting``.
 
-    Taken from ``result.feasible`` and ``result.limiting`` (plan with ``classify_limits=True`` to
-    tell force-limited cells apart; otherwise every infeasible cell counts as geometry-limited).
+    ``GEOMETRY_LIMITED`` (0): feasible, the geometric constraints end its drag d2 (white in Fig. 87);
+    ``NO_DIG`` (1): no dig meets the geometric constraints; ``FORCE_NO_DIG`` (2): some dig meets
+    them but none stays within the torque limits; ``FORCE_LIMITED`` (3): feasible, with d2 cut short
+    by the force constraint (2 and 3 are black in Fig. 87). Plan with ``classify_limits=True`` to
+    tell force from geometry; otherwise feasible cells count as 0 and infeasible ones as 1.
 
     Returns:
         (n_k, n_alpha, n_d1) int8.
     """
     _check_grid(result)
-    return np.where(result.feasible, FEASIBLE,
-                    np.where(result.limiting == FORCE_LIMITED, FORCE_LIMITED, GEOMETRY_LIMITED)).astype(np.int8)
+    lim = np.asarray(result.limiting)
+    return np.where(result.feasible, np.where(lim == FORCE_LIMITED, FORCE_LIMITED, GEOMETRY_LIMITED),
+                    np.where(lim == FORCE_NO_DIG, FORCE_NO_DIG, NO_DIG)).astype(np.int8)
+
+
+def force_limited(result: PlanResult) -> np.ndarray:
+    """(n_k, n_alpha, n_d1) bool: the cells where the force constraint, not geometry, limits the dig
+    (black in Fig. 87: no dig within the torque limits, or a drag cut short by them)."""
+    cls = limit_classes(result)
+    return (cls == FORCE_NO_DIG) | (cls == FORCE_LIMITED)
 
 
 def plot_feasible_sets(result: PlanResult, path: str | pathlib.Path, *, min_volume_m3: float | None = None
@@ -124,52 +137,54 @@ def plot_feasible_sets(result: PlanResult, path: str | pathlib.Path, *, min_volu
 def plot_limits(result: PlanResult, path: str | pathlib.Path, *, max_panels: int = 12) -> pathlib.Path:
     """Map where the geometric constraints and where the force constraint limit the dig (Fig. 87).
 
-    One (k, d1) image per approach angle alpha (every alpha of the grid up to ``max_panels``,
-    otherwise evenly spaced ones and the chosen one), cells coloured feasible, geometry-limited
-    (white) or force-limited (black) as in :func:`limit_classes`; the chosen action is a red star.
+    As the thesis draws it: one (alpha, d1) image per entry point k (every k of the grid up to
+    ``max_panels``, otherwise evenly spaced ones and the chosen one), cells coloured as in
+    :func:`limit_classes`: white where geometry ends the drag, black and dark grey where the force
+    constraint does, light blue where no dig meets the geometric constraints. The chosen action is a
+    red star.
 
     Args:
-        result: a plan.
+        result: a plan (with ``classify_limits=True``, or every feasible cell is white).
         path: the PNG to write; parent directories are created.
-        max_panels: most alpha slices drawn.
+        max_panels: most k slices drawn.
 
     Returns:
         ``path``.
     """
     cls = limit_classes(result)
-    n_alpha = len(result.grid_alpha)
-    chosen_a = None
+    n_k = len(result.grid_k)
+    chosen_k = None
     if result.action is not None:
-        chosen_a = int(np.argmin(np.abs(result.grid_alpha - result.action[1])))
-    if n_alpha <= max_panels:
-        slices = list(range(n_alpha))
+        chosen_k = int(np.argmin(np.abs(result.grid_k - result.action[0])))
+    if n_k <= max_panels:
+        slices = list(range(n_k))
     else:
-        slices = sorted(set(np.linspace(0, n_alpha - 1, max_panels - 1).round().astype(int)) |
-                        ({chosen_a} if chosen_a is not None else set()))
-    ncols = min(5, len(slices))
+        slices = sorted(set(np.linspace(0, n_k - 1, max_panels - 1).round().astype(int)) |
+                        ({chosen_k} if chosen_k is not None else set()))
+    ncols = min(6, len(slices))
     nrows = math.ceil(len(slices) / ncols)
-    fig = _figure((3.0 * ncols + 0.5, 2.8 * nrows + 1.0))
+    fig = _figure((2.6 * ncols + 0.5, 2.5 * nrows + 1.2))
     cmap = ListedColormap(_LIMIT_COLOURS)
-    ek, ed = _edges(result.grid_k), _edges(result.grid_d1)
-    axes = []
-    for i, a in enumerate(slices):
+    ea, ed = np.degrees(_edges(result.grid_alpha)), _edges(result.grid_d1)
+    for i, ki in enumerate(slices):
         ax = fig.add_subplot(nrows, ncols, i + 1)
-        axes.append(ax)
-        ax.pcolormesh(ek, ed, cls[:, a, :].T, cmap=cmap, vmin=-0.5, vmax=2.5)
-        if a == chosen_a:
-            ax.plot([result.action[0]], [result.action[2]], marker="*", ms=12, color="red", mec="black", mew=0.5)
-        ax.set_title(f"alpha = {math.degrees(result.grid_alpha[a]):.0f} deg", fontsize=9)
+        ax.pcolormesh(ea, ed, cls[ki].T, cmap=cmap, vmin=-0.5, vmax=3.5, edgecolors="#dddddd", linewidth=0.1)
+        if ki == chosen_k:
+            ax.plot([math.degrees(result.action[1])], [result.action[2]], marker="*", ms=12, color="red",
+                    mec="black", mew=0.5)
+        ax.set_title(f"k = {result.grid_k[ki]:.2f} m", fontsize=9)
         ax.tick_params(labelsize=7)
         if i % ncols == 0:
             ax.set_ylabel("d1 [m]")
         if i >= len(slices) - ncols:
-            ax.set_xlabel("k [m]")
-    counts = np.bincount(cls.ravel(), minlength=3)
+            ax.set_xlabel("alpha [deg]")
+    counts = np.bincount(cls.ravel(), minlength=4)
     fig.legend(handles=[Patch(facecolor=c, edgecolor="#888888", label=f"{lab} ({n})") for c, lab, n in
-                        zip(_LIMIT_COLOURS, ("feasible", "geometry-limited", "force-limited"), counts)],
-               loc="lower center", ncol=3, fontsize=9, frameon=False)
-    fig.suptitle(_headline(result), fontsize=11)
-    fig.subplots_adjust(left=0.06, right=0.98, top=0.88, bottom=0.1 + 0.05 / nrows, wspace=0.25, hspace=0.45)
+                        zip(_LIMIT_COLOURS, _LIMIT_LABELS, counts)],
+               loc="lower center", ncol=4, fontsize=8, frameon=False)
+    fig.suptitle(_headline(result) + f"\nforce-limited (black, grey): {int(counts[2] + counts[3])} cells",
+                 fontsize=10)
+    fig.subplots_adjust(left=0.06, right=0.98, top=0.86, bottom=0.1 + 0.05 / nrows, wspace=0.25, hspace=0.45)
     return _save(fig, path, tight=False)
 
 

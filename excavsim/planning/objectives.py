@@ -4,9 +4,12 @@ An action space planner needs two functions (§3.3): feasibility (:mod:`~excavsi
 :mod:`~excavsim.planning.feasibility`) and utility, here. The objective (``PlannerConfig.objective``) is
 the swept volume (``volume``), the peak torque ratio (``peak_torque``), the cumulative torque, eq. 43's
 integral of the joint torques along the path (``cumulative_torque``), or eq. 44 (``lexicographic``, the
-"dictionary" search of §6.2.3 with the swept volume as the necessary criterion): among digs sweeping at
-least ``volume_threshold`` of the capacity, the smallest peak torque (the largest volume when none
-does). A best dig below ``min_volume_fraction`` of the capacity is "no dig": the loop then runs its
+"dictionary" search of §6.2.3 with the swept volume as the necessary criterion J1): J = 0 for digs
+sweeping at most ``volume_threshold`` z of the capacity, J = J2 > 0 for the others, J maximized,
+where J2 is the auxiliary criterion (``auxiliary``): the least peak torque ratio (J2 = 1 - peak,
+positive for every force-feasible dig) or the least cumulative torque (J2 = 1 / cumulative). When
+no dig passes z, every J is 0 and eq. 44 does not choose: the largest volume does (a tie-break the
+thesis leaves open). A best dig below ``min_volume_fraction`` of the capacity is "no dig": the loop then runs its
 pre-planned boundary-following fallback (§7.2, :mod:`~excavsim.planning.fallback`).
 """
 
@@ -64,9 +67,15 @@ def choose(feasible: np.ndarray, volume: np.ndarray, peak: np.ndarray, cumulativ
     if objective == "cumulative_torque":
         c = int(np.argmin(cum))
         return c, float(-cum[c]), "min cumulative torque"
-    enough = vol >= cfg.volume_threshold * capacity  # eq. 44
+    enough = vol > cfg.volume_threshold * capacity  # eq. 44: J1 > z
     if enough.any():
-        c = int(np.argmin(np.where(enough, peak, np.inf)))
-        return c, float(1.0 - peak[c]), f"volume >= {100 * cfg.volume_threshold:.0f} % of capacity, min peak torque"
+        if cfg.auxiliary == "cumulative_torque":
+            j2 = np.where(enough, 1.0 / np.maximum(cum, 1e-12), 0.0)
+            label = "min cumulative torque"
+        else:
+            j2 = np.where(enough, 1.0 - peak, 0.0)
+            label = "min peak torque"
+        c = int(np.argmax(np.where(enough, j2, -np.inf)))
+        return c, float(j2[c]), f"volume > {100 * cfg.volume_threshold:.0f} % of capacity, {label}"
     c = int(np.argmax(vol))
-    return c, 0.0, f"no dig reaches {100 * cfg.volume_threshold:.0f} % of capacity: max volume"
+    return c, 0.0, f"no dig passes {100 * cfg.volume_threshold:.0f} % of capacity: max volume"

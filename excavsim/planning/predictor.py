@@ -16,15 +16,31 @@ from excavsim.mechanics.wedge import MIN_RAKE_RAD, WedgeTable, wedge_force
 class WedgePredictor:
     """The nominal predictor: eq. 8 for a blade of the bucket's width dragged towards the robot.
 
-    The magnitude is ``(gamma g d^2 N_gamma + c d N_c) w`` plus a surcharge of ``surcharge_fraction``
-    of the swept volume (eq. 7 with the soil displaced by the tool), at ``pi/2 - rho - delta`` below
-    the horizontal, pointing away from the robot: ``F (sin(rho + delta), -cos(rho + delta))``.
+    The magnitude is ``(gamma g d^2 N_gamma + c d N_c) w`` plus the weight of a surcharge over the
+    denominator of eq. 5 (eq. 7, with the soil displaced by the tool as the surcharge, Fig. 57), at
+    ``pi/2 - rho - delta`` below the horizontal, pointing away from the robot:
+    ``F (sin(rho + delta), -cos(rho + delta))``. A bucket takes the displaced soil in, so only a
+    share ``surcharge_fraction`` of the swept volume ``v`` bears on the wedge while the bucket has
+    room; what it sweeps beyond ``capacity_m3`` stays ahead of the blade and bears in full:
+    ``Q = s min(v, C) + max(v - C, 0)``. (Simplified: the thesis' blade has no bucket; the share
+    ``s`` is assumed, and the pile ahead is spread uniformly over the wedge, as eq. 7 assumes.)
+
+    Args:
+        soil: the soil believed in; width_m: the bucket's width [m].
+        surcharge_fraction: ``s``, the share of the swept volume bearing on the wedge while the
+            bucket has room.
+        capacity_m3: ``C``, the load the bucket holds before cut soil stays ahead of it [m^3]
+            (``inf``: never, the blade-only form).
     """
 
-    def __init__(self, soil: SoilParams, width_m: float, *, surcharge_fraction: float = 0.3):
+    def __init__(self, soil: SoilParams, width_m: float, *, surcharge_fraction: float = 0.3,
+                 capacity_m3: float = float("inf")):
         self.soil = soil
         self.width = float(width_m)
         self.surcharge_fraction = float(surcharge_fraction)
+        self.capacity = float(capacity_m3)
+        if not self.capacity > 0:
+            raise ValueError(f"capacity_m3 must be positive (inf: no limit); given {capacity_m3!r}")
         self.table = WedgeTable.for_soil(soil)
         self._rake_lo = max(self.table.rake_min, MIN_RAKE_RAD)
 
@@ -32,7 +48,9 @@ class WedgePredictor:
                 context: DigContext | None = None) -> np.ndarray:
         depth = np.maximum(np.asarray(depth, dtype=float), 0.0)
         rk = np.clip(np.asarray(rake, dtype=float), self._rake_lo, self.table.rake_max)
-        vol = np.where(depth > 0, self.surcharge_fraction * np.asarray(volume, dtype=float), 0.0)
+        v = np.maximum(np.asarray(volume, dtype=float), 0.0)
+        held = np.minimum(v, self.capacity)
+        vol = np.where(depth > 0, self.surcharge_fraction * held + (v - held), 0.0)
         f = wedge_force(depth, rk, self.soil, self.width, surcharge_volume_m3=vol, table=self.table)
         a = rk + self.soil.delta
         return np.stack([f * np.sin(a), -f * np.cos(a)], axis=-1)

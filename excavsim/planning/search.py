@@ -206,8 +206,10 @@ class TrenchPlanner:
                 constraints cheapest first on survivors only; ``False`` evaluates every constraint
                 on every cell (same answer, for tests and figures).
             classify_limits: also search once more with the force constraint off, so that
-                ``limiting`` tells geometry-limited cells (1) from force-limited ones (2, feasible
-                but for force: Fig. 87). Without it, every infeasible cell is marked 1.
+                ``limiting`` tells what limits each cell (Fig. 87): 0 feasible, its drag d2 ended by
+                the geometric constraints; 1 no dig that meets them; 2 geometrically feasible but
+                no drag within the torque limits; 3 feasible, with d2 cut short by the force
+                constraint. Without it, feasible cells are 0 and infeasible ones 1.
             exclude: (n_k, n_alpha, n_d1) bool, cells not to choose although they may be feasible
                 (what failed before: :class:`~excavsim.planning.experience.DigExperience`); they stay
                 in ``feasible`` and the masks, and are counted in ``counts["excluded"]``.
@@ -222,7 +224,7 @@ class TrenchPlanner:
         k, alpha, d1 = self.grid_cells()
         n = k.size
         shape = self.grid_shape
-        vmax = cfg.fill_fraction * self.capacity
+        vmax = cfg.volume_limit_m3(self.capacity)
         counts = {"cells": n}
 
         # Penetration: shaping and sensible on every cell (cheap), then prune along d1.
@@ -237,7 +239,7 @@ class TrenchPlanner:
         res_r = np.zeros(n)
         res = {key: np.full(n, np.nan) for key in ("volume", "peak", "cum")}
         masks = {c: np.zeros(n, bool) for c in CONSTRAINTS}
-        limiting = np.ones(n, np.int8)  # 0 feasible, 1 geometry (or unclassified), 2 force
+        limiting = np.ones(n, np.int8)  # see classify_limits
 
         idx = np.nonzero(alive)[0]
         counts["evaluated"] = idx.size
@@ -255,7 +257,7 @@ class TrenchPlanner:
             limiting[idx] = np.where(out.j >= 0, 0, 1)
             if classify_limits:
                 free = dataclasses.replace(feas, limits=np.full(3, np.inf)).evaluate(pen[idx], drag_all[idx], prune)
-                limiting[idx] = np.where(out.j >= 0, 0, np.where(free.j >= 0, 2, 1))
+                limiting[idx] = np.where(out.j >= 0, np.where(free.j > out.j, 3, 0), np.where(free.j >= 0, 2, 1))
             counts.update({k_: int(v) for k_, v in out.counts.items()})
         feasible = res_j >= 0
         d2 = res_j * cfg.sample_spacing_m
@@ -317,7 +319,7 @@ class TrenchPlanner:
             force_ok = bool(np.all(force(ratio)))
         return {"shaping": bool(np.all(shaping(poses, self.goal, cfg.shaping_tolerance_m))),
                 "sensible": in_soil and exit_ok,
-                "volume": bool(volume(vcum[-1], cfg.fill_fraction * self.capacity)), "reachability": reachable,
+                "volume": bool(volume(vcum[-1], cfg.volume_limit_m3(self.capacity))), "reachability": reachable,
                 "force": force_ok, "volume_m3": float(vcum[-1])}
 
 
