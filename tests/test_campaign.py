@@ -132,6 +132,7 @@ def test_record_passes_a_recorder_of_the_episode_file(monkeypatch, tmp_path):
     seen = []
     monkeypatch.setattr(cmp, "run_spec", lambda spec, *, progress, observer: seen.append(observer))
     monkeypatch.setattr(cmp, "episode_summary", lambda _r: {"digs": 0})
+    monkeypatch.setattr(cmp, "dig_rows", lambda _r: [])
     ep = cmp.expand_grid(cmp.load_campaign(TINY_YAML))[1]
     task = cmp._task(ep, tmp_path, FakeRecorder)
     assert pickle.loads(pickle.dumps(task))["recorder"] is FakeRecorder  # it travels to worker processes
@@ -208,6 +209,7 @@ def test_a_killed_campaign_resumes_without_duplicates_or_gaps(tmp_path):
     for i in ids:
         rec = _strict_json(ep_dir / f"{i}.json")
         assert rec["id"] == i and rec["status"] == "ok" and rec["summary"]["digs"] == 1
+        assert len(rec["digs"]) == 1 and rec["digs"][0]["outcome"]  # the per-dig rows travel too
     assert {p.name: (p.stat().st_mtime_ns, p.read_bytes()) for p in ep_dir.glob("*.json")
             if p.name in before} == before
     assert _summary_ids(out) == ids

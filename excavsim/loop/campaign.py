@@ -44,7 +44,7 @@ from excavsim.handoff.episode import EpisodeObserver
 from excavsim.loop.campaign_grid import (OVERRIDE_SECTIONS, CampaignSpec, Episode, check_campaign, episode_id,
                                          expand_grid, load_campaign, parse_campaign)
 from excavsim.loop.campaign_report import format_table, plot_campaign, summary_rows, write_atomic, write_tables
-from excavsim.loop.scenario import EpisodeSpec, episode_summary, run_spec
+from excavsim.loop.scenario import EpisodeSpec, dig_rows, episode_summary, run_spec
 
 __all__ = ["OVERRIDE_SECTIONS", "CampaignReport", "CampaignSpec", "Episode", "check_campaign", "episode_id",
            "expand_grid", "load_campaign", "parse_campaign", "run_campaign", "run_episode_task"]
@@ -101,7 +101,8 @@ def run_episode_task(task: dict[str, Any]) -> dict[str, Any]:
 
     Returns:
         A JSON-ready record: the task's fields, ``status`` (``ok`` or ``error``), ``summary`` (see
-        :func:`~excavsim.loop.scenario.episode_summary`), ``error`` and ``traceback`` when the
+        :func:`~excavsim.loop.scenario.episode_summary`), ``digs`` (one row per dig,
+        :func:`~excavsim.loop.scenario.dig_rows`), ``error`` and ``traceback`` when the
         episode raised, the episode's ``log`` lines, ``wall_s``, ``host`` and ``pid``.
     """
     log: list[str] = []
@@ -116,7 +117,8 @@ def run_episode_task(task: dict[str, Any]) -> dict[str, Any]:
             path = pathlib.Path(task["out_dir"]) / task["recording"]
             path.parent.mkdir(parents=True, exist_ok=True)
             observer = task["recorder"](path)
-        rec["summary"] = episode_summary(run_spec(spec, progress=log.append, observer=observer))
+        result = run_spec(spec, progress=log.append, observer=observer)
+        rec["summary"], rec["digs"] = episode_summary(result), dig_rows(result)
     except Exception as exc:  # noqa: BLE001 - a failing episode is a result, not the campaign's end
         rec.update(status="error", error=f"{type(exc).__name__}: {exc}", traceback=traceback.format_exc())
     rec["wall_s"] = time.perf_counter() - t0

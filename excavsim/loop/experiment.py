@@ -31,7 +31,7 @@ from excavsim import constants
 from excavsim.config import ConfigError, StrictModel, load_config
 from excavsim.handoff.episode import EpisodeObserver, EpisodeResult, format_episode
 from excavsim.handoff.goal import goal_profile
-from excavsim.loop.scenario import EpisodeSpec, resolve_goal, run_spec
+from excavsim.loop.scenario import EpisodeSpec, dig_rows, resolve_goal, run_spec
 
 EXPERIMENTS_DIR = constants.CONFIGS_DIR / "experiments"
 _SECTION_SAMPLES = 241  # points along the section [-]
@@ -131,17 +131,12 @@ def run_experiment(exp: ExperimentSpec, out: str | pathlib.Path, *,
 def write_outputs(exp: ExperimentSpec, runs: list[RunResult], out: pathlib.Path) -> list[pathlib.Path]:
     """Write ``sections.png``, ``digs.csv``, ``digs.txt`` and ``summary.txt`` of the runs so far."""
     paths = [plot_sections(exp, runs, out / "sections.png")]
+    rows = [{"run": i + 1, "seed": run.spec.seed, **row} for i, run in enumerate(runs) for row in dig_rows(run.result)]
     with open(out / "digs.csv", "w", newline="") as f:
-        w = csv.writer(f)
-        w.writerow(["run", "seed", "dig", "kind", "k_m", "alpha_deg", "d1_m", "d2_m", "planned_l", "dug_l",
-                    "outcome", "failure", "stall_joint", "wrist_predicted_nm", "wrist_measured_nm"])
-        for i, run in enumerate(runs):
-            for d in run.result.digs:
-                act = d.action if d.action is not None else (math.nan,) * 4
-                w.writerow([i + 1, run.spec.seed, d.index, d.kind, f"{act[0]:.3f}", f"{math.degrees(act[1]):.1f}",
-                            f"{act[2]:.3f}", f"{act[3]:.3f}", f"{1000 * d.predicted_m3:.2f}",
-                            f"{1000 * d.bucket_m3:.2f}", d.outcome, d.failure or "", d.stall_joint or "",
-                            f"{d.predicted_peak_nm[2]:.0f}", f"{d.peak_torque_nm[3]:.0f}"])
+        if rows:
+            w = csv.DictWriter(f, fieldnames=list(rows[0]))
+            w.writeheader()
+            w.writerows({k: f"{v:.4g}" if isinstance(v, float) else v for k, v in row.items()} for row in rows)
     paths.append(out / "digs.csv")
     (out / "digs.txt").write_text("\n\n".join(f"run {i + 1} ({run.spec.name}, seed {run.spec.seed})"
                                               + format_episode(run.result) for i, run in enumerate(runs)) + "\n")
@@ -173,7 +168,10 @@ def run_row(run: RunResult) -> dict[str, str]:
 
 def _table(header: list[str], rows: list[list[str]]) -> str:
     widths = [max(len(h), *(len(r[i]) for r in rows)) for i, h in enumerate(header)]
-    fmt = lambda cells: "  ".join(c.rjust(w) if i else c.ljust(w) for i, (c, w) in enumerate(zip(cells, widths)))  # noqa: E731
+
+    def fmt(cells: list[str]) -> str:
+        return "  ".join(c.rjust(w) if i else c.ljust(w) for i, (c, w) in enumerate(zip(cells, widths)))
+
     return "\n".join([fmt(header)] + [fmt(r) for r in rows])
 
 

@@ -18,6 +18,7 @@ into a JSON-ready dict of numbers (the row a campaign writes and ``regress`` com
 from __future__ import annotations
 
 import copy
+import math
 import pathlib
 from collections.abc import Callable
 from typing import Any
@@ -152,6 +153,20 @@ def run_spec(spec: EpisodeSpec, *, progress: Callable[[str], None] | None = None
                        done_fraction=spec.done_fraction, tolerance_m=spec.tolerance_m, planner_cfg=r.planner,
                        executor_cfg=r.executor, sensing_cfg=r.sensing, digs=digs, progress=progress,
                        observer=observer)
+
+
+def dig_rows(res) -> list[dict[str, Any]]:
+    """One JSON-ready row per dig of an episode: its action (NaN for a fallback dig), volumes [l],
+    outcome and failure, and the predicted and measured peak wrist-pitch torques [N m]."""
+    rows = []
+    for d in res.digs:
+        k, a, d1, d2 = d.action if d.action is not None else (math.nan,) * 4
+        rows.append({"dig": d.index, "kind": d.kind, "k_m": k, "alpha_deg": math.degrees(a), "d1_m": d1, "d2_m": d2,
+                     "planned_l": 1000 * d.predicted_m3, "dug_l": 1000 * d.bucket_m3, "outcome": d.outcome,
+                     "failure": d.failure or "", "stall_joint": d.stall_joint or "",
+                     "wrist_predicted_nm": float(d.predicted_peak_nm[2]),
+                     "wrist_measured_nm": float(d.peak_torque_nm[3])})
+    return rows
 
 
 def episode_summary(res) -> dict[str, Any]:
