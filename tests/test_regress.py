@@ -42,6 +42,19 @@ def test_regress_flags_a_deliberately_weakened_planner(tmp_path, capsys):
     assert "dug_l_per_dig" in out.out and "regression" in out.out and "REGRESSION" in out.err
 
 
+def test_only_runs_and_judges_the_named_scenarios(tmp_path, capsys):
+    """``--only NAME`` on an unchanged tree exits 0: the scenarios it skips are not "missing"."""
+    for name in ("a", "b"):
+        (tmp_path / f"{name}.yaml").write_text(yaml.safe_dump({**TINY, "name": name}))
+    assert main(["regress", "--dir", str(tmp_path), "--update"]) == 0
+    capsys.readouterr()
+    assert main(["regress", "--dir", str(tmp_path), "--only", "a"]) == 0
+    out = capsys.readouterr().out
+    assert "[1/1] a:" in out and "missing" not in out and "no regression" in out
+    assert compare({"a": {}, "b": {}}, {"a": {}}, partial=True) == [
+        Change("a", m, None, None, "new") for m in METRICS]
+
+
 def test_regress_refuses_an_empty_directory_and_unknown_scenarios(tmp_path, capsys):
     assert main(["regress", "--dir", str(tmp_path)]) == 2
     assert "no regression scenarios" in capsys.readouterr().err

@@ -91,8 +91,12 @@ def write_baseline(path: pathlib.Path, results: dict[str, dict]) -> None:
     os.replace(tmp, path)
 
 
-def compare(baseline: dict, results: dict[str, dict]) -> list[Change]:
-    """Every judged metric of every scenario against the baseline."""
+def compare(baseline: dict, results: dict[str, dict], *, partial: bool = False) -> list[Change]:
+    """Every judged metric of every scenario against the baseline.
+
+    A baseline scenario without a result is "missing" (its file was removed), unless ``partial``:
+    only some scenarios were run (``--only``), and those not run are neither missing nor compared.
+    """
     out = []
     for name, row in results.items():
         base = baseline.get(name)
@@ -118,7 +122,7 @@ def compare(baseline: dict, results: dict[str, dict]) -> list[Change]:
                 if key in base and base[key] != row.get(key) and key == "end":
                     out.append(Change(name, key, base[key], row.get(key), "changed"))
     for name in baseline:
-        if name not in results:
+        if name not in results and not partial:
             out.append(Change(name, "-", None, None, "missing"))
     return out
 
@@ -161,7 +165,7 @@ def run_regress(directory: pathlib.Path = REGRESS_DIR, *, baseline_path: pathlib
         progress(f"[{i}/{len(specs)}] {name}: {r['digs']} digs, {100 * r['removed_fraction']:.0f} % removed, "
                  f"{r['stalls']} stalls, ended {r['end']} ({r['wall_s']:.1f} s wall)")
     baseline = load_baseline(baseline_path)
-    changes = compare(baseline, results)
+    changes = compare(baseline, results, partial=bool(only))
     if update:
         merged = {**baseline, **results} if only else results
         write_baseline(baseline_path, merged)
