@@ -100,3 +100,35 @@ def test_a_weak_wrist_shortens_the_boundary_digs_or_refuses_them(setup):
         assert "torque" in why
     else:
         assert weak.peak_torque_ratio <= 1.0 and weak.volume_m3 < strong.volume_m3
+
+
+def test_the_far_wall_beyond_the_wrists_reach_gets_a_steeper_rake_and_stays_above_the_goal(setup):
+    """The default sand trench ends at 2.8 m with a 30-deg wall: wall + epsilon (40 deg) is out of the
+    arm's reach there (the wrist holds the bucket no flatter than ~55 deg), so the far-wall dig raises
+    the rake to the smallest the arm holds, and the dig is reachable and never cuts the goal."""
+    make, _ = setup
+    goal = load_trench_goal(constants.TRENCHES_DIR / "sand.yaml")
+    planner = make()
+    planner.goal = goal
+    cfg = planner.cfg
+    line, (i_far, i_near) = fallback.boundary_polyline(planner)
+    nominal = math.radians(goal.far_wall_deg + cfg.epsilon_deg)
+    assert not planner.reach(np.array([[line[0, 0], line[0, 1], nominal]]))[0][0]  # the thesis' rake fails
+    assert np.all(line[: i_far + 1, 2] >= nominal - 1e-12) and line[0, 2] > nominal
+    reach, _ = planner.reach(line[: i_near + 1])
+    assert reach.all()
+    raised = line[: i_near + 1, 2] > nominal + 1e-9
+    lowered = line[: i_near + 1].copy()
+    lowered[:, 1] -= cfg.touchdown_reach_m
+    assert planner.reach(lowered[raised])[0].all()  # the touch-down search below holds too
+    # each raised sample is the smallest rake (1-deg steps) that holds
+    for p in line[: i_near + 1][raised][:5]:
+        less = np.array([[p[0], p[1], p[2] - math.radians(1.0)], [p[0], p[1] - cfg.touchdown_reach_m,
+                                                                  p[2] - math.radians(1.0)]])
+        assert not planner.reach(less)[0].all()
+    emap = _map(goal, 0.03)
+    far = fallback.candidates(planner, emap)[0]
+    assert far.label == "far wall" and far.feasible
+    assert far.volume_m3 >= cfg.fallback_min_volume_fraction * planner.capacity
+    body = far.poses[far.phases < 2]
+    assert np.all(body[:, 1] >= goal_profile(goal, body[:, 0]) + cfg.fallback_clearance_m - 1e-9)

@@ -6,6 +6,11 @@ the goal profile alone, offset up by ``fallback_clearance_m`` so that no dig cut
 
 * **far wall**: enter at the top of the far wall, follow it down (rake = wall angle + epsilon, as a
   penetration, §3.4.2.2), then drag along the bottom with the rake of eq. 1, then curl;
+  where the arm cannot hold that rake (far from the robot the T3's wrist holds the bucket no
+  flatter than about 50 deg at 2.7 m), the rake is the smallest one it can hold, there and at the
+  touch-down search below (:func:`reachable_rake`):
+  a larger rake only lifts the bucket's bottom further off the path, so the bucket still never
+  cuts below it, and without it the far wall of a 30-deg trench end is out of reach;
 * **near wall**: drag along the bottom and rise up the near wall, the pitch turning to the curl's
   end pitch at the top, so the bucket leaves the soil curled;
 * **bottom**: windows of the bottom drag that start every ``fallback_bottom_step_m`` from the far
@@ -80,9 +85,44 @@ def boundary_polyline(planner: TrenchPlanner) -> tuple[np.ndarray, np.ndarray]:
     s = np.linalg.norm(xz[i_far:i_near + 1] - xz[i_far], axis=1)
     pitch[i_far:i_near + 1] = np.maximum(zeta, pitch[0] - math.radians(cfg.omega_deg_per_m) * s)
     end = math.radians(cfg.curl_end_pitch_deg)
+    pitch[: i_near + 1] = reachable_rake(planner, xz[: i_near + 1], pitch[: i_near + 1])
     rise = np.linspace(0.0, 1.0, len(xz) - i_near)
     pitch[i_near:] = pitch[i_near] + rise * (end - pitch[i_near])
     return np.column_stack([xz, pitch]), np.array([i_far, i_near])
+
+
+def reachable_rake(planner: TrenchPlanner, xz: np.ndarray, rake: np.ndarray, *, step_deg: float = 1.0,
+                   max_deg: float = 90.0) -> np.ndarray:
+    """(n,) ``rake`` (n,) [rad] at the tip positions ``xz`` (n, 2), raised where the arm cannot hold it
+    to the smallest rake, in ``step_deg`` steps up to ``max_deg``, that it can hold there and
+    ``touchdown_reach_m`` below (so that a dig entering at the sample can search for the soil below
+    the map); unchanged where none is (the reachability constraint then refuses the sample)."""
+    rake = np.asarray(rake, dtype=float).copy()
+    below = np.array([0.0, planner.cfg.touchdown_reach_m])
+
+    def holds(x: np.ndarray, z: np.ndarray, r: np.ndarray) -> np.ndarray:
+        return np.all([planner.reach(np.stack([x, z - dz, r], axis=-1))[0] for dz in below], axis=0)
+
+    bad = np.nonzero(~holds(xz[:, 0], xz[:, 1], rake))[0]
+    if bad.size == 0:
+        return rake
+    cand = rake[bad, None] + np.radians(np.arange(0.0, max_deg + 1e-9, step_deg))[None, :]
+    cand = np.minimum(cand, math.radians(max_deg))
+    ok = holds(np.broadcast_to(xz[bad, None, 0], cand.shape), np.broadcast_to(xz[bad, None, 1], cand.shape), cand)
+    found = ok.any(axis=1)
+    rake[bad[found]] = cand[found, np.argmax(ok, axis=1)[found]]
+    return rake
+    tries = np.radians(np.arange(0.0, max_deg + 1e-9, step_deg))
+    cand = rake[bad, None] + tries[None, :]
+    cand = np.where(cand <= math.radians(max_deg) + 1e-12, cand, np.nan)
+    grid = np.stack([np.broadcast_to(xz[bad, None, 0], cand.shape), np.broadcast_to(xz[bad, None, 1], cand.shape),
+                     np.nan_to_num(cand, nan=rake[bad, None].repeat(cand.shape[1], 1))], axis=-1)
+    reach, _ = planner.reach(grid)
+    reach &= np.isfinite(cand)
+    first = np.argmax(reach, axis=1)
+    found = reach.any(axis=1)
+    rake[bad[found]] = cand[found, first[found]]
+    return rake
 
 
 def _with_curl(planner: TrenchPlanner, path: np.ndarray, phases: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
