@@ -211,3 +211,27 @@ def test_the_torque_margin_learns_from_digs_near_the_limit_only():
     experience.learn(3, dig(800.0), record(1000.0, "stalled"), surface, 2000.0, wrist_limit_nm=1000.0)
     ratios = [950.0 / 700.0, 1.25 * 1000.0 / 800.0]
     assert experience.torque_margin() == pytest.approx(np.quantile(ratios, 0.8))
+
+
+def test_a_torque_margin_that_leaves_no_dig_is_relaxed_not_the_end_of_the_episode(arm, reach_table):
+    """A few stalls can raise the learned margin until nothing passes (a 200 N m wrist with margin 2
+    here); the planner then plans within the largest of the relaxed margins that leaves a dig."""
+    from types import SimpleNamespace
+
+    from excavsim.loop.digs import PlannedDigs, relaxed_margins
+
+    assert relaxed_margins(1.0) == [1.0]
+    assert relaxed_margins(2.0) == [2.0, 1.5, 1.25, 1.0]
+    planner = planner_for(arm, reach_table, limits=np.array([25000.0, 12000.0, 200.0]))
+    emap = flat_map()
+    found = [planner.plan(emap, torque_margin=m) for m in relaxed_margins(2.0)]
+    assert found[0].action is None and found[-1].action is not None
+    first = next(i for i, p in enumerate(found) if p.action is not None)
+    experience = DigExperience()
+    experience.torque_ratios = [2.0]
+    assert experience.torque_margin() == 2.0
+    choice = PlannedDigs(experience).choose(SimpleNamespace(planner=planner), emap)
+    assert choice.dig is not None and choice.dig.kind == "planned"
+    assert "torque margin 2.00 leaves no dig" in choice.note
+    assert f"within {relaxed_margins(2.0)[first]:.2f}" in choice.note
+    assert choice.dig.action == found[first].action

@@ -67,6 +67,20 @@ def predicted_peaks(rig: Rig, poses: np.ndarray, phases: np.ndarray, emap: Eleva
     return np.abs(torques).max(axis=0)
 
 
+def relaxed_margins(margin: float, steps: int = 3) -> list[float]:
+    """The torque margins to plan with, in order: the learned ``margin``, then closer to 1 by halves
+    of the excess, then 1 (the nominal force constraint).
+
+    The margin is an upper quantile of how far measured peaks exceeded predicted ones; a few stalls
+    in a hard soil can raise it until no dig of the action space passes, although the trench is far
+    from done. Rather than end the episode there, the planner asks for the largest margin that
+    still leaves a dig of minimum utility: the safest dig there is, not no dig.
+    """
+    if margin <= 1.0:
+        return [1.0]
+    return [1.0 + (margin - 1.0) * 0.5 ** i for i in range(steps)] + [1.0]
+
+
 class PlannedDigs(DigSource):
     """The planner's dig, or the boundary-following fallback (§7.2) when none reaches the minimum utility.
 
@@ -88,17 +102,25 @@ class PlannedDigs(DigSource):
         planner, exp = rig.planner, self.experience
         surface = self._surface if self._surface is not None else planner.surface(emap)
         exclude = exp.excluded(planner.grid_k, planner.grid_alpha, planner.grid_d1, surface) if exp else None
-        plan = planner.plan(emap, exclude=exclude, torque_margin=exp.torque_margin() if exp else 1.0)
+        margin = exp.torque_margin() if exp else 1.0
+        seconds = 0.0
+        for m in relaxed_margins(margin):
+            plan = planner.plan(emap, exclude=exclude, torque_margin=m)
+            seconds += plan.seconds
+            if plan.action is not None:
+                break
         if plan.action is not None:
             peaks = np.abs(plan.torques).max(axis=0)
-            return Choice(Dig("planned", plan.poses, plan.phases, plan.volume_m3, plan.action, plan.seconds,
-                              predicted_peak_nm=peaks), plan=plan)
+            note = (f"  planner: the torque margin {margin:.2f} leaves no dig of minimum utility; "
+                    f"planned within {m:.2f}" if m < margin else "")
+            return Choice(Dig("planned", plan.poses, plan.phases, plan.volume_m3, plan.action, seconds,
+                              predicted_peak_nm=peaks), plan=plan, note=note)
         skip = (lambda d: exp.failed_before("fallback: " + d.label, surface)) if exp else None
         boundary, why = fallback.choose(planner, emap, skip=skip)
         if boundary is None:
             return Choice(None, f"no dig of minimum utility ({plan.reason}), and no fallback: {why}", plan)
         dig = Dig("fallback: " + boundary.label, boundary.poses, boundary.phases, boundary.volume_m3, None,
-                  plan.seconds + boundary.seconds, shift_up=False, predicted_peak_nm=boundary.peak_torques_nm)
+                  seconds + boundary.seconds, shift_up=False, predicted_peak_nm=boundary.peak_torques_nm)
         return Choice(dig, plan=plan, note=f"  planner: {plan.reason}; falling back to a {why}")
 
     def learned(self, rig: Rig, index: int, dig: Dig, record: ExecutionRecord, emap: ElevationMap) -> str | None:
