@@ -77,10 +77,12 @@ def test_a_dotted_goal_key_varies_the_named_goal():
     ({"seed": []}, ["grid.seed", "at least 1"]),
     ({"seed": [1, 1]}, ["same episode twice"]),
     ({"planner.objective": ["speed"]}, ["planner.objective", "speed"]),
+    ({"seed": [0]}, ["report_by", "'soil'", "not among the grid keys"]),
 ])
 def test_a_bad_campaign_names_the_key_the_value_and_the_fix(tmp_path, grid, expected):
     path = tmp_path / "bad.yaml"
-    path.write_text(yaml.safe_dump({"name": "bad", "base": {"goal": "small"}, "grid": grid}))
+    report_by = [["soil"]] if grid == {"seed": [0]} else []
+    path.write_text(yaml.safe_dump({"name": "bad", "base": {"goal": "small"}, "grid": grid, "report_by": report_by}))
     with pytest.raises(ConfigError) as err:
         cmp.load_campaign(path)
     message = str(err.value)
@@ -175,6 +177,41 @@ def test_a_complete_out_dir_is_summarized_without_running_anything(tmp_path):
     table = next(line for line in lines if line.startswith("soil"))
     assert "lean_clay" in table and "l/dig" in table
     assert (tmp_path / "campaign.yaml").exists()
+
+
+def test_grouped_tables_pool_the_other_keys_and_count_repeated_failures(tmp_path):
+    from excavsim.loop.campaign_report import repeated_failures
+
+    # a dig one grid cell (k 0.1 m, alpha 5 deg, d1 0.01 m) from a failed one repeats it; two cells away
+    # or before any failure does not; a fallback dig (no action) is never a repeat
+    digs = [{"k_m": 2.0, "alpha_deg": 10.0, "d1_m": 0.1, "failure": ""},
+            {"k_m": 2.0, "alpha_deg": 10.0, "d1_m": 0.1, "failure": "stall"},
+            {"k_m": 2.1, "alpha_deg": 15.0, "d1_m": 0.11, "failure": ""},
+            {"k_m": 2.2, "alpha_deg": 10.0, "d1_m": 0.1, "failure": "stall"},
+            {"k_m": float("nan"), "alpha_deg": float("nan"), "d1_m": float("nan"), "failure": ""},
+            {"k_m": 2.2, "alpha_deg": 10.0, "d1_m": 0.12, "failure": ""}]
+    assert repeated_failures(digs, (0.1, 5.0, 0.01)) == 1
+    assert repeated_failures(digs, (0.1, 5.0, 0.02)) == 2
+    spec = cmp.parse_campaign({"name": "fake", "base": {"goal": "small"}, "report_by": [["memory"]],
+                               "grid": {"memory": [True, False], "seed": [0, 1]}})
+    (tmp_path / "episodes").mkdir()
+    for i, ep in enumerate(cmp.expand_grid(spec)):
+        summary = {"end": "done" if i % 2 == 0 else "budget", "digs": 4, "dug_l_per_dig": 5.0 + i, "stalls": i,
+                   "failed_digs": i, "removed_fraction": 0.9}
+        rec = {"id": ep.id, "status": "ok", "summary": summary, "spec": ep.spec.model_dump(mode="json"),
+               "digs": digs if i == 1 else []}
+        (tmp_path / "episodes" / f"{ep.id}.json").write_text(json.dumps(rec))
+    lines = []
+    cmp.run_campaign(spec, tmp_path, resume=True, progress=lines.append)
+    text = "\n".join(lines)
+    assert "by memory:" in text
+    table = text.split("by memory:\n", 1)[1].splitlines()
+    assert table[0].split() == ["memory", "episodes", "done", "stalls/ep", "l/dig", "digs", "to", "done", "failed",
+                                "%", "repeats"]
+    by = {line.split()[0]: line.split() for line in table[1:3]}
+    # memory true: seeds 0, 1 are episodes 0 and 1 (done, budget); stalls 0 and 1; 1 failed of 8 digs
+    assert by["True"][1:] == ["2", "1/2", "0.50", "5.5", "4.0", "12.5", "1"]
+    assert by["False"][1:] == ["2", "1/2", "2.50", "7.5", "4.0", "62.5", "0"]
 
 
 def test_a_killed_campaign_resumes_without_duplicates_or_gaps(tmp_path):

@@ -43,7 +43,8 @@ from excavsim.errors import ExcavsimError
 from excavsim.handoff.episode import EpisodeObserver
 from excavsim.loop.campaign_grid import (OVERRIDE_SECTIONS, CampaignSpec, Episode, check_campaign, episode_id,
                                          expand_grid, load_campaign, parse_campaign)
-from excavsim.loop.campaign_report import format_table, plot_campaign, summary_rows, write_atomic, write_tables
+from excavsim.loop.campaign_report import (format_table, group_table, plot_campaign, summary_rows, write_atomic,
+                                           write_tables)
 from excavsim.loop.scenario import EpisodeSpec, dig_rows, episode_summary, run_spec
 
 __all__ = ["OVERRIDE_SECTIONS", "CampaignReport", "CampaignSpec", "Episode", "check_campaign", "episode_id",
@@ -299,5 +300,7 @@ def run_campaign(spec: CampaignSpec, out_dir: str | pathlib.Path, *, workers: in
         tables = write_tables(rows, out, progress=say)
         plots = plot_campaign(spec, rows, out / "plots")
         say(format_table(spec, rows))
+        for keys in spec.report_by:
+            say(f"\nby {', '.join(keys)}:\n" + group_table(rows, keys, ep_dir))
         say("wrote " + ", ".join(str(p) for p in [*tables, *plots]))
     return CampaignReport(out, episodes, ran, rows, plots)

@@ -44,6 +44,10 @@ class CampaignSpec(StrictModel):
         description="dotted keys of EpisodeSpec (e.g. seed, soil, robot.joints.wrist_pitch.torque_limit_nm, "
                     "goal.depth_m) to the values they take")
     record: bool = Field(default=False, description="write a Rerun recording per episode (recordings/<id>.rrd)")
+    report_by: list[Annotated[list[str], Field(min_length=1)]] = Field(
+        default_factory=list,
+        description="extra summary tables, each grouping the episodes by these grid keys (the others "
+                    "pooled), e.g. [[predictor, memory], [soil]]")
 
 
 @dataclasses.dataclass(frozen=True)
@@ -147,6 +151,10 @@ def check_campaign(spec: CampaignSpec, *, source: str) -> list[Episode]:
                 ResolvedSpec(parse_config(data, EpisodeSpec, source=f"grid {key}"))
             except ConfigError as exc:
                 raise ConfigError(f"{source}: grid key {key!r}, value {value!r}:\n  {exc}") from None
+    for keys in spec.report_by:
+        if unknown := [k for k in keys if k not in spec.grid]:
+            raise ConfigError(f"{source}: report_by {keys}: {unknown} not among the grid keys "
+                              f"{sorted(spec.grid)}")
     try:
         return expand_grid(spec)
     except ConfigError as exc:

@@ -12,6 +12,7 @@ import tempfile
 from collections.abc import Callable
 from typing import Any
 
+from excavsim.config import load_planner_config
 from excavsim.loop.campaign_grid import CampaignSpec, Episode, slug
 
 ENDS = ("done", "no_dig", "budget", "error")  # how an episode ended, in the order plots stack them
@@ -198,3 +199,62 @@ def _plot_groups(rows: list[dict], labels: list[str], title: str, path: pathlib.
     fig.savefig(tmp, format="png", bbox_inches="tight")
     os.replace(tmp, path)
     return path
+
+
+def repeated_failures(digs: list[dict[str, Any]], steps: tuple[float, float, float]) -> int:
+    """How many planned digs of an episode (its per-dig rows, :func:`~excavsim.loop.scenario.dig_rows`)
+    repeat an earlier failed one: their action within one grid cell (``steps``: k [m], alpha [deg],
+    d1 [m]) of a dig that failed. The loop's memory allows that only where the terrain changed since
+    (soil moved there), which the rows do not tell: this is an upper bound on blind repeats."""
+    failed: list[tuple[float, float, float]] = []
+    count = 0
+    for d in digs:
+        a = (d.get("k_m"), d.get("alpha_deg"), d.get("d1_m"))
+        if any(v is None or v != v for v in a):  # a fallback dig (no action)
+            continue
+        if any(all(abs(x - y) <= s * (1 + 1e-6) for x, y, s in zip(a, f, steps)) for f in failed):
+            count += 1
+        if d.get("failure"):
+            failed.append(a)
+    return count
+
+
+def _grid_steps(rec: dict[str, Any]) -> tuple[float, float, float]:
+    grid = load_planner_config().grid.model_dump()
+    grid.update(((rec.get("spec") or {}).get("planner") or {}).get("grid") or {})
+    return float(grid["k_step_m"]), float(grid["alpha_step_deg"]), float(grid["d1_step_m"])
+
+
+def group_table(rows: list[dict[str, Any]], keys: list[str], ep_dir: pathlib.Path) -> str:
+    """The episodes grouped by the grid values of ``keys`` (seeds and every other key pooled): per
+    group, episodes, done, stalls per episode, litres per dig, digs of the episodes that ended done,
+    the share of failed digs (stall, no contact, timeout or under 1 l), and the digs that repeat an
+    earlier failed action (:func:`repeated_failures`; counted from the episodes' per-dig rows)."""
+    groups: dict[tuple, list[dict]] = {}
+    for row in rows:
+        if row["status"] == "ok":
+            groups.setdefault(tuple(row.get(k) for k in keys), []).append(row)
+    header = [k.rsplit(".", 1)[-1] for k in keys] + ["episodes", "done", "stalls/ep", "l/dig", "digs to done",
+                                                    "failed %", "repeats"]
+    lines = []
+    for values, rs in sorted(groups.items(), key=lambda kv: tuple(str(v) for v in kv[0])):
+        digs = sum(r["digs"] for r in rs)
+        done = [r for r in rs if r.get("end") == "done"]
+        repeats, known = 0, 0
+        for r in rs:
+            try:
+                rec = json.loads((ep_dir / f"{r['id']}.json").read_text())
+            except (OSError, json.JSONDecodeError):
+                continue
+            if "digs" in rec:
+                known += 1
+                repeats += repeated_failures(rec["digs"], _grid_steps(rec))
+        lines.append([str(v) for v in values] + [
+            str(len(rs)), f"{len(done)}/{len(rs)}", f"{sum(r['stalls'] for r in rs) / len(rs):.2f}",
+            f"{sum(r['dug_l_per_dig'] * r['digs'] for r in rs) / max(digs, 1):.1f}",
+            f"{sum(r['digs'] for r in done) / len(done):.1f}" if done else "-",
+            f"{100 * sum(r['failed_digs'] for r in rs) / max(digs, 1):.1f}",
+            f"{repeats}" + ("" if known == len(rs) else f" ({known} of {len(rs)} ep.)")])
+    widths = [max(len(c) for c in col) for col in zip(header, *lines)]
+    fmt = "  ".join(f"{{:<{w}}}" if i < len(keys) else f"{{:>{w}}}" for i, w in enumerate(widths))
+    return "\n".join(fmt.format(*line) for line in [header, *lines])
