@@ -40,7 +40,7 @@ def test_yaml_1_2_exponent_floats_are_numbers(tmp_path):
 @pytest.mark.parametrize(
     ("mutate", "field", "allowed"),
     [
-        (lambda d: d["joints"]["wrist_pitch"].update(torque_limit_nm=-5.0), "joints.wrist_pitch.torque_limit_nm", "> 0"),
+        (lambda d: d["joints"]["wrist_pitch"].update(torque_limit_nm=-5.0), "joints.wrist_pitch.torque_limit_nm", ">= 10"),
         (lambda d: d["joints"]["elbow"].update(kp_nm_per_rad="stiff"), "joints.elbow.kp_nm_per_rad", "number"),
         (lambda d: d["joints"]["waist"].pop("kv_nm_s_per_rad"), "joints.waist.kv_nm_s_per_rad", "missing"),
         (lambda d: d["joints"]["waist"].update(speed=3.0), "joints.waist.speed", "unknown field"),
@@ -161,3 +161,205 @@ def test_mutated_configs_either_load_or_raise_config_error(tmp_path, data):
         assert isinstance(cfg, RobotConfig)
         for servo in cfg.joints.by_actuator().values():
             assert math.isfinite(servo.torque_limit_nm) and servo.torque_limit_nm > 0
+
+
+# ---------------------------------------------------------------- the reader's limits
+def _bomb(levels: int = 9, width: int = 10) -> str:
+    """A 'billion laughs' document: each level lists the previous one ``width`` times (width ** levels leaves)."""
+    lines = [f"l0: &l0 [{', '.join(['lol'] * width)}]"]
+    lines += [f"l{i}: &l{i} [{', '.join([f'*l{i - 1}'] * width)}]" for i in range(1, levels + 1)]
+    return "\n".join(lines) + "\n"
+
+
+def test_an_alias_bomb_is_refused_before_it_is_built(tmp_path):
+    import tracemalloc
+
+    path = _write(tmp_path, _bomb())
+    tracemalloc.start()
+    try:
+        with pytest.raises(ConfigError, match="alias") as info:
+            load_robot_config(path)
+        _, peak = tracemalloc.get_traced_memory()
+    finally:
+        tracemalloc.stop()
+    assert "100000 nodes" in str(info.value)
+    assert peak < 5 * 2**20, f"the refusal itself took {peak / 2**20:.1f} MiB"
+
+
+def test_a_few_aliases_still_load(tmp_path):
+    text = constants.ROBOT_YAML.read_text().replace("wrist_yaw:   {", "wrist_yaw: &yaw {")
+    text = "\n".join("  wrist_roll: *yaw" if line.startswith("  wrist_roll:") else line for line in text.splitlines())
+    assert "*yaw" in text and "&yaw" in text
+    robot = load_config(_write(tmp_path, text), RobotConfig)
+    assert robot.joints.wrist_roll == robot.joints.wrist_yaw
+    assert robot.joints.wrist_roll.velocity_limit_deg_s == 60.0
+
+
+def test_a_recursive_alias_is_refused(tmp_path):
+    with pytest.raises(ConfigError, match="contains it"):
+        load_robot_config(_write(tmp_path, "joints: &j {waist: *j}\n"))
+
+
+@pytest.mark.parametrize("text", ["joints: " + "[" * 5000 + "]" * 5000,
+                                  "".join("  " * i + f"k{i}:\n" for i in range(200)) + "  " * 200 + "v\n"])
+def test_deep_nesting_is_refused_without_recursion_error(tmp_path, text):
+    with pytest.raises(ConfigError, match="nested deeper than 32 levels"):
+        load_robot_config(_write(tmp_path, text))
+
+
+def test_a_repeated_key_is_refused_naming_it_and_its_lines(tmp_path):
+    text = constants.ROBOT_YAML.read_text() + "control_rate_hz: 50.0\n"
+    with pytest.raises(ConfigError, match="control_rate_hz") as info:
+        load_robot_config(_write(tmp_path, text))
+    msg = str(info.value)
+    assert "twice (first on line 8)" in msg and f"line {text.count(chr(10))}" in msg, msg
+
+
+@pytest.mark.parametrize(("data", "what"), [
+    ("control_rate_hz: 100.0\n".encode("utf-16"), "UTF-16"),
+    ("control_rate_hz: 100.0\n".encode("utf-16-le"), "UTF-16"),
+    ("control_rate_hz: 100.0\n".encode("utf-32"), "UTF-32"),
+    (bytes(range(256)) * 4, "binary"),
+    ("control_rate_hz: 1 # caf\u00e9\n".encode("latin-1"), "not UTF-8"),
+])
+def test_files_that_are_not_utf8_are_named_as_such(tmp_path, data, what):
+    path = tmp_path / "robot.yaml"
+    path.write_bytes(data)
+    with pytest.raises(ConfigError, match=what) as info:
+        load_robot_config(path)
+    assert str(path) in str(info.value) and "UTF-8" in str(info.value)
+
+
+def test_a_utf8_byte_order_mark_is_accepted(tmp_path):
+    path = tmp_path / "robot.yaml"
+    path.write_bytes(b"\xef\xbb\xbf" + constants.ROBOT_YAML.read_bytes())
+    assert load_robot_config(path).control_rate_hz == 100.0
+
+
+def test_a_file_larger_than_the_cap_is_refused_unread(tmp_path):
+    from excavsim.config.loader import MAX_FILE_BYTES
+
+    path = tmp_path / "robot.yaml"
+    with open(path, "wb") as f:
+        f.truncate(MAX_FILE_BYTES + 1)  # sparse: nothing to read, and it is never read
+    with pytest.raises(ConfigError, match=f"allowed: at most {MAX_FILE_BYTES} bytes"):
+        load_robot_config(path)
+
+
+@pytest.mark.parametrize("path", ["x" * 1_000_000 + ".yaml", "a\0b.yaml", "/dev/null", "/"])
+def test_unreadable_paths_give_a_config_error_with_the_path_cut_short(path):
+    with pytest.raises(ConfigError, match="cannot read") as info:
+        load_robot_config(path)
+    assert len(str(info.value)) < 400
+
+
+@pytest.mark.parametrize("text", ["control_rate_hz: " + "9" * 5000, "control_rate_hz: 2001-13-45"])
+def test_values_yaml_cannot_build_give_a_config_error(tmp_path, text):
+    with pytest.raises(ConfigError, match="not valid YAML"):
+        load_robot_config(_write(tmp_path, text))
+
+
+def test_echoed_values_are_cut_to_80_characters(tmp_path):
+    data = copy.deepcopy(VALID)
+    data["joints"]["waist"]["torque_limit_nm"] = "z" * 500_000
+    data["z" * 100_000] = 1
+    with pytest.raises(ConfigError) as info:
+        load_robot_config(_write(tmp_path, data))
+    msg = str(info.value)
+    assert len(msg) < 1000 and "more characters" in msg, msg[:2000]
+
+
+# ---------------------------------------------------------------- physical ranges and memory bounds
+@pytest.mark.parametrize(("field", "value"), [("torque_limit_nm", 1e-300), ("velocity_limit_deg_s", 1e-9),
+                                              ("kp_nm_per_rad", 1e-300)])
+def test_servo_values_below_physical_ranges_are_refused(tmp_path, field, value):
+    data = copy.deepcopy(VALID)
+    data["joints"]["wrist_pitch"][field] = value
+    with pytest.raises(ConfigError, match=f"joints.wrist_pitch.{field}"):
+        load_robot_config(_write(tmp_path, data))
+
+
+def _planner_with(tmp_path, **grid_or_top):
+    data = yaml.safe_load(constants.PLANNER_YAML.read_text())
+    for key, value in grid_or_top.items():
+        (data["grid"] if key in data["grid"] else data)[key] = value
+    return _write(tmp_path, data, "planner.yaml")
+
+
+@pytest.mark.parametrize("change", [{"sample_spacing_m": 1e-9}, {"alpha_step_deg": 1e-300},
+                                    {"k_step_m": 1e-6, "d1_step_m": 1e-6}])
+def test_a_planner_grid_too_large_for_memory_is_refused_with_its_size(tmp_path, change):
+    from excavsim.config import PlannerConfig
+
+    with pytest.raises(ConfigError, match="the search would need") as info:
+        load_config(_planner_with(tmp_path, **change), PlannerConfig)
+    assert "cells x" in str(info.value) and "allowed: at most 4 GiB" in str(info.value)
+
+
+def test_the_shipped_planner_needs_little_memory():
+    from excavsim.config import load_planner_config
+
+    cfg = load_planner_config()
+    assert cfg.grid.shape == (20, 10, 49)
+    assert cfg.estimated_bytes() < 2**30
+
+
+def test_a_dump_pose_out_of_reach_is_refused(tmp_path):
+    from excavsim.config import ExecutorConfig
+
+    data = yaml.safe_load(constants.EXECUTOR_YAML.read_text())
+    data["dump_pose"] = [-1e308, 1.3, 100.0]
+    with pytest.raises(ConfigError, match="dump_pose"):
+        load_config(_write(tmp_path, data, "executor.yaml"), ExecutorConfig)
+
+
+def test_too_many_scanner_rays_are_refused(tmp_path):
+    from excavsim.config import SensingConfig
+
+    with pytest.raises(ConfigError, match="rays per image"):
+        load_config(_write(tmp_path, {"scanner": {"n_azimuth": 4000, "n_elevation": 4000}}, "sensing.yaml"),
+                    SensingConfig)
+
+
+# ---------------------------------------------------------------- a goal against the scene
+def _goal(**fields):
+    from excavsim.config import TrenchGoal
+
+    return TrenchGoal.model_validate({"near_x_m": 1.6, "far_x_m": 2.8, "depth_m": 0.25, **fields})
+
+
+@pytest.mark.parametrize(("fields", "scene", "match"), [
+    ({"near_x_m": 3.6, "far_x_m": 3.9}, {}, "near_x_m: .* outside the soil box"),
+    ({"near_x_m": 0.2, "far_x_m": 1.0}, {}, "near_x_m: .* outside the soil box"),
+    ({"waist_deg": 90.0}, {}, "outside the soil box"),
+    ({"surface_z_m": 1.4}, {}, "surface_z_m: 1.4 m lies above the initial soil"),
+    ({"surface_z_m": 0.3, "depth_m": 0.5}, {}, "depth_m: .* below the box floor"),
+    ({}, {"initial_soil_height_m": 0.0}, "lies above the initial soil at 0 m"),
+    ({"near_x_m": 2.0, "far_x_m": 2.0005}, {}, "holds .* m\\^2 of soil"),
+])
+def test_goals_outside_the_box_or_the_soil_are_refused(fields, scene, match):
+    from excavsim.config import check_goal
+
+    base = load_scene_config()
+    with pytest.raises(ConfigError, match=match):
+        check_goal(_goal(**fields), base.model_copy(update=scene), source="goal.yaml")
+
+
+def test_shipped_goals_hold_soil_in_the_shipped_scene():
+    from excavsim.config import check_goal
+    from excavsim.config.semantic import goal_section_m2
+    from excavsim.loop.scenario import resolve_goal
+
+    for name in ("sand", "straight", "small"):
+        goal = resolve_goal(name)
+        check_goal(goal, load_scene_config())
+        # a trapezoid: opening minus the two wall run-outs, times the depth, half on the sloped parts
+        assert goal_section_m2(goal, goal.surface_z_m) > 0.05
+
+
+def test_an_episode_spec_with_a_goal_above_the_soil_is_refused_before_it_runs():
+    from excavsim.loop.scenario import EpisodeSpec, ResolvedSpec
+
+    spec = EpisodeSpec(goal=_goal(surface_z_m=1.4, depth_m=0.2))
+    with pytest.raises(ConfigError, match="episode: goal: surface_z_m"):
+        ResolvedSpec(spec)

@@ -6,7 +6,10 @@ coercion, no NaN or infinity). :func:`load_config` reads a YAML file and returns
 what is allowed, one line per problem. Angles are in degrees in the files (the configuration edge)
 and in radians in the code. Everything is importable from ``excavsim.config``:
 
-* :mod:`~excavsim.config.loader`: the strict base model, the YAML loader, the messages;
+* :mod:`~excavsim.config.loader`: the strict base model, the YAML loader (UTF-8 only; size, depth and
+  alias-expansion limits; no repeated keys), the messages;
+* :mod:`~excavsim.config.semantic`: checks across files after the schemas (a goal against the soil box
+  and the initial soil);
 * :mod:`~excavsim.config.robot`, :mod:`~excavsim.config.scene`, :mod:`~excavsim.config.soils`,
   :mod:`~excavsim.config.sensing`, :mod:`~excavsim.config.planner`, :mod:`~excavsim.config.executor`:
   ``configs/robot.yaml``, ``scene.yaml``, ``soils.yaml``, ``sensing.yaml``, ``planner.yaml`` with
@@ -14,17 +17,19 @@ and in radians in the code. Everything is importable from ``excavsim.config``:
 """
 
 from excavsim.config.executor import ExecutorConfig, load_executor_config
-from excavsim.config.loader import StrictModel, load_config, parse_config
+from excavsim.config.loader import StrictModel, display_path, load_config, parse_config, parse_yaml
 from excavsim.config.planner import PlannerConfig, PlannerGrid, TrenchGoal, load_planner_config, load_trench_goal
 from excavsim.config.robot import JointServo, JointServos, RobotConfig, load_robot_config
 from excavsim.config.scene import BucketSoilConfig, SceneConfig, SettleConfig, SoilTruthConfig, load_scene_config
 from excavsim.config.sensing import (ElevationMapConfig, ForceSensorConfig, ScannerConfig, SensingConfig,
                                      load_sensing_config)
+from excavsim.config.semantic import check_goal
 from excavsim.config.soils import SoilParams, SoilsFile, get_soil, load_soils
 from excavsim.errors import ConfigError
 
 __all__ = ["BucketSoilConfig", "ConfigError", "ElevationMapConfig", "ExecutorConfig", "ForceSensorConfig",
            "JointServo", "JointServos", "PlannerConfig", "PlannerGrid", "RobotConfig", "ScannerConfig", "SceneConfig",
            "SensingConfig", "SettleConfig", "SoilParams", "SoilTruthConfig", "SoilsFile", "StrictModel", "TrenchGoal",
-           "get_soil", "load_config", "load_executor_config", "load_planner_config", "load_robot_config",
-           "load_scene_config", "load_sensing_config", "load_soils", "load_trench_goal", "parse_config"]
+           "check_goal", "display_path", "get_soil", "load_config", "load_executor_config", "load_planner_config",
+           "load_robot_config", "load_scene_config", "load_sensing_config", "load_soils", "load_trench_goal",
+           "parse_config", "parse_yaml"]

@@ -67,6 +67,14 @@ class ExecutorConfig(StrictModel):
                                            description="tip speed the force/velocity ratio uses at least [m/s]")
 
     @model_validator(mode="after")
+    def _dump_pose(self) -> ExecutorConfig:
+        x, z, pitch = self.dump_pose
+        if not (0.3 <= x <= 4 and 0 <= z <= 2.5 and -180 <= pitch <= 180):
+            raise ValueError(f"dump_pose={self.dump_pose}; allowed: x in [0.3, 4] m, z in [0, 2.5] m, "
+                             "pitch in [-180, 180] deg (within the arm's reach)")
+        return self
+
+    @model_validator(mode="after")
     def _compliance(self) -> ExecutorConfig:
         if self.compliance not in ("off", "stiffness", "impedance"):
             raise ValueError(f"compliance={self.compliance!r}; allowed: off, stiffness, impedance")

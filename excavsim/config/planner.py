@@ -35,6 +35,15 @@ class TrenchGoal(StrictModel):
         return self
 
 
+PLANNER_MEMORY_BYTES = 4 << 30  # the most working memory a plan may need (estimated before planning) [bytes]
+_BYTES_PER_SAMPLE = 192  # working memory per grid cell and path sample: 24 float64, measured on planner.yaml
+
+
+def _axis_len(lo: float, hi: float, step: float) -> float:
+    """Points of a grid axis from ``lo`` to ``hi`` every ``step`` (as the planner builds it), as a float."""
+    return math.floor((hi - lo) / step + 1e-9) + 1.0
+
+
 class PlannerGrid(StrictModel):
     """The discretized action space (k, alpha, d1) of the trenching action (§3.4.1, ch. 6)."""
 
@@ -55,6 +64,13 @@ class PlannerGrid(StrictModel):
                 raise ValueError(f"{lo}={getattr(self, lo)} exceeds {hi}={getattr(self, hi)}")
         return self
 
+    @property
+    def shape(self) -> tuple[float, float, float]:
+        """Points along k, alpha and d1 (floats: a tiny step gives a number too large to allocate)."""
+        return (_axis_len(self.k_min_m, self.k_max_m, self.k_step_m),
+                _axis_len(self.alpha_min_deg, self.alpha_max_deg, self.alpha_step_deg),
+                _axis_len(self.d1_min_m, self.d1_max_m, self.d1_step_m))
+
 
 class PlannerConfig(StrictModel):
     """``configs/planner.yaml``: the trenching action's rules, the search grid and the objective."""
@@ -65,7 +81,7 @@ class PlannerConfig(StrictModel):
     sample_spacing_m: float = Field(default=0.025, gt=0, le=0.2, description="trajectory sample spacing [m]")
     d2_max_m: float = Field(default=1.2, gt=0, le=3, description="longest drag considered [m]")
     curl_end_pitch_deg: float = Field(default=-30.0, ge=-120, le=60, description="pitch at the end of the curl")
-    curl_radii_m: list[float] = Field(default=[0.35, 0.4, 0.5, 0.6, 0.8], min_length=1,
+    curl_radii_m: list[float] = Field(default=[0.35, 0.4, 0.5, 0.6, 0.8], min_length=1, max_length=20,
                                       description="curl radii tried, smallest first (§3.4.2.4)")
     curl_samples: int = Field(default=10, ge=2, le=100, description="samples along the curl")
     curl_exit_pitch_deg: float = Field(
@@ -103,6 +119,29 @@ class PlannerConfig(StrictModel):
         (``inf`` with the constraint off)."""
         return self.fill_fraction * capacity_m3 if self.volume_constraint else math.inf
 
+    def path_samples(self) -> float:
+        """Samples along one planned path: penetration to the longest d1, drag to ``d2_max_m``, curl."""
+        ds = self.sample_spacing_m
+        return math.ceil(self.grid.d1_max_m / ds) + 1 + math.floor(self.d2_max_m / ds + 1e-9) + 1 + self.curl_samples
+
+    def estimated_bytes(self) -> float:
+        """Working memory a plan needs, estimated from the grid's cells and the samples along each path [bytes]
+        (the search holds every cell's path and its forces at once)."""
+        nk, na, nd = self.grid.shape
+        return nk * na * nd * self.path_samples() * _BYTES_PER_SAMPLE
+
+    @model_validator(mode="after")
+    def _memory(self) -> PlannerConfig:
+        need = self.estimated_bytes()
+        if need > PLANNER_MEMORY_BYTES:
+            nk, na, nd = self.grid.shape
+            size = f"about {need / 2**30:.3g} GiB" if math.isfinite(need) else "more memory than any machine has"
+            raise ValueError(
+                f"the search would need {size} ({nk * na * nd:.3g} cells x "
+                f"{self.path_samples():.3g} path samples); allowed: at most {PLANNER_MEMORY_BYTES / 2**30:g} GiB "
+                "(raise sample_spacing_m or grid.k_step_m, grid.alpha_step_deg, grid.d1_step_m)")
+        return self
+
     @model_validator(mode="after")
     def _objective(self) -> PlannerConfig:
         allowed = ("volume", "peak_torque", "cumulative_torque", "lexicographic")
@@ -112,6 +151,10 @@ class PlannerConfig(StrictModel):
             raise ValueError(f"auxiliary={self.auxiliary!r}; allowed: peak_torque, cumulative_torque")
         if sorted(self.curl_radii_m) != list(self.curl_radii_m) or min(self.curl_radii_m) <= 0:
             raise ValueError(f"curl_radii_m={self.curl_radii_m} must be positive and increasing")
+        if max(self.curl_radii_m) > 3:
+            raise ValueError(f"curl_radii_m={self.curl_radii_m}: allowed radii up to 3 m (the arm's reach)")
+        if not all(abs(v) <= 1 for v in self.payload_com_tip_m):
+            raise ValueError(f"payload_com_tip_m={self.payload_com_tip_m}: allowed within 1 m of the tip per axis")
         return self
 
 

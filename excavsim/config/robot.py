@@ -17,9 +17,11 @@ class JointServo(StrictModel):
     ``kp (setpoint - q) - kv qdot`` is clipped at ``torque_limit_nm`` (relief pressure).
     """
 
-    torque_limit_nm: float = Field(gt=0, le=1e6, description="relief-pressure torque limit [N m]")
-    velocity_limit_deg_s: float = Field(gt=0, le=720, description="flow-limited set-point speed [deg/s]")
-    kp_nm_per_rad: float = Field(gt=0, le=1e9, description="servo stiffness [N m / rad]")
+    # Lower bounds are physical, not only positive: a joint weaker than 10 N m cannot hold the bucket,
+    # one slower than 0.1 deg/s or softer than 1 N m/rad never finishes a move.
+    torque_limit_nm: float = Field(ge=10, le=1e6, description="relief-pressure torque limit [N m]")
+    velocity_limit_deg_s: float = Field(ge=0.1, le=720, description="flow-limited set-point speed [deg/s]")
+    kp_nm_per_rad: float = Field(ge=1, le=1e9, description="servo stiffness [N m / rad]")
     kv_nm_s_per_rad: float = Field(ge=0, le=1e9, description="servo damping [N m s / rad]")
 
     @property

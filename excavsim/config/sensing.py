@@ -4,10 +4,13 @@ from __future__ import annotations
 
 import pathlib
 
-from pydantic import Field
+from pydantic import Field, model_validator
 
 from excavsim import constants
 from excavsim.config.loader import StrictModel, load_config
+
+MAX_SCANNER_RAYS = 1_000_000  # rays per range image (the default has 40 000)
+
 
 class ScannerConfig(StrictModel):
     """The laser range scanner (000_a3ca905d8c6d92bf.txt §7.1.2) and its errors."""
@@ -35,6 +38,14 @@ class ScannerConfig(StrictModel):
     outlier_probability: float = Field(default=0.002, ge=0, le=1, description="probability of a wild range per ray")
     max_range_m: float = Field(default=8.0, gt=0, le=100, description="no return beyond this range [m]")
     target_rays: int = Field(default=3, ge=1, le=15, description="rays per side of the patch aimed at each target")
+
+    @model_validator(mode="after")
+    def _rays(self) -> ScannerConfig:
+        rays = self.n_azimuth * self.n_elevation
+        if rays > MAX_SCANNER_RAYS:
+            raise ValueError(f"n_azimuth x n_elevation = {rays} rays per image; allowed: at most {MAX_SCANNER_RAYS} "
+                             "(each ray's hit and noise are held in memory for every scan of a map)")
+        return self
 
 
 class ElevationMapConfig(StrictModel):

@@ -20,6 +20,7 @@ from __future__ import annotations
 import copy
 import math
 import pathlib
+import re
 from collections.abc import Callable
 from typing import Any
 
@@ -30,6 +31,8 @@ from excavsim.config import (ConfigError, ExecutorConfig, PlannerConfig, RobotCo
                              StrictModel, TrenchGoal, get_soil, load_config, load_executor_config, load_planner_config,
                              load_robot_config, load_scene_config, load_sensing_config, load_trench_goal,
                              parse_config)
+from excavsim.config.semantic import check_goal
+from excavsim.errors import shorten
 
 
 class EpisodeSpec(StrictModel):
@@ -102,9 +105,10 @@ def resolve_goal(goal: str | TrenchGoal) -> TrenchGoal:
     path = pathlib.Path(goal)
     if path.suffix not in (".yaml", ".yml"):
         path = constants.TRENCHES_DIR / f"{goal}.yaml"
-        if not path.exists():
+        if not re.fullmatch(r"[A-Za-z0-9_.-]{1,100}", goal) or not path.is_file():
             names = sorted(p.stem for p in constants.TRENCHES_DIR.glob("*.yaml"))
-            raise ConfigError(f"unknown trench goal {goal!r}; give a YAML path or one of: {', '.join(names)}")
+            raise ConfigError(f"unknown trench goal {shorten(repr(goal))}; give a YAML path or one of: "
+                              f"{', '.join(names)}")
     return load_trench_goal(path)
 
 
@@ -119,6 +123,7 @@ class ResolvedSpec:
                                             f"{spec.name}: robot")
         scene = _override(load_scene_config(scene_path), spec.scene, SceneConfig, f"{spec.name}: scene")
         self.scene: SceneConfig = scene.model_copy(update={"soil": spec.soil}) if spec.soil else scene
+        check_goal(self.goal, self.scene, source=f"{spec.name}: goal")
         self.planner: PlannerConfig = _override(load_planner_config(), spec.planner, PlannerConfig,
                                                 f"{spec.name}: planner")
         self.executor: ExecutorConfig = _override(load_executor_config(), spec.executor, ExecutorConfig,
