@@ -52,6 +52,8 @@ class ExecutorConfig(StrictModel):
     move_timeout_s: float = Field(default=20.0, gt=0, le=600, description="longest any one move may take")
     dig_timeout_moves: int = Field(default=8, ge=1, le=100,
                                    description="the whole dig stops after this many move_timeout_s")
+    episode_wall_limit_s: float = Field(default=1800.0, gt=0, le=7 * 86400,
+                                        description="an episode still running after this wall time ends as timeout [s]")
     stall_torque_fraction: float = Field(default=0.97, gt=0, le=1, description="torque/limit that counts as saturated")
     stall_error_rad: float = Field(default=0.02, gt=0, le=1, description="tracking error that counts as lagging")
     stall_time_s: float = Field(default=0.5, gt=0, le=10, description="how long both must last to declare a stall")

@@ -20,6 +20,11 @@ the dig is then stopped and the bucket backed out along the path it took, before
 and parking as usual. With compliance on (off by default) the remaining dig path rises while a
 joint nears its relief limit (see :meth:`DigExecutor._yield`), so a dig in soil stiffer than planned
 can still finish. No physical failure raises: the :class:`ExecutionRecord` says what happened.
+When the world reports that its physics diverged (:class:`~excavsim.handoff.observation.Diverged`)
+the dig ends at once with outcome ``diverged``; when the episode's wall-clock limit passes
+(:class:`~excavsim.handoff.observation.OutOfTime`), with ``timeout: ...``. Besides the script's own
+time limit in simulated time, the executor counts its control steps and stops the script as
+``timeout in step ...`` once they cover that limit, so a clock that stalls cannot hold a dig forever.
 """
 
 from __future__ import annotations
@@ -37,7 +42,7 @@ from excavsim.execution.conditions import (Sense, all_of, always, any_of, event,
 from excavsim.execution.paths import PathFollower, path_length
 from excavsim.execution.script import Abort, Command, Script, ScriptEngine, Step, Stop, SubScript, Transition, Watch
 from excavsim.handoff.dig import DigPlan, ExecutionRecord
-from excavsim.handoff.observation import Observation, Servos
+from excavsim.handoff.observation import Diverged, Observation, OutOfTime, Servos
 from excavsim.robot.fast import arm_params, ik_torques
 from excavsim.robot.kinematics import PlanarArm
 from excavsim.sensing.ft import ForceSensor, FTReading
@@ -177,6 +182,9 @@ class DigExecutor:
         weighed: list[float] = []  # F/T weight of the load while the lifted bucket is held [N]
         target = sim.observe().q.copy()  # hold still until the first commands; this reading draws F/T noise too
         obs = sim.observe()
+        # the script's time limit counted in steps (the engine's own check reads the clock, a tick earlier)
+        max_steps = math.ceil(script.timeout_s / sim.control_dt) + 2 if script.timeout_s else math.inf
+        steps = 0
         while True:
             reading = self.ft.reading(obs)
             sense = Sense(obs.time, dict(zip(self._names, obs.q)), dict(zip(self._names, obs.qdot)),
@@ -205,15 +213,21 @@ class DigExecutor:
             engine.end_tick(sense)
             for late in engine.timeouts[timed_out_before:]:
                 self._warn_late(rec, script, late, obs.q, target)
+            if engine.stop is None and steps >= max_steps:
+                engine.stop = Stop(obs.time, "timeout", step=engine.current(ARM_SUB).name)
             if engine.stop is not None:
                 break
             try:
                 obs = sim.track(target)
             except ExcavsimError as exc:  # a physical failure of the simulation: report, do not raise
-                rec.outcome = f"simulation failure: {exc}"
+                self._failed(rec, exc)
                 break
+            steps += 1
         if engine.stop is not None:
-            self._conclude(rec, engine.stop, bool(engine.timeouts), announce)
+            try:
+                self._conclude(rec, engine.stop, bool(engine.timeouts), announce)
+            except ExcavsimError as exc:  # while parking after an abort
+                self._failed(rec, exc)
         rec.lifted_load_n = float(np.median(weighed)) if weighed else math.nan
         names = [tr.name for tr in engine.transitions if tr.subscript == ARM_SUB]
         times = [tr.time for tr in engine.transitions if tr.subscript == ARM_SUB] + [obs.time]
@@ -303,6 +317,18 @@ class DigExecutor:
         rec.warnings.append(f"step {late.name!r} did not settle within {timeout:.0f} s "
                             f"(largest joint error {np.degrees(err.max()):.1f} deg at "
                             f"{self._names[int(np.argmax(err))]}); moving on")
+
+    @staticmethod
+    def _failed(rec: ExecutionRecord, exc: ExcavsimError) -> None:
+        """Record a failure of the world itself as the dig's outcome: ``diverged`` (the reason among the
+        warnings), ``timeout: ...`` (the episode's wall-clock limit), or ``simulation failure: ...``."""
+        if isinstance(exc, Diverged):
+            rec.outcome = "diverged"
+            rec.warnings.append(str(exc))
+        elif isinstance(exc, OutOfTime):
+            rec.outcome = f"timeout: {exc}"
+        else:
+            rec.outcome = f"simulation failure: {exc}"
 
     def _conclude(self, rec: ExecutionRecord, stop: Stop, late: bool,
                   announce: Callable[[str, ExecutionRecord], None]) -> None:

@@ -65,7 +65,9 @@ class ExecutionRecord:
 
     Attributes:
         outcome: "completed", "completed late" (a move timed out), "stalled", "no contact",
-            "timeout in step ...", or "simulation failure: ...".
+            "timeout in step ..." (the script's time limit), "diverged" (the physics became unstable;
+            the reason is the last warning), "timeout: ..." (the episode's wall-clock limit passed),
+            or "simulation failure: ...".
         planned_path: (S, 3) the planned path as executed, shifted by the touch-down offset.
         executed_path: tip poses (x, z, pitch) measured while digging, one per control step.
         ft, torques, times: F/T readings in the tip frame ``(time, (3,))``, actuator torques (6,) and

@@ -89,8 +89,8 @@ class DigMetrics:
             at lift-out (truth) [m^3]; weighed_m3: the load as the F/T sensor weighed it [m^3].
         peak_torque_nm: (6,) measured peak actuator torques [N m]; predicted_peak_nm: (3,) the
             planner's predicted peak static torques at shoulder, elbow, wrist pitch [N m] (NaN: none).
-        failure: what went wrong as the robot sees it (stall, no contact, timeout, simulation failure,
-            little soil: less than 1 l weighed), or None.
+        failure: what went wrong as the robot sees it (stall, no contact, timeout, diverged, simulation
+            failure, little soil: less than 1 l weighed), or None.
     """
 
     index: int
@@ -111,7 +111,8 @@ class DigMetrics:
 
     @property
     def failed(self) -> bool:
-        """The dig failed in the world: a stall, no contact, a timeout, or under 1 l in the bucket (truth)."""
+        """The dig failed in the world: a stall, no contact, a timeout, a divergence, or under 1 l in the
+        bucket (truth)."""
         return self.failure not in (None, "little soil") or not self.bucket_m3 >= 0.001
 
 
@@ -120,7 +121,7 @@ class EpisodeResult:
     """An episode's digs, its end, and the trench against the goal (true terrain)."""
 
     digs: list[DigMetrics]
-    end: str  # "done", "no_dig" or "budget"
+    end: str  # "done", "no_dig", "budget", "diverged" or "timeout" (the wall-clock limit)
     reason: str
     goal_m3: float
     removed_m3: float
@@ -158,7 +159,9 @@ def format_episode(res: EpisodeResult) -> str:
               f"over-dig max {100 * res.overdig_max_m:.1f} cm (RMS {100 * res.overdig_rms_m:.1f}); under-dig max "
               f"{100 * res.underdig_max_m:.1f} cm (RMS {100 * res.underdig_rms_m:.1f})",
               f"{len(res.digs)} digs, {sum(d.stall_joint is not None for d in res.digs)} stalls, "
-              f"{sum(d.failed for d in res.digs)} failed (stall, no contact, timeout or under 1 l); simulated "
+              f"{sum(d.outcome == 'diverged' for d in res.digs)} diverged, "
+              f"{sum(d.failed for d in res.digs)} failed (stall, no contact, timeout, diverged or under 1 l); "
+              f"simulated "
               f"{res.sim_time_s:.0f} s in {res.wall_time_s:.1f} s wall; "
               f"soil volume change {res.volume_change_m3:.1e} m^3"]
     return "\n".join(lines)

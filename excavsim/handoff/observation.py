@@ -3,6 +3,8 @@
 :class:`Observation` is the sensor-level reading of one control step (the world's
 :class:`~excavsim.world.simulation.Simulation` produces it); :class:`Servos` is the part of the
 world the robot's mind may command and read, so that the executor never imports the world.
+:class:`Diverged` and :class:`OutOfTime` are what :meth:`Servos.track` raises when the world can no
+longer be stepped: its physics became unstable, or the episode's wall-clock limit passed.
 """
 
 from __future__ import annotations
@@ -11,6 +13,8 @@ import dataclasses
 from typing import Protocol
 
 import numpy as np
+
+from excavsim.errors import ExcavsimError
 
 
 @dataclasses.dataclass(frozen=True)
@@ -35,6 +39,15 @@ class Observation:
     ft_torque: np.ndarray
 
 
+class Diverged(ExcavsimError):
+    """The physics became unstable (a MuJoCo warning, an automatic reset, or a non-finite state): the
+    world refuses every later step, and the dig that saw it ends with outcome ``diverged``."""
+
+
+class OutOfTime(ExcavsimError):
+    """The episode's wall-clock limit passed while stepping: the dig and the episode end as ``timeout``."""
+
+
 class Servos(Protocol):
     """The robot's hydraulic servos and sensors, as the executor drives them (a Simulation is one).
 
@@ -56,5 +69,10 @@ class Servos(Protocol):
         ...
 
     def track(self, target: np.ndarray) -> Observation:
-        """One control step driving the joints towards ``target`` (6,) [rad]; the reading after it."""
+        """One control step driving the joints towards ``target`` (6,) [rad]; the reading after it.
+
+        Raises:
+            Diverged: the physics became unstable in this step or an earlier one.
+            OutOfTime: the episode's wall-clock limit has passed.
+        """
         ...

@@ -5,7 +5,10 @@ elevation map, asks a :class:`~excavsim.loop.digs.DigSource` for one dig on the 
 planner, falling back to the boundary-following digs of §7.2), executes it with the dig script and
 lets the soil settle. The episode ends when the trench meets its tolerance on the map (at least
 ``done_fraction`` of the goal volume removed and no cell more than ``tolerance_m`` above the goal
-profile), when the source has no dig, or when the dig budget is spent. Metrics per dig and per
+profile), when the source has no dig, when the dig budget is spent, when the simulation diverged
+(``diverged``: the world's watchdog saw a MuJoCo warning, a reset or a non-finite state; the dig
+that saw it has outcome ``diverged``, and the world cannot be stepped any more), or when the
+executor's ``episode_wall_limit_s`` of wall time has passed (``timeout``). Metrics per dig and per
 episode: soil per dig (predicted, in the bucket), efficiency (bucket / capacity), over- and
 under-dig against the goal on the true terrain, stalls, planning and simulated time, peak and
 cumulative torques, and why the episode ended.
@@ -30,6 +33,7 @@ from excavsim.handoff.dig import Dig, DigPlan, ExecutionRecord
 from excavsim.handoff.episode import DigMetrics, EpisodeObserver, EpisodeResult
 from excavsim.handoff.goal import goal_profile
 from excavsim.handoff.maps import ElevationMap
+from excavsim.handoff.observation import Diverged, OutOfTime
 from excavsim.loop.digs import DigSource, PlannedDigs
 from excavsim.loop.rig import bucket_witness, go_home, make_rig, park, scan
 from excavsim.mechanics.wedge import G_M_S2
@@ -103,7 +107,8 @@ def run_episode(sim: Simulation, *, seed: int = 0, goal: TrenchGoal | None = Non
         observer: sees the episode (see :class:`~excavsim.handoff.episode.EpisodeObserver`).
 
     Returns:
-        The digs' metrics and the trench against the goal on the true terrain.
+        The digs' metrics and the trench against the goal on the true terrain; ``end`` is ``done``,
+        ``no_dig``, ``budget``, ``diverged`` or ``timeout`` (see the module docstring).
     """
     say = progress or (lambda _s: None)
     obs = observer or EpisodeObserver()
@@ -118,12 +123,21 @@ def run_episode(sim: Simulation, *, seed: int = 0, goal: TrenchGoal | None = Non
     metrics_list: list[DigMetrics] = []
     end, reason = "budget", f"dig budget of {dig_budget} spent"
     witness = bucket_witness(sim)
+    limit_s = rig.executor_cfg.episode_wall_limit_s
     obs.started(sim, rig, mask, z_goal)
     sim.step_hooks.append(obs.stepped)
+    sim.wall_deadline = wall0 + limit_s
     result = None
     try:
         for i in range(dig_budget + 1):
-            park(sim, rig)
+            if time.perf_counter() > sim.wall_deadline:
+                end, reason = "timeout", f"the episode's wall-clock limit of {limit_s:g} s passed after {i} digs"
+                break
+            try:
+                park(sim, rig)
+            except (Diverged, OutOfTime) as exc:  # in the moves between digs: no dig to record
+                end, reason = _world_failed(exc, f"parking after {i} digs")
+                break
             scanned, acc = scan(sim, rig)
             obs.scanned(i + 1, scanned, acc)
             emap = source.belief(rig, scanned)  # the scanned map, as the executed digs corrected it
@@ -146,7 +160,11 @@ def run_episode(sim: Simulation, *, seed: int = 0, goal: TrenchGoal | None = Non
                 break
             if choice.note:
                 say(choice.note)
-            go_home(sim, rig)
+            try:
+                go_home(sim, rig)
+            except (Diverged, OutOfTime) as exc:
+                end, reason = _world_failed(exc, f"going home for dig {i + 1}")
+                break
             t0 = sim.time
             clearance = float(np.min(dig.poses[:, 1] - goal_profile(goal, dig.poses[:, 0])))
             bounds = (-max(clearance, 0.0), math.inf if dig.shift_up else 0.0)
@@ -161,6 +179,11 @@ def run_episode(sim: Simulation, *, seed: int = 0, goal: TrenchGoal | None = Non
             say(f"  {dig.kind} {rec.outcome}: {1000 * dig.volume_m3:.1f} l planned, "
                 f"{1000 * rec.bucket_volume_m3:.1f} l dug"
                 + (f", stall at {metrics.stall_joint}" if metrics.stall_joint else ""))
+            if rec.outcome == "diverged" or rec.outcome.startswith("timeout: "):  # the world cannot go on
+                why = rec.warnings[-1] if rec.outcome == "diverged" else rec.outcome[len("timeout: "):]
+                end = "diverged" if rec.outcome == "diverged" else "timeout"
+                reason = f"{why} (dig {i + 1})"
+                break
             lesson = source.learned(rig, i + 1, dig, rec, emap)
             if lesson:
                 say(lesson)
@@ -168,8 +191,14 @@ def run_episode(sim: Simulation, *, seed: int = 0, goal: TrenchGoal | None = Non
                                 wall_s=time.perf_counter() - wall0)
         return result
     finally:
+        sim.wall_deadline = None
         sim.step_hooks.remove(obs.stepped)
         obs.finished(result)
+
+
+def _world_failed(exc: Diverged | OutOfTime, where: str) -> tuple[str, str]:
+    """The episode's end and reason when the world failed outside a dig (``where``: what the loop was doing)."""
+    return ("diverged" if isinstance(exc, Diverged) else "timeout"), f"{exc} ({where})"
 
 
 def dig_metrics(index: int, dig: Dig, rec: ExecutionRecord, *, capacity: float, sim_s: float,
@@ -188,7 +217,8 @@ def dig_metrics(index: int, dig: Dig, rec: ExecutionRecord, *, capacity: float, 
         stall_joint=rec.stall["joint"] if rec.stall else None, planning_s=dig.planning_s,
         sim_s=sim_s, peak_torque_nm=np.abs(torques).max(axis=0),
         cumulative_torque_nm_s=float(np.abs(torques).sum() * dt), predicted_peak_nm=dig.predicted_peak_nm,
-        weighed_m3=float(weighed), failure=failure_kind(rec, weighed, MIN_USEFUL_M3))
+        weighed_m3=float(weighed),
+        failure="diverged" if rec.outcome == "diverged" else failure_kind(rec, weighed, MIN_USEFUL_M3))
 
 
 def episode_result(sim: Simulation, digs: list[DigMetrics], end: str, reason: str, *, mask: np.ndarray,

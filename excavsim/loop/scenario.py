@@ -178,7 +178,8 @@ def episode_summary(res) -> dict[str, Any]:
     """The episode's metrics as a flat dict of JSON numbers and strings (one campaign row).
 
     Per-dig lists are reduced to totals, means and peaks; ``end`` is the stopping rule that fired
-    (``done``, ``no_dig`` or ``budget``), ``reason`` its full text.
+    (``done``, ``no_dig``, ``budget``, ``diverged`` or ``timeout``), ``reason`` its full text;
+    ``diverged_digs`` counts the digs in which the simulation diverged (at most one: the episode ends there).
     """
     digs = res.digs
     n = len(digs)
@@ -189,6 +190,7 @@ def episode_summary(res) -> dict[str, Any]:
         "stalls": sum(d.stall_joint is not None for d in digs),
         "failed_digs": sum(d.failed for d in digs), "failed_fraction": sum(d.failed for d in digs) / n if n else 0.0,
         "no_contact_digs": sum(d.outcome == "no contact" for d in digs),
+        "diverged_digs": sum(d.outcome == "diverged" for d in digs),
         "little_soil_digs": sum(d.outcome != "no contact" and d.stall_joint is None and not d.bucket_m3 >= 0.001
                                 for d in digs),
         "goal_l": 1000 * res.goal_m3, "removed_l": 1000 * res.removed_m3, "removed_fraction": res.removed_fraction,

@@ -108,7 +108,7 @@ class RerunRecorder(EpisodeObserver):
         self._ft_adr = [index.ft_force, index.ft_torque]
         self._act = index.actuator
         self._qadr = index.qpos
-        self._time(sim.data.time)
+        self._time(sim.time)
         rec.log("world", rr.ViewCoordinates.RIGHT_HAND_Z_UP, static=True)
         rec.log("plan", rr.ViewCoordinates.RIGHT_HAND_Z_UP, static=True)
         rec.log("config", rr.TextDocument(self._config_text(sim, rig), media_type=rr.MediaType.MARKDOWN),
@@ -127,7 +127,7 @@ class RerunRecorder(EpisodeObserver):
     def scanned(self, index: int, emap, accuracy) -> None:
         self._flush()
         self._cycle = index
-        self._time(self.sim.data.time)
+        self._time(self.sim.time)
         ny, nx = emap.shape
         xc, yc = emap.centres()
         xs, ys = np.meshgrid(xc, yc)
@@ -141,7 +141,7 @@ class RerunRecorder(EpisodeObserver):
 
     def planned(self, index: int, plan, dig) -> None:
         self._flush()
-        self._time(self.sim.data.time)
+        self._time(self.sim.time)
         if plan is not None:
             self._log_feasible(plan)
         self.rec.log("world/exec/path", rr.Clear(recursive=False))  # the last dig's path, until this one's
@@ -169,13 +169,13 @@ class RerunRecorder(EpisodeObserver):
                       f"{1000 * dig.volume_m3:.1f} l ({how}{dig.planning_s:.2f} s)")
 
     def stepped(self, sim) -> None:
-        d = sim.data
-        if d.time + 1e-9 < self._next_t:
+        d, t = sim.data, sim.time
+        if t + 1e-9 < self._next_t:
             return
-        self._next_t = d.time + 1.0 / self.rate_hz
+        self._next_t = t + 1.0 / self.rate_hz
         fa, ta = self._ft_adr
         contact = sim.contact
-        self._buffer.append((d.time, self._cycle, d.xpos[self._moving].copy(), d.xquat[self._moving].copy(),
+        self._buffer.append((t, self._cycle, d.xpos[self._moving].copy(), d.xquat[self._moving].copy(),
                              d.sensordata[fa:fa + 3].copy(), d.sensordata[ta:ta + 3].copy(),
                              d.actuator_force[self._act].copy(), d.qpos[self._qadr].copy(),
                              float(np.linalg.norm(contact.force)) if contact is not None else 0.0))
@@ -184,7 +184,7 @@ class RerunRecorder(EpisodeObserver):
 
     def dug(self, index: int, record, metrics: DigMetrics) -> None:
         self._flush()
-        self._time(self.sim.data.time)
+        self._time(self.sim.time)
         if record.executed_path:
             path = np.asarray(record.executed_path)
             self.rec.log("world/exec/path", rr.LineStrips3D(
@@ -215,7 +215,7 @@ class RerunRecorder(EpisodeObserver):
             return
         try:
             self._flush()
-            self._time(self.sim.data.time)
+            self._time(self.sim.time)
             if result is None:
                 text = "# Episode\n\nThe episode ended with an error; the log shows how far it got."
                 self._say("the episode ended with an error", level=rr.TextLogLevel.ERROR)

@@ -12,11 +12,22 @@ cuts and moves soil and computes its wrench on the bucket; the wrench is written
 ``xfrc_applied`` of the bucket body and held over the physics substeps; MuJoCo steps; the
 observation is read. The F/T sensor (``ft_force``/``ft_torque`` at ``ft_mount``) therefore measures
 the soil force plus the bucket's own weight and inertia, as a real wrist sensor does.
+
+A watchdog checks every control step. MuJoCo meets an unstable state (a "huge value in QACC") by
+warning and silently resetting the state to the model's default, with its time back at 0, so a
+state that is finite again and a clock that restarts would hide the failure and let every timeout
+wait forever. A step therefore raises :class:`~excavsim.handoff.observation.Diverged` when any of
+MuJoCo's warning counters (``data.warning``) grew, when MuJoCo's time did not advance by exactly one
+control period (a reset), or when the joint state is not finite; every later step raises it again.
+:attr:`Simulation.time` is the simulated time of the last good step, so it never goes back. A step
+after :attr:`Simulation.wall_deadline` (a ``time.perf_counter()`` value, set by the episode loop)
+raises :class:`~excavsim.handoff.observation.OutOfTime`.
 """
 
 from __future__ import annotations
 
 import dataclasses
+import time
 from collections.abc import Callable
 
 import mujoco
@@ -25,11 +36,14 @@ from dm_control import mjcf
 
 from excavsim.config import RobotConfig, SceneConfig, SoilParams, get_soil, load_robot_config, load_scene_config
 from excavsim.errors import ExcavsimError
-from excavsim.handoff.observation import Observation
+from excavsim.handoff.observation import Diverged, Observation, OutOfTime
 from excavsim.readouts import ModelIndex
 from excavsim.robot.servo import setpoint_rates
 from excavsim.world.scene import build_physics
 from excavsim.world.soil import SoilContact, SoilModel, Volumes
+
+# MuJoCo's warnings (mjtWarning), in the order of data.warning
+WARNING_NAMES = tuple(mujoco.mjtWarning(i).name for i in range(int(mujoco.mjtWarning.mjNWARNING)))
 
 
 @dataclasses.dataclass(frozen=True)
@@ -78,12 +92,17 @@ class Simulation:
         self.soil_enabled = True
         # Called with the Simulation after every control step (recorders, live plots); read-only use.
         self.step_hooks: list[Callable[[Simulation], None]] = []
+        self.steps = 0  # control steps taken
+        self.wall_deadline: float | None = None  # time.perf_counter() after which a step raises OutOfTime
+        self.diverged: str | None = None  # why the physics diverged (every later step raises Diverged)
+        self._clock = float(self.data.time)  # simulated time of the last good step [s]
+        self._warnings = self._warning_counts()
 
     # -- sensing --------------------------------------------------------------------------------
     @property
     def time(self) -> float:
-        """Simulated time [s]."""
-        return float(self.data.time)
+        """Simulated time of the last good control step [s]: never goes back, also after a divergence."""
+        return self._clock
 
     def joint_angles(self) -> np.ndarray:
         """The joint encoders (6,) [rad], in ``constants.JOINTS`` order; draws no sensor noise."""
@@ -96,7 +115,7 @@ class Simulation:
         truth = self.scene.truth
         force = d.sensordata[fa:fa + 3] + self._noise_rng.normal(0.0, truth.ft_force_noise_n, 3)
         torque = d.sensordata[ta:ta + 3] + self._noise_rng.normal(0.0, truth.ft_torque_noise_nm, 3)
-        return Observation(float(d.time), d.qpos[self._joint_qpos].copy(), d.qvel[self._joint_dof].copy(),
+        return Observation(self._clock, d.qpos[self._joint_qpos].copy(), d.qvel[self._joint_dof].copy(),
                            d.actuator_force[self._act].copy(), force, torque)
 
     @property
@@ -112,9 +131,15 @@ class Simulation:
             ctrl: (6,) set-point rates for the servos [rad/s]; the previous controls when None.
 
         Raises:
-            ExcavsimError: the physics produced non-finite values (with the time it happened).
+            ExcavsimError: ``ctrl`` is not a finite (6,) vector.
+            Diverged: the physics became unstable in this step or an earlier one (see the module docstring).
+            OutOfTime: the step came after :attr:`wall_deadline`.
         """
         d = self.data
+        if self.diverged is not None:
+            raise Diverged(f"the simulation diverged earlier and cannot go on: {self.diverged}")
+        if self.wall_deadline is not None and time.perf_counter() > self.wall_deadline:
+            raise OutOfTime(f"the episode's wall-clock limit passed at t = {self._clock:.2f} s simulated")
         if ctrl is not None:
             ctrl = np.asarray(ctrl, dtype=float)
             if ctrl.shape != (len(self._act),) or not np.all(np.isfinite(ctrl)):
@@ -126,12 +151,37 @@ class Simulation:
             d.xfrc_applied[self._bucket, 3:] = self.contact.torque
         else:
             d.xfrc_applied[self._bucket] = 0.0
+        before = float(d.time)
         mujoco.mj_step(self.model, d, self.substeps)
-        if not (np.all(np.isfinite(d.qpos)) and np.all(np.isfinite(d.qvel))):
-            raise ExcavsimError(f"the simulation diverged at t = {d.time:.3f} s (non-finite joint state)")
+        self.steps += 1
+        why = self._watchdog(before)
+        if why is not None:
+            self.diverged = f"{why} in the control step from t = {self._clock:.3f} s (step {self.steps})"
+            raise Diverged(f"the simulation diverged: {self.diverged}")
+        self._clock = float(d.time)
         for hook in self.step_hooks:
             hook(self)
         return self.observe()
+
+    def _warning_counts(self) -> np.ndarray:
+        """How often MuJoCo has raised each of its warnings (data.warning[i].number), in WARNING_NAMES order."""
+        return np.array([w.number for w in self.data.warning], dtype=np.int64)
+
+    def _watchdog(self, time_before: float) -> str | None:
+        """Why the step just taken from MuJoCo time ``time_before`` [s] diverged, or None if it did not."""
+        d = self.data
+        counts = self._warning_counts()
+        grew = np.flatnonzero(counts > self._warnings)
+        self._warnings = counts
+        if grew.size:
+            names = ", ".join(f"{WARNING_NAMES[i]} (at index {d.warning[i].lastinfo})" for i in grew)
+            return f"MuJoCo warned {names}" + (" and reset the state" if d.time < time_before + 0.5 * self.control_dt
+                                               else "")
+        if abs(d.time - time_before - self.control_dt) > 0.5 * self.model.opt.timestep:
+            return f"MuJoCo's time went from {time_before:.3f} s to {d.time:.3f} s (the state was reset)"
+        if not (np.all(np.isfinite(d.qpos)) and np.all(np.isfinite(d.qvel))):
+            return "the joint state is not finite"
+        return None
 
     def track(self, target: np.ndarray) -> Observation:
         """One control step driving the joints towards ``target`` (6,) [rad] with the servo law."""
