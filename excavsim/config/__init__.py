@@ -17,7 +17,7 @@ and in radians in the code. Everything is importable from ``excavsim.config``:
 """
 
 from excavsim.config.executor import ExecutorConfig, load_executor_config
-from excavsim.config.loader import StrictModel, display_path, load_config, parse_config, parse_yaml
+from excavsim.config.loader import StrictModel, display_path, load_config, parse_config, parse_yaml, read_text_file
 from excavsim.config.planner import PlannerConfig, PlannerGrid, TrenchGoal, load_planner_config, load_trench_goal
 from excavsim.config.robot import JointServo, JointServos, RobotConfig, load_robot_config
 from excavsim.config.scene import BucketSoilConfig, SceneConfig, SettleConfig, SoilTruthConfig, load_scene_config
@@ -32,4 +32,4 @@ __all__ = ["BucketSoilConfig", "ConfigError", "ElevationMapConfig", "ExecutorCon
            "SensingConfig", "SettleConfig", "SoilParams", "SoilTruthConfig", "SoilsFile", "StrictModel", "TrenchGoal",
            "check_goal", "display_path", "get_soil", "load_config", "load_executor_config", "load_planner_config",
            "load_robot_config", "load_scene_config", "load_sensing_config", "load_soils", "load_trench_goal",
-           "parse_config", "parse_yaml"]
+           "parse_config", "parse_yaml", "read_text_file"]

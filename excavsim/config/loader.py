@@ -30,7 +30,7 @@ M = TypeVar("M", bound=BaseModel)
 MAX_FILE_BYTES = 1 << 20  # the largest configuration file read [bytes]; the shipped ones are < 10 kB
 MAX_DEPTH = 32  # deepest nesting of mappings and sequences, aliases followed; the shipped files nest <= 6
 PATH_CHARS = 200  # longest path a message repeats (a goal given as a 1 MB string is taken for a path)
-MAX_NODES = 100_000  # most YAML nodes once every alias is expanded; the shipped files have < 2000
+MAX_NODES = 20_000  # most YAML nodes, written or once every alias is expanded; the shipped files have < 100
 
 _BOMS = ((b"\xff\xfe\x00\x00", "UTF-32"), (b"\x00\x00\xfe\xff", "UTF-32"), (b"\xff\xfe", "UTF-16"),
          (b"\xfe\xff", "UTF-16"))
@@ -44,17 +44,24 @@ class StrictModel(BaseModel):
 
 class _Loader(yaml.SafeLoader):
     """SafeLoader that reads YAML 1.2 floats such as ``5.0e5`` (PyYAML's 1.1 rules read a string), refuses
-    a repeated mapping key, and refuses nesting deeper than :data:`MAX_DEPTH` while composing."""
+    a repeated mapping key, and refuses, while composing, nesting deeper than :data:`MAX_DEPTH` and more
+    than :data:`MAX_NODES` nodes (PyYAML composes some 30 000 nodes a second: a large file fails fast)."""
 
     def __init__(self, stream: str):
         super().__init__(stream)
         self._depth = 0
+        self._nodes = 0
 
     def compose_node(self, parent: Any, index: Any) -> Any:
-        """Compose one node, refusing it beyond :data:`MAX_DEPTH` levels (PyYAML recurses once per level)."""
+        """Compose one node, refusing it beyond :data:`MAX_DEPTH` levels (PyYAML recurses once per level)
+        or beyond :data:`MAX_NODES` nodes."""
         if self._depth >= MAX_DEPTH:
             raise yaml.composer.ComposerError(None, None, f"nested deeper than {MAX_DEPTH} levels (allowed: "
                                               f"at most {MAX_DEPTH})", self.peek_event().start_mark)
+        self._nodes += 1
+        if self._nodes > MAX_NODES:
+            raise yaml.composer.ComposerError(None, None, f"more than {MAX_NODES} nodes (allowed: at most "
+                                              f"{MAX_NODES})", self.peek_event().start_mark)
         self._depth += 1
         try:
             return super().compose_node(parent, index)
@@ -134,8 +141,19 @@ def _expanded_size(root: yaml.Node) -> tuple[int, int]:
     return memo[id(root)]
 
 
-def _read_text(path: pathlib.Path, where: str, what: str) -> str:
-    """The text of configuration file ``path``: a regular file of at most :data:`MAX_FILE_BYTES`, in UTF-8."""
+def read_text_file(path: str | os.PathLike, what: str, *, where: str | None = None) -> str:
+    """The text of the file ``path`` (a configuration, a baseline): a regular file of at most
+    :data:`MAX_FILE_BYTES`, in UTF-8.
+
+    Args:
+        path: the file.
+        what: what the file holds, for messages (e.g. ``"RobotConfig"``, ``"baseline"``).
+        where: how messages name the file (default: :func:`display_path` of ``path``).
+
+    Raises:
+        ConfigError: naming the file and why it cannot be read as text.
+    """
+    where = display_path(path) if where is None else where
     try:
         info = os.stat(path)
         if not stat.S_ISREG(info.st_mode):
@@ -271,5 +289,5 @@ def load_config(path: str | pathlib.Path, model: type[M]) -> M:
     """
     path = pathlib.Path(path)
     where = display_path(path)
-    data = parse_yaml(_read_text(path, where, model.__name__), source=where)
+    data = parse_yaml(read_text_file(path, model.__name__, where=where), source=where)
     return parse_config(data, model, source=where)
