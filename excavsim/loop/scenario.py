@@ -42,7 +42,7 @@ class EpisodeSpec(StrictModel):
     goal: str | TrenchGoal = Field(
         default="sand", description="a trench of configs/trenches (by name), a YAML path, or the goal inline")
     soil: str | None = Field(default=None, description="soil preset of configs/soils.yaml (default: the scene's)")
-    seed: int = Field(default=0, ge=0, description="episode seed (soil, sensor noise, scanner drift)")
+    seed: int = Field(default=0, ge=0, le=2**32 - 1, description="episode seed (soil, sensor noise, scanner drift)")
     dig_budget: int = Field(default=20, ge=1, le=1000, description="most digs to try")
     done_fraction: float = Field(default=0.95, gt=0, le=1, description="goal volume fraction that counts as done")
     tolerance_m: float = Field(default=0.03, gt=0, le=1, description="no map cell may stay this far above the goal")
