@@ -40,7 +40,8 @@ def test_yaml_1_2_exponent_floats_are_numbers(tmp_path):
 @pytest.mark.parametrize(
     ("mutate", "field", "allowed"),
     [
-        (lambda d: d["joints"]["wrist_pitch"].update(torque_limit_nm=-5.0), "joints.wrist_pitch.torque_limit_nm", ">= 10"),
+        (lambda d: d["joints"]["wrist_pitch"].update(torque_limit_nm=-5.0), "joints.wrist_pitch.torque_limit_nm",
+         ">= 10"),
         (lambda d: d["joints"]["elbow"].update(kp_nm_per_rad="stiff"), "joints.elbow.kp_nm_per_rad", "number"),
         (lambda d: d["joints"]["waist"].pop("kv_nm_s_per_rad"), "joints.waist.kv_nm_s_per_rad", "missing"),
         (lambda d: d["joints"]["waist"].update(speed=3.0), "joints.waist.speed", "unknown field"),
