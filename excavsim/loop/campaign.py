@@ -16,7 +16,16 @@ directory: ``campaign.yaml`` (the validated specification), ``episodes/<id>.json
 written atomically as it finishes), ``recordings/<id>.rrd`` (with ``record: true``), then
 ``summary.csv`` (and ``summary.parquet`` when pyarrow is installed) and ``plots/*.png``. An episode's
 id is its grid values and a hash of its specification, so an interrupted campaign is finished by
-running again with ``resume=True``: only episodes without a result file run.
+running again with ``resume=True``: only episodes without a valid result file run.
+
+Hygiene, since campaigns run unattended: a result file that is not a valid result (``{}``, a
+truncated write, another episode's record) is moved to ``episodes/corrupt/`` on resume and its
+episode runs again. Each local worker runs one episode at a time and watches the main process: it
+exits when the main process dies, even by SIGKILL, and ignores SIGINT (a Ctrl-C reaches the whole
+process group), since the main process ends its workers itself when it stops (on SIGINT, on SIGTERM
+or on an error). A worker that dies during an episode (killed, out of memory, a crash in native
+code) is replaced and its episode run once more; if that attempt dies too, the episode is recorded
+with status ``failed`` and the error, and the campaign goes on. Ray retries a task once itself.
 """
 
 from __future__ import annotations
@@ -29,12 +38,14 @@ import multiprocessing
 import numbers
 import os
 import pathlib
+import signal
 import socket
+import threading
 import time
 import traceback
+from collections import deque
 from collections.abc import Callable, Iterator
-from concurrent.futures import ProcessPoolExecutor, as_completed
-from concurrent.futures.process import BrokenProcessPool
+from multiprocessing.connection import wait
 from typing import Any
 
 import yaml
@@ -48,10 +59,13 @@ from excavsim.loop.campaign_report import (format_table, group_table, plot_campa
 from excavsim.loop.scenario import EpisodeSpec, dig_rows, episode_summary, run_spec
 
 __all__ = ["OVERRIDE_SECTIONS", "CampaignReport", "CampaignSpec", "Episode", "check_campaign", "episode_id",
-           "expand_grid", "load_campaign", "parse_campaign", "run_campaign", "run_episode_task"]
+           "expand_grid", "load_campaign", "parse_campaign", "result_problem", "run_campaign", "run_episode_task"]
 
 # Makes the observer that records one episode to the given path (excavsim.record.RerunRecorder).
 Recorder = Callable[[pathlib.Path], EpisodeObserver]
+
+STATUSES = ("ok", "error", "failed")  # an episode ran; it raised; its worker process died twice
+ATTEMPTS = 2  # runs of an episode whose worker process dies, before it is recorded as failed
 
 
 @dataclasses.dataclass
@@ -66,7 +80,7 @@ class CampaignReport:
 
     @property
     def errors(self) -> int:
-        """Episodes whose status is not ``ok``."""
+        """Episodes whose status is not ``ok`` (``error``: the episode raised; ``failed``: its worker died)."""
         return sum(r["status"] != "ok" for r in self.rows)
 
 
@@ -126,21 +140,127 @@ def run_episode_task(task: dict[str, Any]) -> dict[str, Any]:
     return _json_safe(rec)
 
 
+def _failed_record(task: dict[str, Any], error: str) -> dict[str, Any]:
+    """The result record of an episode that produced none: status ``failed`` with ``error``."""
+    return _json_safe({**{k: task[k] for k in ("id", "name", "params", "spec", "recording")},
+                       "status": "failed", "summary": None, "error": error, "traceback": None, "log": [],
+                       "wall_s": None})
+
+
+# -- local worker processes ----------------------------------------------------------------------------
+def _exit_with_main() -> None:
+    """In a worker: exit at once when the main process dies (its sentinel closes, also on SIGKILL)."""
+    parent = multiprocessing.parent_process()
+    if parent is None:
+        return
+
+    def watch() -> None:
+        wait([parent.sentinel])
+        os._exit(1)
+
+    threading.Thread(target=watch, name="exit-with-main", daemon=True).start()
+
+
+def _worker_main(conn) -> None:
+    """A local worker: run the episodes the main process sends, one at a time, until it sends None."""
+    signal.signal(signal.SIGINT, signal.SIG_IGN)  # the main process decides; it ends its workers itself
+    _exit_with_main()
+    while True:
+        try:
+            task = conn.recv()
+        except (EOFError, OSError):  # the main process closed its end
+            return
+        if task is None:
+            return
+        conn.send(run_episode_task(task))
+
+
+class _Worker:
+    """One local worker process and the episode it runs (None: idle)."""
+
+    def __init__(self, ctx):
+        self.conn, child = ctx.Pipe()
+        self.proc = ctx.Process(target=_worker_main, args=(child,), daemon=True, name="excavsim-campaign-worker")
+        self.proc.start()
+        child.close()
+        self.task: dict[str, Any] | None = None
+        self.attempt = 0
+
+    def run(self, task: dict[str, Any], attempt: int) -> None:
+        """Send ``task`` (its ``attempt``-th run); a process that died meanwhile is found by its sentinel."""
+        self.task, self.attempt = task, attempt
+        with contextlib.suppress(OSError):
+            self.conn.send(task)
+
+    def stop(self, *, grace_s: float = 5.0) -> None:
+        """End the process: ask an idle one to quit, terminate a busy one, kill it if it lingers."""
+        if self.proc.is_alive() and self.task is None:
+            with contextlib.suppress(OSError):
+                self.conn.send(None)
+            self.proc.join(grace_s)
+        if self.proc.is_alive():
+            self.proc.terminate()
+            self.proc.join(grace_s)
+        if self.proc.is_alive():
+            self.proc.kill()
+            self.proc.join()
+        self.conn.close()
+
+
+def _death(proc) -> str:
+    """How a worker process ended, in words (its exit code or the signal that killed it)."""
+    code = proc.exitcode
+    if code is not None and code < 0:
+        with contextlib.suppress(ValueError):
+            return f"killed by {signal.Signals(-code).name}"
+    return f"exit code {code}"
+
+
 # -- backends: each yields result records as episodes finish -------------------------------------------
-def _local_results(tasks: list[dict], workers: int) -> Iterator[dict]:
+def _local_results(tasks: list[dict], workers: int, say: Callable[[str], None]) -> Iterator[dict]:
+    """Run ``tasks`` on ``workers`` local processes (see the module docstring for what a death does)."""
     # MuJoCo and numba are not fork-safe: workers start from a clean interpreter.
     method = "forkserver" if "forkserver" in multiprocessing.get_all_start_methods() else "spawn"
-    pool = ProcessPoolExecutor(max_workers=workers, mp_context=multiprocessing.get_context(method))
+    ctx = multiprocessing.get_context(method)
+    todo = deque((t, 1) for t in tasks)
+    pool: list[_Worker] = []
     try:
-        futures = [pool.submit(run_episode_task, t) for t in tasks]
-        for fut in as_completed(futures):
-            try:
-                yield fut.result()
-            except BrokenProcessPool:
-                raise ExcavsimError("a worker process died (killed, out of memory or crashed in native code); "
-                                    "the results so far are saved: run again with --resume to finish") from None
+        while todo or any(w.task is not None for w in pool):
+            for w in [w for w in pool if w.task is None and not w.proc.is_alive()]:  # died while idle
+                w.stop()
+                pool.remove(w)
+            for w in pool:
+                if todo and w.task is None:
+                    w.run(*todo.popleft())
+            while todo and len(pool) < workers:
+                pool.append(_Worker(ctx))
+                pool[-1].run(*todo.popleft())
+            busy = [w for w in pool if w.task is not None]
+            ready = set(wait([w.conn for w in busy] + [w.proc.sentinel for w in busy]))
+            for w in busy:
+                rec = None
+                if w.conn in ready:
+                    with contextlib.suppress(EOFError, OSError):
+                        rec = w.conn.recv()
+                if rec is not None:
+                    w.task = None
+                    yield rec
+                elif w.conn in ready or w.proc.sentinel in ready:  # it died before sending a result
+                    task, attempt = w.task, w.attempt
+                    w.proc.join()
+                    how = f"the worker process {w.proc.pid} running it died ({_death(w.proc)})"
+                    w.task = None
+                    w.stop()
+                    pool.remove(w)
+                    if attempt < ATTEMPTS:
+                        say(f"{task['id']}: {how}; running it again")
+                        todo.appendleft((task, attempt + 1))
+                    else:
+                        yield _failed_record(task, f"{how} on each of {ATTEMPTS} attempts (killed, out of memory "
+                                                   "or crashed in native code?)")
     finally:
-        pool.shutdown(wait=True, cancel_futures=True)
+        for w in pool:
+            w.stop()
 
 
 def _import_ray():
@@ -176,9 +296,7 @@ def _ray_results(tasks: list[dict], address: str, workers: int | None) -> Iterat
                 try:
                     yield ray.get(ref)
                 except ray.exceptions.RayError as exc:  # the worker died; the task itself never raises
-                    yield _json_safe({**{k: task[k] for k in ("id", "name", "params", "spec", "recording")},
-                                      "status": "error", "summary": None, "error": f"Ray: {exc}",
-                                      "traceback": None, "log": [], "wall_s": None})
+                    yield _failed_record(task, f"Ray: {exc}")
     finally:
         for ref in pending:
             with contextlib.suppress(Exception):
@@ -188,6 +306,59 @@ def _ray_results(tasks: list[dict], address: str, workers: int | None) -> Iterat
 
 
 # -- files ---------------------------------------------------------------------------------------------
+def result_problem(path: pathlib.Path, episode: str) -> str | None:
+    """Why ``path`` is not a valid result file of episode ``episode``, or None when it is one: it must be
+    a JSON object with that ``id``, a ``status`` of :data:`STATUSES`, and a ``summary`` with ``end`` and
+    ``digs`` (status ok) or an ``error`` text (otherwise)."""
+    try:
+        rec = json.loads(path.read_text(encoding="utf-8"))
+    except (OSError, UnicodeDecodeError, json.JSONDecodeError) as exc:
+        return f"unreadable: {type(exc).__name__}: {str(exc)[:120]}"
+    if not isinstance(rec, dict):
+        return f"a JSON {type(rec).__name__}, not an object"
+    if rec.get("id") != episode:
+        return f"its id is {str(rec.get('id'))[:80]!r}, not {episode!r}"
+    status = rec.get("status")
+    if status not in STATUSES:
+        return f"status {str(status)[:80]!r} (allowed: {', '.join(STATUSES)})"
+    if status == "ok":
+        summary = rec.get("summary")
+        if not (isinstance(summary, dict) and "end" in summary and "digs" in summary):
+            return "status ok without a summary holding end and digs"
+    elif not isinstance(rec.get("error"), str):
+        return f"status {status} without an error text"
+    return None
+
+
+def _move_aside(path: pathlib.Path, folder: pathlib.Path) -> pathlib.Path:
+    """Move ``path`` into ``folder`` (created) without replacing an earlier file there; returns where."""
+    folder.mkdir(parents=True, exist_ok=True)
+    target, n = folder / path.name, 0
+    while target.exists():
+        n += 1
+        target = folder / f"{path.name}.{n}"
+    os.replace(path, target)
+    return target
+
+
+@contextlib.contextmanager
+def _sigterm_interrupts() -> Iterator[None]:
+    """While inside, SIGTERM raises KeyboardInterrupt as SIGINT does, so that a terminated campaign ends
+    its workers and says what is saved (only in the main thread, where signal handlers can be set)."""
+    if threading.current_thread() is not threading.main_thread():
+        yield
+        return
+
+    def interrupt(_signum, _frame):
+        raise KeyboardInterrupt
+
+    before = signal.signal(signal.SIGTERM, interrupt)
+    try:
+        yield
+    finally:
+        signal.signal(signal.SIGTERM, before)
+
+
 @contextlib.contextmanager
 def _exclusive(out: pathlib.Path) -> Iterator[None]:
     """Hold ``out/.lock`` so that two runs never share an output directory (released if the process dies)."""
@@ -213,7 +384,7 @@ def _duration(seconds: float) -> str:
 def _progress_line(count: int, total: int, rec: dict, eta_s: float) -> str:
     head = f"[{count}/{total}] {rec['id']}:"
     if rec["status"] != "ok":
-        text = f"{head} ERROR {str(rec['error']).splitlines()[0][:200]}"
+        text = f"{head} {str(rec['status']).upper()} {str(rec['error']).splitlines()[0][:200]}"
     else:
         s = rec["summary"]
 
@@ -235,8 +406,8 @@ def run_campaign(spec: CampaignSpec, out_dir: str | pathlib.Path, *, workers: in
         spec: the campaign.
         out_dir: where results go (created; see the module docstring for the layout).
         workers: local processes (default ``os.cpu_count()``); with Ray on this machine, its CPUs.
-        resume: run only the episodes without a result file in ``out_dir``; without it an
-            ``out_dir`` that holds results is refused.
+        resume: run only the episodes without a valid result file in ``out_dir`` (an invalid one is
+            moved to ``episodes/corrupt/``); without it an ``out_dir`` that holds results is refused.
         ray_address: None for local processes; ``"local"`` for a Ray instance started here,
             ``"auto"`` or ``HOST:PORT`` for a running Ray cluster (needs a shared ``out_dir`` only
             when recording).
@@ -249,8 +420,9 @@ def run_campaign(spec: CampaignSpec, out_dir: str | pathlib.Path, *, workers: in
     Raises:
         ConfigError: the grid is invalid.
         ExcavsimError: ``out_dir`` holds results and ``resume`` is false, it is in use by another run,
-            ``workers`` is below 1, Ray is missing or unreachable, ``record: true`` without a
-            ``recorder``, or a worker process died.
+            ``workers`` is below 1, Ray is missing or unreachable, or ``record: true`` without a
+            ``recorder``. A worker process that dies does not raise (see the module docstring).
+        KeyboardInterrupt: on SIGINT or SIGTERM, after the local workers are ended.
     """
     say = progress or (lambda _s: None)
     if workers is not None and workers < 1:
@@ -272,6 +444,12 @@ def run_campaign(spec: CampaignSpec, out_dir: str | pathlib.Path, *, workers: in
         if stale := done - ids:
             say(f"note: {len(stale)} result file(s) in {ep_dir} are not episodes of this campaign "
                 "(an earlier grid?); the summary leaves them out")
+        for ep_id in sorted(done & ids):
+            path = ep_dir / f"{ep_id}.json"
+            if problem := result_problem(path, ep_id):
+                moved = _move_aside(path, ep_dir / "corrupt")
+                say(f"note: {path} is not a valid result ({problem}); moved to {moved}, its episode runs again")
+                done.discard(ep_id)
         todo = [e for e in episodes if e.id not in done]
         if spec.record and todo and recorder is None:
             raise ExcavsimError(f"campaign {spec.name} has record: true but no recorder was given: pass "
@@ -283,19 +461,21 @@ def run_campaign(spec: CampaignSpec, out_dir: str | pathlib.Path, *, workers: in
         say(f"campaign {spec.name}: {len(episodes)} episodes, {len(episodes) - len(todo)} already done, "
             f"{len(todo)} to run on {where}; results in {out}")
         tasks = [_task(e, out, recorder if spec.record else None) for e in todo]
-        results = _ray_results(tasks, ray_address, workers) if ray_address else _local_results(tasks, n)
+        results = _ray_results(tasks, ray_address, workers) if ray_address else _local_results(tasks, n, say)
         count, ran, t0 = len(episodes) - len(todo), 0, time.perf_counter()
         try:
-            for rec in results if tasks else ():
-                write_atomic(ep_dir / f"{rec['id']}.json", json.dumps(rec, indent=1, allow_nan=False) + "\n")
-                count, ran = count + 1, ran + 1
-                eta = (time.perf_counter() - t0) / ran * (len(todo) - ran)
-                say(_progress_line(count, len(episodes), rec, eta))
+            with _sigterm_interrupts():
+                for rec in results if tasks else ():
+                    write_atomic(ep_dir / f"{rec['id']}.json", json.dumps(rec, indent=1, allow_nan=False) + "\n")
+                    count, ran = count + 1, ran + 1
+                    eta = (time.perf_counter() - t0) / ran * (len(todo) - ran)
+                    say(_progress_line(count, len(episodes), rec, eta))
         except KeyboardInterrupt:
-            say(f"interrupted: {count} of {len(episodes)} results saved in {ep_dir}; run again with --resume")
+            say(f"interrupted: {count} of {len(episodes)} results saved in {ep_dir}; its workers are ended; "
+                "run again with --resume")
             raise
         finally:
-            results.close()
+            results.close()  # ends the local workers (a generator that never started has none)
         rows = summary_rows(episodes, ep_dir)
         tables = write_tables(rows, out, progress=say)
         plots = plot_campaign(spec, rows, out / "plots")

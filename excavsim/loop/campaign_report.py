@@ -15,8 +15,10 @@ from typing import Any
 from excavsim.config import load_planner_config
 from excavsim.loop.campaign_grid import CampaignSpec, Episode, slug
 
-ENDS = ("done", "no_dig", "budget", "error")  # how an episode ended, in the order plots stack them
-_END_COLOURS = {"done": "#2ca02c", "no_dig": "#7f7f7f", "budget": "#ff7f0e", "error": "#d62728"}
+# how an episode ended, in the order plots stack them ("error": it raised, or its worker died)
+ENDS = ("done", "no_dig", "budget", "diverged", "timeout", "error")
+_END_COLOURS = {"done": "#2ca02c", "no_dig": "#7f7f7f", "budget": "#ff7f0e", "diverged": "#9467bd",
+                "timeout": "#8c564b", "error": "#d62728"}
 
 
 def write_atomic(path: pathlib.Path, text: str) -> None:
