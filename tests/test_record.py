@@ -10,12 +10,14 @@ import sys
 from collections import defaultdict
 
 import numpy as np
+import pyarrow as pa
 import pytest
 from rerun.chunk import RrdReader
 
 from excavsim.cli import main
 from excavsim.errors import ExcavsimError
 from excavsim.record import RerunRecorder
+from excavsim.record.recorder import recording_id_for
 from excavsim.record.geometry import grid_triangles, quat_xyzw
 from excavsim.loop.scenario import EpisodeSpec, run_spec
 
@@ -70,7 +72,7 @@ def test_the_recording_holds_the_documented_entity_tree(recording):
         assert tree[static]["static"] >= 1, static
     for temporal in ("/world/plan/path", "/world/exec/path", "/plan/feasible", "/plan/chosen", "/summary",
                      "/ft/force/norm", "/ft/tip/x", "/torque/wrist_pitch",
-                     "/truth/soil_force_n", "/metrics/bucket_l", "/metrics/efficiency", "/metrics/planning_s"):
+                     "/truth/soil_force_n", "/metrics/bucket_l", "/metrics/efficiency", "/wall/planning_s"):
         assert tree[temporal]["sim_time"] >= 1, temporal
     assert tree["/metrics/bucket_l"]["dig"] == len(result.digs)
     # 37 s simulated at the default 10 Hz: one sample per 0.1 s
@@ -93,6 +95,55 @@ def test_an_episode_that_raises_still_leaves_a_complete_separate_recording(recor
     assert "/world/exec/path" not in tree  # nothing of the other episode leaked in
     ids = {RrdReader(p).recordings()[0].recording_id for p in (path, recording[0])}
     assert len(ids) == 2
+
+
+def contents(path: pathlib.Path) -> dict[tuple[str, bool], list[str]]:
+    """A recording's rows as text, per entity path and staticness, in the order they were logged (by
+    row id), without the row ids (wall-clock stamps) and without how the rows were cut into chunks."""
+    rows: dict[tuple[str, bool], list[tuple[bytes, str]]] = defaultdict(list)
+    for chunk in RrdReader(path).stream().to_chunks():
+        batch = chunk.to_record_batch()
+        columns = {name: (col.cast(pa.int64()) if pa.types.is_duration(col.type) else col).to_pylist()
+                   for name, col in zip(batch.schema.names, batch.columns)}  # durations as integer ns
+        row_ids = columns.pop("rerun.controls.RowId")
+        for i, row_id in enumerate(row_ids):
+            cells = {name: values[i] for name, values in columns.items() if values[i] is not None}
+            rows[chunk.entity_path, chunk.is_static].append((row_id, repr(sorted(cells.items()))))
+    return {key: [text for _, text in sorted(found)] for key, found in rows.items()}
+
+
+def test_the_same_episode_records_the_same_contents(recording, tmp_path):
+    """Same seed, same configuration, same file name: the same recording id and, decoded, the same rows
+    on every entity but the wall-clock times of ``/wall``. Rerun 0.41 stamps rows and chunks with
+    wall-clock ids, so the bytes differ; that they differ is checked too, so that a Rerun that allows
+    byte identity is noticed."""
+    first, _ = recording
+    again = tmp_path / first.name
+    run_spec(SPEC, observer=RerunRecorder(again))
+    ids = [RrdReader(p).recordings()[0].recording_id for p in (first, again)]
+    assert ids[0] == ids[1] == recording_id_for(first.name, SPEC.seed, _config_of(first))
+    a, b = contents(first), contents(again)
+    wall = {key for key in a if key[0].startswith("/wall")}
+    assert wall == {("/wall/planning_s", False), ("/wall/planning_s", True)}
+    assert len(a) > 50 and a.keys() == b.keys()
+    for key in a.keys() - wall:
+        assert a[key] == b[key], key
+    assert first.read_bytes() != again.read_bytes()
+
+
+def _config_of(path: pathlib.Path) -> str:
+    """The resolved configuration a recording holds (its static /config TextDocument)."""
+    for chunk in RrdReader(path).stream().to_chunks():
+        if chunk.entity_path == "/config":
+            return chunk.to_record_batch().to_pydict()["TextDocument:text"][0][0]
+    raise AssertionError(f"{path} has no /config")
+
+
+def test_recording_ids_differ_with_the_seed_the_configuration_and_the_file_name():
+    base = recording_id_for("ep.rrd", 0, "config")
+    assert base == recording_id_for("ep.rrd", 0, "config")
+    assert len({base, recording_id_for("ep.rrd", 1, "config"), recording_id_for("ep.rrd", 0, "other"),
+                recording_id_for("other.rrd", 0, "config")}) == 4
 
 
 def test_a_recorder_records_one_episode_only(recording):

@@ -29,7 +29,7 @@ def default_blueprint() -> rrb.Blueprint:
                          series("joint angles [deg]", "/joint_deg/**")),
                 rrb.Tabs(series("soil per dig [l]", "/metrics/predicted_l", "/metrics/bucket_l", "/metrics/removed_l"),
                          series("efficiency, stalls", "/metrics/efficiency", "/metrics/stall"),
-                         series("times [s]", "/metrics/planning_s", "/metrics/sim_s"),
+                         series("times [s]", "/wall/planning_s", "/metrics/sim_s"),
                          series("map RMS error [cm]", "/metrics/map_rms_cm")),
                 rrb.Tabs(rrb.TextDocumentView(name="summary", origin="/summary"),
                          rrb.TextLogView(name="log", origin="/log"),

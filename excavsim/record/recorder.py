@@ -29,11 +29,19 @@ before the first scan; cycle k scans, plans and digs dig k). Entity tree::
     torque/<actuator>          actuator torques [N m], rate_hz
     joint_deg/<actuator>       joint angles [deg], rate_hz
     truth/soil_force_n         magnitude of the soil's force on the bucket (truth) [N], rate_hz
-    metrics/{predicted_l,bucket_l,efficiency,planning_s,sim_s,removed_l,stall}   per dig
+    metrics/{predicted_l,bucket_l,efficiency,sim_s,removed_l,stall}   per dig
     metrics/map_rms_cm         per scan
+    wall/planning_s            wall time the dig's planning took, per dig (the one entity that differs
+                               between two recordings of the same episode)
     config                     TextDocument: the resolved configuration of the run, static
     log                        TextLog: scans, plans, digs and the end
-    summary                    TextDocument: format_episode of the result, at the end
+    summary                    TextDocument: format_episode of the result (less its wall time), at the end
+
+Reproducibility: the same episode (seed and configuration) recorded to files of the same name gives
+the same recording id (:func:`recording_id_for`) and, decoded, the same rows on every entity but
+``wall``. The files are not byte-identical: Rerun 0.41 stamps every row and chunk with an id made
+of the wall time and a random number, and has no way to set them; the recording is written without
+Rerun's recording properties (its start time).
 
 A default blueprint (:func:`default_blueprint`) goes with the file: 3D views of the world with the
 true terrain and with the map, the feasible set, time series of the signals and metrics, the summary.
@@ -43,6 +51,7 @@ What recording costs (wall time, file size per dig) is measured in the README's 
 
 from __future__ import annotations
 
+import hashlib
 import os
 import pathlib
 import uuid
@@ -61,14 +70,22 @@ from excavsim.record.geometry import (FILLED_RGB, MAP_RGB, OVERDIG_RGB, PHASE_NA
                                       SAND_RGB, geom_archetype, grid_normals, grid_triangles, quat_xyzw, ramp_colours)
 
 
+def recording_id_for(name: str, seed: int, config_text: str) -> str:
+    """The Rerun recording id of an episode recorded to a file called ``name``: a UUID derived from the
+    file's name, the episode's ``seed`` and its resolved configuration (``config_text``), so that the
+    same episode recorded again gets the same id, and two different ones never merge in one viewer."""
+    digest = hashlib.sha256(config_text.encode()).hexdigest()
+    return str(uuid.uuid5(uuid.NAMESPACE_URL, f"excavsim:{name}:seed {seed}:{digest}"))
+
+
 class RerunRecorder(EpisodeObserver):
     """Records one episode to ``path`` (an ``.rrd`` file; parent folders are created).
 
     Args:
         path: the recording to write; an existing file is replaced.
         rate_hz: how often the robot's pose and the signals are sampled [Hz of simulated time].
-        recording_id: Rerun's recording id (default: derived from the resolved path, so that a file
-            recorded again keeps its id and two files never merge when opened in one viewer).
+        recording_id: Rerun's recording id (default: :func:`recording_id_for` the file's name, the
+            episode's seed and its configuration).
 
     Raises:
         ExcavsimError: ``rate_hz`` is not positive, or the recorder is started a second time.
@@ -79,7 +96,7 @@ class RerunRecorder(EpisodeObserver):
             raise ExcavsimError(f"RerunRecorder rate_hz must be a positive number [Hz]; given {rate_hz!r}")
         self.path = pathlib.Path(path)
         self.rate_hz = float(rate_hz)
-        self.recording_id = recording_id or str(uuid.uuid5(uuid.NAMESPACE_URL, str(self.path.resolve())))
+        self.recording_id = recording_id  # None: derived when the episode starts
         self.rec: rr.RecordingStream | None = None
         self._buffer: list[tuple] = []
         self._next_t = 0.0
@@ -93,7 +110,10 @@ class RerunRecorder(EpisodeObserver):
         if self.rec is not None:
             raise ExcavsimError(f"a RerunRecorder records one episode; make a new one for {self.path}")
         self.path.parent.mkdir(parents=True, exist_ok=True)
-        rec = rr.RecordingStream("excavsim", recording_id=self.recording_id)
+        config = self._config_text(sim, rig)
+        self.recording_id = self.recording_id or recording_id_for(self.path.name, sim.seed, config)
+        # no recording properties: they hold the wall-clock start time
+        rec = rr.RecordingStream("excavsim", recording_id=self.recording_id, send_properties=False)
         rec.set_log_time_enabled(False)  # reproducible files: only our own timelines
         rec.set_log_tick_enabled(False)
         rec.save(self.path, default_blueprint=default_blueprint())
@@ -111,8 +131,7 @@ class RerunRecorder(EpisodeObserver):
         self._time(sim.time)
         rec.log("world", rr.ViewCoordinates.RIGHT_HAND_Z_UP, static=True)
         rec.log("plan", rr.ViewCoordinates.RIGHT_HAND_Z_UP, static=True)
-        rec.log("config", rr.TextDocument(self._config_text(sim, rig), media_type=rr.MediaType.MARKDOWN),
-                static=True)
+        rec.log("config", rr.TextDocument(config, media_type=rr.MediaType.MARKDOWN), static=True)
         self._log_bodies(sim)
         self._log_series_styles()
         self._log_goal(sim, rig, goal_mask, goal_z)
@@ -166,7 +185,7 @@ class RerunRecorder(EpisodeObserver):
             k, a, d1, d2 = dig.action
             how = f"{plan.reason}, " if plan is not None and dig.kind == "planned" else f"{dig.kind}, "
             self._say(f"plan {index}: k {k:.2f} m, alpha {np.degrees(a):.0f} deg, d1 {d1:.2f} m, d2 {d2:.2f} m, "
-                      f"{1000 * dig.volume_m3:.1f} l ({how}{dig.planning_s:.2f} s)")
+                      f"{1000 * dig.volume_m3:.1f} l ({how.removesuffix(', ')})")
 
     def stepped(self, sim) -> None:
         d, t = sim.data, sim.time
@@ -199,10 +218,11 @@ class RerunRecorder(EpisodeObserver):
         cell = self.sim.soil.grid.cell_area
         removed = float(np.clip(self.h0 - self.sim.soil.grid.heights, 0, None)[self.goal_mask].sum() * cell)
         values = {"predicted_l": 1000 * metrics.predicted_m3, "bucket_l": 1000 * metrics.bucket_m3,
-                  "efficiency": metrics.efficiency, "planning_s": metrics.planning_s, "sim_s": metrics.sim_s,
+                  "efficiency": metrics.efficiency, "sim_s": metrics.sim_s,
                   "removed_l": 1000 * removed, "stall": float(metrics.stall_joint is not None)}
         for name, value in values.items():
             self.rec.log(f"metrics/{name}", rr.Scalars(value))
+        self.rec.log("wall/planning_s", rr.Scalars(metrics.planning_s))
         warn = metrics.stall_joint is not None or not record.completed
         self._say(f"dig {index} ({metrics.kind}): {record.outcome}, {1000 * metrics.predicted_m3:.1f} l planned, "
                   f"{1000 * metrics.bucket_m3:.1f} l dug, touch-down offset {100 * record.touch_offset_m:.1f} cm"
@@ -220,7 +240,8 @@ class RerunRecorder(EpisodeObserver):
                 text = "# Episode\n\nThe episode ended with an error; the log shows how far it got."
                 self._say("the episode ended with an error", level=rr.TextLogLevel.ERROR)
             else:
-                text = f"# Episode\n\n```\n{format_episode(result).strip()}\n```\n"
+                table = format_episode(result).replace(f" in {result.wall_time_s:.1f} s wall", "")  # reproducible
+                text = f"# Episode\n\n```\n{table.strip()}\n```\n"
                 self._say(f"ended: {result.reason}")
             self.rec.log("summary", rr.TextDocument(text, media_type=rr.MediaType.MARKDOWN))
         finally:
@@ -291,9 +312,10 @@ class RerunRecorder(EpisodeObserver):
         for name in constants.ACTUATORS:
             self.rec.log(f"torque/{name}", rr.SeriesLines(names=f"{name} [N m]"), static=True)
             self.rec.log(f"joint_deg/{name}", rr.SeriesLines(names=f"{name} [deg]"), static=True)
-        for name in ("predicted_l", "bucket_l", "efficiency", "planning_s", "sim_s", "removed_l", "stall",
-                     "map_rms_cm"):
-            self.rec.log(f"metrics/{name}", rr.SeriesLines(names=name), rr.SeriesPoints(names=name), static=True)
+        for name in ("metrics/predicted_l", "metrics/bucket_l", "metrics/efficiency", "wall/planning_s",
+                     "metrics/sim_s", "metrics/removed_l", "metrics/stall", "metrics/map_rms_cm"):
+            label = name.split("/")[1]
+            self.rec.log(name, rr.SeriesLines(names=label), rr.SeriesPoints(names=label), static=True)
 
     def _log_goal(self, sim, rig, goal_mask: np.ndarray, goal_z: np.ndarray) -> None:
         goal, arm = rig.goal, rig.arm

@@ -72,6 +72,7 @@ class Simulation:
         self.scene = scene or load_scene_config()
         if soil is None or isinstance(soil, str):
             soil = get_soil(soil or self.scene.soil)
+        self.seed = seed
         self.physics: mjcf.Physics = build_physics(self.robot, self.scene)
         self.model: mujoco.MjModel = self.physics.model.ptr
         self.data: mujoco.MjData = self.physics.data.ptr
