@@ -371,3 +371,13 @@ def test_an_episode_spec_with_a_goal_above_the_soil_is_refused_before_it_runs():
     spec = EpisodeSpec(goal=_goal(surface_z_m=1.4, depth_m=0.2))
     with pytest.raises(ConfigError, match="episode: goal: surface_z_m"):
         ResolvedSpec(spec)
+
+
+def test_names_checked_inside_a_model_are_echoed_cut_short():
+    from excavsim.config import parse_config
+    from excavsim.loop.scenario import EpisodeSpec
+
+    for field in ("soil", "predictor"):
+        with pytest.raises(ConfigError, match=f"unknown {field}") as info:
+            parse_config({field: "p" * 100_000}, EpisodeSpec, source="spec.yaml")
+        assert str(info.value).startswith("spec.yaml: invalid EpisodeSpec") and len(str(info.value)) < 1000

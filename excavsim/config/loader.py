@@ -261,7 +261,8 @@ def parse_config(data: Any, model: type[M], *, source: str) -> M:
         lines = [_describe_error(e) for e in exc.errors(include_url=False)]
         raise ConfigError(f"{source}: invalid {model.__name__}:\n  " + "\n  ".join(lines)) from None
     except ConfigError as exc:  # raised by a check inside a model (e.g. an unknown soil name)
-        raise ConfigError(f"{source}: invalid {model.__name__}: {exc}") from None
+        text = "\n".join(shorten(line, 400) for line in str(exc).splitlines())
+        raise ConfigError(f"{source}: invalid {model.__name__}: {text}") from None
     except (TypeError, ArithmeticError, RecursionError, MemoryError) as exc:
         raise ConfigError(f"{source}: invalid {model.__name__}: {shorten(exc, 200)}") from None
 

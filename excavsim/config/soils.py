@@ -9,7 +9,7 @@ from pydantic import Field
 
 from excavsim import constants
 from excavsim.config.loader import StrictModel, load_config
-from excavsim.errors import ConfigError
+from excavsim.errors import ConfigError, shorten
 
 class SoilParams(StrictModel):
     """Mohr-Coulomb soil and soil-tool parameters (000_a3ca905d8c6d92bf.txt §5.1.1, eq. 2, Table 1).
@@ -61,5 +61,5 @@ def get_soil(name: str, path: str | pathlib.Path | None = None) -> SoilParams:
     """
     soils = load_soils(path)
     if name not in soils:
-        raise ConfigError(f"unknown soil {name!r}; allowed: {', '.join(sorted(soils))}")
+        raise ConfigError(f"unknown soil {shorten(repr(name))}; allowed: {', '.join(sorted(soils))}")
     return soils[name]
