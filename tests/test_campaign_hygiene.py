@@ -69,30 +69,11 @@ def descendants(pid: int) -> list[int]:
     return out
 
 
-def test_a_worker_killed_mid_episode_is_retried_then_recorded_failed_and_the_campaign_goes_on(tmp_path):
-    spec = cmp.parse_campaign({"name": "doomed", "base": TINY_BASE, "record": True, "grid": {"seed": [0, 1]}})
-    lines = []
-    report = cmp.run_campaign(spec, tmp_path, workers=2, recorder=doomed_recorder, progress=lines.append)
-    assert report.ran == 2 and report.errors == 1
-    doomed, fine = (json.loads((tmp_path / "episodes" / f"{e.id}.json").read_text()) for e in report.episodes)
-    assert doomed["status"] == "failed" and doomed["summary"] is None
-    assert "died (killed by SIGKILL) on each of 2 attempts" in doomed["error"]
-    assert fine["status"] == "ok" and fine["summary"]["digs"] == 1
-    retried = [line for line in lines if "running it again" in line]
-    assert len(retried) == 1 and retried[0].startswith(report.episodes[0].id)
-    assert any(line.startswith("[2/2]") or line.startswith("[1/2]") for line in lines if "FAILED" in line)
-    assert [r["status"] for r in report.rows] == ["failed", "ok"]
-    # every worker that ran is gone: the two killed ones (their PIDs are in the messages) and the one
-    # that finished its episode
-    pids = [int(text.split("worker process ")[1].split()[0]) for text in (retried[0], doomed["error"])]
-    pids.append(fine["pid"])
-    assert len(set(pids)) == 3 and all(gone(p) for p in pids), pids
-    assert not [p for p in descendants(os.getpid()) if p in pids]
-
-
-def test_workers_exit_when_the_main_process_is_killed(tmp_path):
-    """SIGKILL of the CLI alone (no cleanup possible) once its workers are into their episodes (2 s of CPU
-    each: past the imports, which take about 1 s): its forkserver and workers follow it."""
+@pytest.mark.parametrize("sig", [signal.SIGKILL, signal.SIGTERM], ids=["SIGKILL", "SIGTERM"])
+def test_workers_exit_when_the_main_process_is_killed_or_terminated(tmp_path, sig):
+    """SIGKILL (no cleanup possible: the workers see the main process's sentinel close) or SIGTERM (the
+    main process ends its workers and exits 130) of the CLI alone, once its workers are into their
+    episodes (2 s of CPU each: past the imports, which take about 1 s): its forkserver and workers go."""
     cmd = [sys.executable, "-m", "excavsim.cli", "campaign", str(TINY_YAML), "--out", str(tmp_path / "out"),
            "--workers", "2"]
     proc = subprocess.Popen(cmd, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL, cwd=constants.REPO_ROOT,
@@ -104,8 +85,8 @@ def test_workers_exit_when_the_main_process_is_killed(tmp_path):
         while len(below := descendants(proc.pid)) < 3 or sorted(map(cpu_s, below))[-2] < 2.0:
             assert proc.poll() is None and time.monotonic() < deadline, "the workers never got going"
             time.sleep(0.05)
-        os.kill(proc.pid, signal.SIGKILL)
-        proc.wait()
+        os.kill(proc.pid, sig)
+        assert proc.wait(timeout=60) == (-signal.SIGKILL if sig == signal.SIGKILL else 130)
         deadline = time.monotonic() + 60
         while not all(gone(p) for p in below) and time.monotonic() < deadline:
             time.sleep(0.05)
@@ -155,8 +136,11 @@ def test_a_valid_result_file_has_no_problem(tmp_path):
     assert cmp.result_problem(path, "e") is None
 
 
-def test_resume_moves_corrupt_results_aside_and_runs_their_episodes_again(tmp_path):
-    spec = cmp.parse_campaign({"name": "corrupt", "base": TINY_BASE, "grid": {"seed": [0, 1]}})
+def test_a_resumed_campaign_reruns_corrupt_results_and_survives_a_worker_killed_mid_episode(tmp_path):
+    """Two episodes, resumed over a result file ``{}`` (seed 0) and a truncated one (seed 1): both are
+    moved aside and run again; the seed-0 episode's worker is killed mid-episode on both attempts, so
+    it is recorded ``failed`` while seed 1 completes; no worker is left."""
+    spec = cmp.parse_campaign({"name": "doomed", "base": TINY_BASE, "record": True, "grid": {"seed": [0, 1]}})
     episodes = cmp.expand_grid(spec)
     ep_dir = tmp_path / "episodes"
     ep_dir.mkdir()
@@ -166,14 +150,31 @@ def test_resume_moves_corrupt_results_aside_and_runs_their_episodes_again(tmp_pa
     (ep_dir / "corrupt").mkdir()
     (ep_dir / "corrupt" / f"{episodes[0].id}.json").write_text("an earlier one")  # never replaced
     lines = []
-    report = cmp.run_campaign(spec, tmp_path, workers=2, resume=True, progress=lines.append)
-    assert report.ran == 2 and report.errors == 0
-    assert all(cmp.result_problem(ep_dir / f"{e.id}.json", e.id) is None for e in episodes)
+    report = cmp.run_campaign(spec, tmp_path, workers=2, resume=True, recorder=doomed_recorder,
+                              progress=lines.append)
+    # the corrupt files: moved aside, named, their episodes run again
     assert (ep_dir / "corrupt" / f"{episodes[0].id}.json").read_text() == "an earlier one"
     assert (ep_dir / "corrupt" / f"{episodes[0].id}.json.1").read_text() == "{}"
     assert (ep_dir / "corrupt" / f"{episodes[1].id}.json").read_text() == bad[episodes[1].id]
     notes = [line for line in lines if "is not a valid result" in line]
     assert len(notes) == 2 and all("its episode runs again" in n for n in notes)
     assert "2 episodes, 0 already done, 2 to run" in "\n".join(lines)
-    again = cmp.run_campaign(spec, tmp_path, workers=2, resume=True, progress=None)  # now complete
-    assert again.ran == 0 and [r["status"] for r in again.rows] == ["ok", "ok"]
+    assert all(cmp.result_problem(ep_dir / f"{e.id}.json", e.id) is None for e in episodes)
+    # the killed worker: its episode retried once, then failed; the campaign went on
+    assert report.ran == 2 and report.errors == 1
+    doomed, fine = (json.loads((ep_dir / f"{e.id}.json").read_text()) for e in episodes)
+    assert doomed["status"] == "failed" and doomed["summary"] is None
+    assert "died (killed by SIGKILL) on each of 2 attempts" in doomed["error"]
+    assert fine["status"] == "ok" and fine["summary"]["digs"] == 1
+    retried = [line for line in lines if "running it again" in line]
+    assert len(retried) == 1 and retried[0].startswith(episodes[0].id)
+    assert sum("FAILED" in line for line in lines) == 1
+    assert [r["status"] for r in report.rows] == ["failed", "ok"]
+    # every worker that ran is gone: the two killed ones (their PIDs are in the messages) and the one
+    # that finished its episode
+    pids = [int(text.split("worker process ")[1].split()[0]) for text in (retried[0], doomed["error"])]
+    pids.append(fine["pid"])
+    assert len(set(pids)) == 3 and all(gone(p) for p in pids), pids
+    assert not [p for p in descendants(os.getpid()) if p in pids]
+    again = cmp.run_campaign(spec, tmp_path, workers=2, resume=True, progress=None)  # a failed one is a result
+    assert again.ran == 0 and [r["status"] for r in again.rows] == ["failed", "ok"]
