@@ -61,7 +61,7 @@ class Servos(Protocol):
 
     @property
     def time(self) -> float:
-        """Simulated time now [s] (reading it takes no sensor sample)."""
+        """Simulated time now [s] (reading it takes no sensor sample); it never goes back."""
         ...
 
     def observe(self) -> Observation:
