@@ -87,6 +87,7 @@ def test_failures_are_told_from_the_record_and_the_weighed_load():
     assert failure_kind(ExecutionRecord(outcome="no contact"), 0.0, 0.001) == "no contact"
     assert failure_kind(ExecutionRecord(outcome="timeout in step 'dig'"), 0.0, 0.001) == "timeout"
     assert failure_kind(ExecutionRecord(outcome="completed", stall={"joint": "elbow_joint"}), 0.01, 0.001) == "stall"
+    assert failure_kind(ExecutionRecord(outcome="diverged"), 0.0, 0.001) == "diverged"  # not "little soil"
 
 
 def test_a_stalled_dig_in_an_under_predicted_region_is_not_chosen_again(arm, reach_table):

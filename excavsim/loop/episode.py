@@ -218,7 +218,7 @@ def dig_metrics(index: int, dig: Dig, rec: ExecutionRecord, *, capacity: float, 
         sim_s=sim_s, peak_torque_nm=np.abs(torques).max(axis=0),
         cumulative_torque_nm_s=float(np.abs(torques).sum() * dt), predicted_peak_nm=dig.predicted_peak_nm,
         weighed_m3=float(weighed),
-        failure="diverged" if rec.outcome == "diverged" else failure_kind(rec, weighed, MIN_USEFUL_M3))
+        failure=failure_kind(rec, weighed, MIN_USEFUL_M3))
 
 
 def episode_result(sim: Simulation, digs: list[DigMetrics], end: str, reason: str, *, mask: np.ndarray,

@@ -45,7 +45,7 @@ from excavsim.handoff.goal import ArmPlane, SurfaceProfile
 from excavsim.handoff.maps import ElevationMap
 from excavsim.mechanics.wedge import G_M_S2
 
-FAILURE_KINDS = ("stall", "no contact", "timeout", "simulation failure", "little soil")
+FAILURE_KINDS = ("stall", "no contact", "timeout", "simulation failure", "diverged", "little soil")
 _WATCH_STEP_M = 0.02  # radial spacing of the samples along a failed path whose terrain is watched
 
 
@@ -68,6 +68,8 @@ def failure_kind(record: ExecutionRecord, load_m3: float, min_load_m3: float) ->
         return "timeout"
     if outcome.startswith("simulation failure"):
         return "simulation failure"
+    if outcome == "diverged":
+        return "diverged"
     if not load_m3 >= min_load_m3:  # NaN (never lifted out) counts as nothing brought up
         return "little soil"
     return None
