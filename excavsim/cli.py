@@ -84,25 +84,47 @@ def _cmd_replay(args: argparse.Namespace) -> int:
 
 
 def _cmd_regress(args: argparse.Namespace) -> int:
+    import json
     import pathlib
 
-    from excavsim.loop.regress import REGRESS_DIR, format_changes, run_regress
+    from excavsim.loop.regress import REGRESS_DIR, parse_seeds, run_against, run_regress
 
     directory = pathlib.Path(args.dir or REGRESS_DIR)
-    print(f"excavsim regress: golden scenarios of {directory}" + (" (rewriting the baseline)" if args.update else ""))
-    changes, _ = run_regress(directory, baseline_path=args.baseline, update=args.update, only=args.only or None)
-    print()
-    print(format_changes(changes, show_same=args.all))
-    bad = [c for c in changes if c.verdict in ("regression", "missing")]
+    if args.update and (args.against or args.against_dir):
+        raise ExcavsimError("--update rewrites the baseline and --against/--against-dir compare without one: "
+                            "give only one of them")
+    if args.baseline and (args.against or args.against_dir):
+        raise ExcavsimError("--baseline has no meaning with --against/--against-dir (they need no baseline)")
+    seeds = parse_seeds(args.seeds) if args.seeds is not None else None
+    say = (lambda s: print(s, file=sys.stderr)) if args.json else print  # with --json, stdout is the JSON only
+    if args.against or args.against_dir:
+        against = args.against or f"the scenarios of {args.against_dir}"
+        say(f"excavsim regress: golden scenarios of {directory}, A/B against {against}")
+        report = run_against(directory, ref=args.against, against_dir=args.against_dir, only=args.only or None,
+                             seeds=seeds, progress=say)
+    else:
+        baseline = pathlib.Path(args.baseline or directory / "baseline.json")
+        say(f"excavsim regress: golden scenarios of {directory} against {baseline}"
+            + (" (rewriting it)" if args.update else ""))
+        report = run_regress(directory, baseline_path=args.baseline, update=args.update, only=args.only or None,
+                             seeds=seeds, progress=say)
+    failed = report.failed
+    if args.json:
+        print(json.dumps(report.to_json(), indent=1, allow_nan=False))
+    else:
+        print()
+        print(report.format(show_seeds=args.all))
     if args.update:
-        print(f"baseline written: {pathlib.Path(args.baseline or directory / 'baseline.json')}")
+        say(f"baseline written: {baseline}")
         return 0
-    if any(c.verdict == "new" for c in changes):
-        print("some scenarios or metrics have no baseline yet: run `excavsim regress --update` and commit it")
-    if bad:
-        print(f"REGRESSION: {len(bad)} metric(s) worse than the baseline beyond tolerance", file=sys.stderr)
+    if any(c.verdict == "new" for c in report.comparisons):
+        say("some scenarios or metrics have no baseline yet: run `excavsim regress --update` and commit it")
+    if failed:
+        names = ", ".join(f"{c.scenario} {c.metric}" if c.metric != "-" else f"{c.scenario} (missing)"
+                          for c in failed)
+        print(f"REGRESSION: {len(failed)} metric(s) significantly worse beyond tolerance: {names}", file=sys.stderr)
         return 1
-    print("no regression")
+    say("no regression")
     return 0
 
 
@@ -331,12 +353,25 @@ def build_parser() -> argparse.ArgumentParser:
     _world_options(cycle)
     cycle.set_defaults(func=_cmd_cycle)
 
-    regress = sub.add_parser("regress", help="run the golden scenarios and compare their metrics with the baseline")
+    regress = sub.add_parser(
+        "regress", help="run the golden scenarios over several seeds and judge their metrics statistically, "
+                        "against the committed baseline or (A/B) against a git ref")
     regress.add_argument("--dir", metavar="DIR", help="scenario directory (default configs/regress)")
     regress.add_argument("--baseline", metavar="JSON", help="baseline file (default DIR/baseline.json)")
     regress.add_argument("--update", action="store_true", help="rewrite the baseline from this run")
     regress.add_argument("--only", nargs="*", metavar="NAME", help="run only these scenarios (file stems)")
-    regress.add_argument("--all", action="store_true", help="list unchanged metrics too")
+    regress.add_argument("--seeds", metavar="N|A-B|a,b,c",
+                         help="seeds of every scenario: a count from its seed, a range or a list "
+                              "(default: each file's seeds, 8 unless it says)")
+    ab = regress.add_mutually_exclusive_group()
+    ab.add_argument("--against", metavar="REF",
+                    help="A/B: run the same scenarios and seeds with the code at git REF (a temporary worktree) "
+                         "and with the working tree; compare paired by seed, no baseline needed")
+    ab.add_argument("--against-dir", metavar="DIR2",
+                    help="A/B: compare with the same-named scenarios of DIR2 (e.g. another planner configuration)")
+    regress.add_argument("--all", action="store_true", help="also print every seed's values")
+    regress.add_argument("--json", action="store_true",
+                         help="print the result as JSON on stdout (progress goes to stderr)")
     regress.set_defaults(func=_cmd_regress)
 
     bench = sub.add_parser("bench", help="run benchmarks and print one table of numbers and ratios")
