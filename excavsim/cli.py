@@ -7,9 +7,116 @@ print one clear message and exit with status 2, without a traceback.
 from __future__ import annotations
 
 import argparse
+import math
+import os
+import pathlib
 import sys
+import tempfile
 
-from excavsim.errors import ExcavsimError
+from excavsim.errors import ExcavsimError, shorten
+
+MAX_SEED = 2**32 - 1  # seeds are unsigned 32-bit numbers, as EpisodeSpec.seed: exact in every result file
+MAX_DIG_BUDGET = 1000  # EpisodeSpec.dig_budget's bound
+VALIDATE_KINDS = ("robot", "scene", "soils", "sensing", "planner", "executor", "goal", "spec", "campaign",
+                  "experiment")  # the kinds of file `validate` checks (see _validate_file)
+
+
+# -- argument checks: ranges and paths, at parse time (exit 2 before any work) ---------------------
+def _int_in(lo: int, hi: int):
+    """An argparse type: an integer in [lo, hi]."""
+    def parse(text: str) -> int:
+        try:
+            value = int(text)
+        except ValueError:
+            raise argparse.ArgumentTypeError(f"{shorten(repr(text))} is not an integer") from None
+        if not lo <= value <= hi:
+            raise argparse.ArgumentTypeError(f"{value} is out of range (allowed: {lo} to {hi})")
+        return value
+    return parse
+
+
+def _float_in(lo: float, hi: float, *, low_open: bool = False):
+    """An argparse type: a finite number in [lo, hi] (or (lo, hi] with ``low_open``)."""
+    def parse(text: str) -> float:
+        try:
+            value = float(text)
+        except ValueError:
+            raise argparse.ArgumentTypeError(f"{shorten(repr(text))} is not a number") from None
+        if not (math.isfinite(value) and (value > lo if low_open else value >= lo) and value <= hi):
+            low = ">" if low_open else ">="
+            raise argparse.ArgumentTypeError(f"{shorten(text)} is out of range (allowed: {low} {lo:g} and <= {hi:g})")
+        return value
+    return parse
+
+
+def _check_creatable(path: pathlib.Path, shown: str) -> None:
+    """Raise ArgumentTypeError unless ``path`` can be created: its nearest existing ancestor is a writable directory."""
+    ancestor = path.parent
+    while not ancestor.exists() and ancestor != ancestor.parent:
+        ancestor = ancestor.parent
+    if not ancestor.is_dir():
+        raise argparse.ArgumentTypeError(f"{shown}: {shorten(str(ancestor))} is a file, so {shown} cannot be "
+                                         "created in it; allowed: a path under a directory")
+    try:
+        with tempfile.TemporaryFile(dir=ancestor):
+            pass
+    except OSError as exc:
+        raise argparse.ArgumentTypeError(f"{shown}: cannot write in {shorten(str(ancestor))} ({exc.strerror}); "
+                                         "allowed: a writable place") from None
+
+
+def _path_text(text: str) -> tuple[pathlib.Path, str]:
+    """``text`` as a path and as messages show it; ArgumentTypeError if it cannot be a path."""
+    shown = shorten(repr(text), 200)
+    if not text or "\0" in text:
+        raise argparse.ArgumentTypeError(f"{shown} is not a path")
+    return pathlib.Path(text), shown
+
+
+def _out_dir(text: str) -> str:
+    """An argparse type: an output directory, existing and writable, or creatable under a writable directory."""
+    path, shown = _path_text(text)
+    try:
+        if path.exists():
+            if not path.is_dir():
+                raise argparse.ArgumentTypeError(f"{shown} exists and is not a directory; allowed: a directory "
+                                                 "(created if missing)")
+            _check_creatable(path / "x", shown)
+        else:
+            _check_creatable(path, shown)
+    except OSError as exc:  # e.g. a name too long
+        raise argparse.ArgumentTypeError(f"{shown}: {exc.strerror or exc}") from None
+    return text
+
+
+def _out_file(suffixes: tuple[str, ...]):
+    """An argparse type: a file to write (or to read if it exists), with one of ``suffixes`` when given."""
+    def parse(text: str) -> str:
+        path, shown = _path_text(text)
+        if suffixes and path.suffix not in suffixes:
+            raise argparse.ArgumentTypeError(f"{shown}: allowed: a file name ending in {' or '.join(suffixes)}")
+        try:
+            if path.exists():
+                if not path.is_file():
+                    raise argparse.ArgumentTypeError(f"{shown} exists and is not a file; allowed: a file path")
+                return text  # read or overwritten: whoever opens it says if it cannot
+            _check_creatable(path, shown)
+        except OSError as exc:
+            raise argparse.ArgumentTypeError(f"{shown}: {exc.strerror or exc}") from None
+        return text
+    return parse
+
+
+def _name_or_path(text: str) -> str:
+    """An argparse type: a preset name or a file path, at most 4096 characters and without NUL."""
+    if len(text) > 4096 or "\0" in text:
+        raise argparse.ArgumentTypeError(f"{shorten(repr(text))}: allowed: a name or a path of at most 4096 "
+                                         "characters")
+    return text
+
+
+_seed = _int_in(0, MAX_SEED)
+_dig_budget = _int_in(1, MAX_DIG_BUDGET)
 
 
 def _cmd_demo(args: argparse.Namespace) -> int:
@@ -43,19 +150,20 @@ def _cmd_cycle(args: argparse.Namespace) -> int:
 
 def _cmd_trench(args: argparse.Namespace) -> int:
     from excavsim.handoff.episode import format_episode
-    from excavsim.loop.scenario import EpisodeSpec, load_spec, run_spec
+    from excavsim.config import parse_config
+    from excavsim.loop.scenario import EpisodeSpec, ResolvedSpec, load_spec, run_spec
 
     spec = load_spec(args.spec) if args.spec else EpisodeSpec()
     given = {"goal": args.goal, "soil": args.soil, "dig_budget": args.dig_budget, "seed": args.seed}
-    if args.dig_budget is not None and args.dig_budget < 1:
-        raise ExcavsimError(f"--dig-budget must be at least 1; given {args.dig_budget}")
-    spec = EpisodeSpec.model_validate({**spec.model_dump(), **{k: v for k, v in given.items() if v is not None}})
+    if args.record and not args.record.endswith(".rrd"):
+        raise ExcavsimError(f"--record must name an .rrd file; given {shorten(repr(args.record), 200)}")
+    spec = parse_config({**spec.model_dump(), **{k: v for k, v in given.items() if v is not None}}, EpisodeSpec,
+                        source="the command line")
+    ResolvedSpec(spec, robot_path=args.robot_config, scene_path=args.scene_config)  # every file checked first
     observer = None
     if args.record:
         from excavsim.record import RerunRecorder
 
-        if not args.record.endswith(".rrd"):
-            raise ExcavsimError(f"--record must name an .rrd file; given {args.record!r}")
         observer = RerunRecorder(args.record)
     if args.save_maps:
         from excavsim.handoff.episode import ObserverGroup
@@ -76,9 +184,67 @@ def _cmd_trench(args: argparse.Namespace) -> int:
     return 0
 
 
+RRD_MAGIC = b"RRF2"  # the first bytes of a Rerun 0.2x+ recording
+VERIFY_TIMEOUT_S = 300  # the longest `rerun rrd verify` may take before replay gives up [s]
+
+
+def _check_recording(path: str) -> None:
+    """Refuse ``path`` unless it is a Rerun recording the installed Rerun can load (``rerun rrd verify``).
+
+    A recording cut short (an episode killed before it closed its file) has no footer: it is
+    accepted with a warning, since the viewer shows what it holds.
+
+    Raises:
+        ExcavsimError: naming the file and what is wrong with it.
+    """
+    import re
+    import subprocess
+
+    from excavsim.record.replay import rerun_command
+
+    shown = shorten(path, 200)
+    try:
+        if not os.path.isfile(path):
+            raise ExcavsimError(f"no recording at {shown}: give an .rrd file written by `excavsim trench --record "
+                                "FILE.rrd`")
+        with open(path, "rb") as f:
+            head = f.read(len(RRD_MAGIC))
+    except (OSError, ValueError) as exc:
+        why = getattr(exc, "strerror", None) or exc
+        raise ExcavsimError(f"{shown}: cannot read the recording ({why}); give an .rrd file written by "
+                            "`excavsim trench --record FILE.rrd`") from None
+    if head != RRD_MAGIC:
+        raise ExcavsimError(f"{shown}: not a Rerun recording (it does not start with {RRD_MAGIC.decode()}); give an "
+                            ".rrd file written by `excavsim trench --record FILE.rrd`")
+    verify = [*rerun_command(path)[:-1], "rrd", "verify"]
+    for footers in ("true", "false"):
+        try:
+            with subprocess.Popen([*verify, "--check-footers", footers, path], stdout=subprocess.PIPE,
+                                  stderr=subprocess.PIPE, text=True, errors="replace") as proc:
+                try:
+                    out, err = proc.communicate(timeout=VERIFY_TIMEOUT_S)
+                except subprocess.TimeoutExpired:
+                    proc.kill()
+                    raise ExcavsimError(f"{shown}: `rerun rrd verify` did not finish in {VERIFY_TIMEOUT_S} s") from None
+        except OSError as exc:
+            raise ExcavsimError(f"{shown}: cannot run `rerun rrd verify` ({exc.strerror})") from None
+        verified = re.search(r"(\d+) files? verified", out + err)
+        if proc.returncode == 0 and verified and int(verified.group(1)) == 0:
+            raise ExcavsimError(f"{shown}: a Rerun header and no recording in it (`rerun rrd verify` found nothing "
+                                "to verify); give an .rrd file written by `excavsim trench --record FILE.rrd`")
+        if proc.returncode == 0:
+            if footers == "false":
+                print(f"excavsim: warning: {shown} has no footer (the recording was cut short); replaying what it "
+                      "holds", file=sys.stderr)
+            return
+    lines = [ln for ln in err.splitlines() if ln.strip()]
+    raise ExcavsimError(f"{shown}: Rerun cannot load this recording: {shorten(lines[-1] if lines else out, 200)}")
+
+
 def _cmd_replay(args: argparse.Namespace) -> int:
     from excavsim.record import replay
 
+    _check_recording(args.file)
     replay(args.file, dry_run=args.dry_run)
     return 0
 
@@ -143,6 +309,11 @@ def _cmd_campaign(args: argparse.Namespace) -> int:
 
     spec = load_campaign(args.campaign)
     out = args.out or f"runs/campaigns/{spec.name}"
+    if args.out is None:  # the default, known once the campaign is read: checked as --out would be
+        try:
+            _out_dir(out)
+        except argparse.ArgumentTypeError as exc:
+            raise ExcavsimError(f"--out (default): {exc}") from None
     recorder = None
     if spec.record:
         from excavsim.record import RerunRecorder as recorder
@@ -165,14 +336,50 @@ def _cmd_learn(args: argparse.Namespace) -> int:
     return 0
 
 
-def _cmd_validate(args: argparse.Namespace) -> int:
-    from excavsim.config import (ExecutorConfig, PlannerConfig, RobotConfig, SceneConfig, SensingConfig, SoilsFile,
-                                 load_config)
+def _validate_file(kind: str, path: str) -> str:
+    """Load the ``kind`` file at ``path`` with every check its use would make; returns what it is.
 
-    kinds = {"robot": RobotConfig, "scene": SceneConfig, "soils": SoilsFile, "sensing": SensingConfig,
-             "planner": PlannerConfig, "executor": ExecutorConfig}
-    load_config(args.file, kinds[args.kind])
-    print(f"{args.file}: valid {kinds[args.kind].__name__}")
+    Goals are checked against configs/scene.yaml; specifications with their overrides and goal
+    resolved; campaigns with every grid value; experiments with every run resolved.
+
+    Raises:
+        ConfigError: naming the file, the field and what is allowed.
+    """
+    from excavsim import config as c
+
+    models = {"robot": c.RobotConfig, "scene": c.SceneConfig, "soils": c.SoilsFile, "sensing": c.SensingConfig,
+              "planner": c.PlannerConfig, "executor": c.ExecutorConfig}
+    if kind in models:
+        return c.load_config(path, models[kind]).__class__.__name__
+    if kind == "goal":
+        c.check_goal(c.load_trench_goal(path), c.load_scene_config(), source=c.display_path(path))
+        return "TrenchGoal"
+    if kind == "campaign":
+        from excavsim.loop.campaign import load_campaign
+
+        return f"CampaignSpec ({len(load_campaign(path).grid)} grid keys, every value checked)"
+    from excavsim.loop.scenario import ResolvedSpec, load_spec
+
+    if kind == "spec":
+        spec = load_spec(path)
+        try:
+            ResolvedSpec(spec)
+        except c.ConfigError as exc:
+            raise c.ConfigError(f"{c.display_path(path)}: {exc}") from None
+        return "EpisodeSpec"
+    from excavsim.loop.experiment import ExperimentSpec
+
+    exp = c.load_config(path, ExperimentSpec)
+    for run in exp.runs:
+        try:
+            ResolvedSpec(run)
+        except c.ConfigError as exc:
+            raise c.ConfigError(f"{c.display_path(path)}: run {shorten(run.name)}: {exc}") from None
+    return f"ExperimentSpec ({len(exp.runs)} runs)"
+
+
+def _cmd_validate(args: argparse.Namespace) -> int:
+    print(f"{shorten(args.file, 200)}: valid {_validate_file(args.kind, args.file)}")
     return 0
 
 
@@ -185,7 +392,7 @@ def _cmd_plan(args: argparse.Namespace) -> int:
     import numpy as np
 
     from excavsim import constants
-    from excavsim.config import get_soil, load_planner_config, load_robot_config
+    from excavsim.config import check_goal, get_soil, load_planner_config, load_robot_config, load_scene_config
     from excavsim.handoff.goal import SurfaceProfile
     from excavsim.handoff.maps import ElevationMap
     from excavsim.loop.scenario import resolve_goal
@@ -195,6 +402,7 @@ def _cmd_plan(args: argparse.Namespace) -> int:
     from excavsim.robot.reachability import load_or_build
 
     goal = resolve_goal(args.goal or "straight")
+    check_goal(goal, load_scene_config(), source=f"--goal {shorten(args.goal or 'straight')}")
     config = load_planner_config(args.planner_config)
     if args.no_volume_constraint:
         config = config.model_copy(update={"volume_constraint": False})
@@ -207,8 +415,6 @@ def _cmd_plan(args: argparse.Namespace) -> int:
         map_label = "flat 0.5 m fill"
     joints = robot.joints
     wrist = joints.wrist_pitch.torque_limit_nm if args.wrist_limit is None else args.wrist_limit
-    if not (math.isfinite(wrist) and wrist > 0):
-        raise ExcavsimError(f"--wrist-limit must be a positive torque [N m]; given {args.wrist_limit}")
     limits = np.array([joints.shoulder.torque_limit_nm, joints.elbow.torque_limit_nm, wrist])
 
     model = mujoco.MjModel.from_xml_path(str(constants.SCENE_XML))
@@ -285,12 +491,8 @@ def _cmd_experiment(args: argparse.Namespace) -> int:
     names = experiment_names() if args.names == ["all"] else args.names
     specs = [load_experiment(n) for n in names]  # every name checked before anything runs
     if args.dig_budget is not None:
-        if args.dig_budget < 1:
-            raise ExcavsimError(f"--dig-budget must be at least 1; given {args.dig_budget}")
         specs = [s.model_copy(update={"runs": [r.model_copy(update={"dig_budget": args.dig_budget}) for r in s.runs]})
                  for s in specs]
-    if args.seeds < 1:
-        raise ExcavsimError(f"--seeds must be at least 1; given {args.seeds}")
     if args.seeds > 1:  # every run once per seed: seed, seed + 1, ...
         def reseeded(r, i):
             return r.model_copy(update={"seed": r.seed + i, "name": f"{r.name}-s{r.seed + i}"})
@@ -317,7 +519,8 @@ def _world_options(parser: argparse.ArgumentParser) -> None:
     """The options of every command that builds a Simulation: configurations and the episode seed."""
     parser.add_argument("--robot-config", metavar="YAML", help="servo configuration (default configs/robot.yaml)")
     parser.add_argument("--scene-config", metavar="YAML", help="scene configuration (default configs/scene.yaml)")
-    parser.add_argument("--seed", type=int, default=0, help="episode seed (soil, sensor noise, scanner drift)")
+    parser.add_argument("--seed", type=_seed, default=0, help=f"episode seed (soil, sensor noise, scanner drift; "
+                        f"0 to {MAX_SEED})")
 
 
 def build_parser() -> argparse.ArgumentParser:
@@ -332,20 +535,24 @@ def build_parser() -> argparse.ArgumentParser:
     trench = sub.add_parser("trench", help="dig a trench: scan, plan, dig, settle until done or out of digs")
     trench.add_argument("--spec", metavar="YAML", help="an episode specification (goal, soil, seed, budget, "
                                                        "configuration overrides; e.g. configs/regress/small_sand.yaml)")
-    trench.add_argument("--goal", metavar="NAME|YAML",
+    trench.add_argument("--goal", metavar="NAME|YAML", type=_name_or_path,
                         help="trench goal: a name of configs/trenches (sand, straight, small) or a YAML file "
                              "(default sand)")
     trench.add_argument("--soil", metavar="NAME", help="soil preset of configs/soils.yaml (default: the scene's)")
-    trench.add_argument("--dig-budget", type=int, metavar="N", help="most digs to try (default 20)")
-    trench.add_argument("--record", metavar="FILE.rrd", help="record the episode to a Rerun file (see `replay`)")
-    trench.add_argument("--save-maps", metavar="DIR", help="save every scanned elevation map (for `plan --map`)")
+    trench.add_argument("--dig-budget", type=_dig_budget, metavar="N",
+                        help=f"most digs to try (1 to {MAX_DIG_BUDGET}, default 20)")
+    trench.add_argument("--record", metavar="FILE.rrd", type=_out_file(()),
+                        help="record the episode to a Rerun file (see `replay`)")
+    trench.add_argument("--save-maps", metavar="DIR", type=_out_dir,
+                        help="save every scanned elevation map (for `plan --map`)")
     trench.add_argument("--robot-config", metavar="YAML", help="servo configuration (default configs/robot.yaml)")
     trench.add_argument("--scene-config", metavar="YAML", help="scene configuration (default configs/scene.yaml)")
-    trench.add_argument("--seed", type=int, help="episode seed (default 0)")
+    trench.add_argument("--seed", type=_seed, help=f"episode seed (0 to {MAX_SEED}, default 0)")
     trench.set_defaults(func=_cmd_trench)
 
     replay = sub.add_parser("replay", help="open a recorded episode (.rrd) in the Rerun viewer")
-    replay.add_argument("file", metavar="FILE.rrd", help="a recording written by `excavsim trench --record`")
+    replay.add_argument("file", metavar="FILE.rrd",
+                        help="a recording written by `excavsim trench --record` (checked with `rerun rrd verify`)")
     replay.add_argument("--dry-run", action="store_true", help="only print the viewer command")
     replay.set_defaults(func=_cmd_replay)
 
@@ -381,8 +588,9 @@ def build_parser() -> argparse.ArgumentParser:
     campaign = sub.add_parser("campaign", help="run a grid of trenching episodes in parallel; summary table and plots")
     campaign.add_argument("campaign", metavar="CAMPAIGN.yaml",
                           help="campaign file (e.g. configs/campaigns/example.yaml)")
-    campaign.add_argument("--out", metavar="DIR", help="output directory (default runs/campaigns/NAME)")
-    campaign.add_argument("--workers", type=int, metavar="N", help="parallel processes (default: the CPU count)")
+    campaign.add_argument("--out", metavar="DIR", type=_out_dir, help="output directory (default runs/campaigns/NAME)")
+    campaign.add_argument("--workers", type=_int_in(1, 1024), metavar="N",
+                          help="parallel processes (1 to 1024, default: the CPU count)")
     campaign.add_argument("--resume", action="store_true", help="run only the episodes that have no result in DIR")
     campaign.add_argument("--ray", nargs="?", const="local", metavar="ADDRESS",
                           help="run on Ray: alone for a local instance, or 'auto' / HOST:PORT for a running cluster "
@@ -390,22 +598,25 @@ def build_parser() -> argparse.ArgumentParser:
     campaign.set_defaults(func=_cmd_campaign)
 
     validate = sub.add_parser("validate", help="check a configuration file and report every problem")
-    validate.add_argument("kind", choices=["robot", "scene", "soils", "sensing", "planner", "executor"],
-                          help="what the file configures")
+    validate.add_argument("kind", choices=VALIDATE_KINDS,
+                          help="what the file configures (goal: a trench goal, checked against configs/scene.yaml; "
+                               "spec: an episode specification with its overrides and goal; campaign and "
+                               "experiment: every episode they make)")
     validate.add_argument("file", help="the YAML file")
     validate.set_defaults(func=_cmd_validate)
 
     plan = sub.add_parser("plan", help="plan one dig of a trench on an elevation map, print it and draw figures")
-    plan.add_argument("--goal", metavar="NAME|YAML",
+    plan.add_argument("--goal", metavar="NAME|YAML", type=_name_or_path,
                       help="trench goal: a name of configs/trenches or a YAML file (default straight)")
     plan.add_argument("--map", metavar="NPZ", help="elevation map written by excavsim (default: flat 0.5 m sand)")
     plan.add_argument("--planner-config", metavar="YAML", help="planner configuration (default configs/planner.yaml)")
     plan.add_argument("--robot-config", metavar="YAML", help="torque limits (default configs/robot.yaml)")
     plan.add_argument("--soil", metavar="NAME", default="testbed_sand",
                       help="soil preset of configs/soils.yaml the force predictor assumes (default testbed_sand)")
-    plan.add_argument("--wrist-limit", metavar="NM", type=float,
-                      help="wrist pitch torque limit [N m] (default: the robot configuration's)")
-    plan.add_argument("--out", metavar="DIR", default="runs/plan", help="where the figures go (default runs/plan)")
+    plan.add_argument("--wrist-limit", metavar="NM", type=_float_in(10, 1e6),
+                      help="wrist pitch torque limit [N m] (10 to 1e6; default: the robot configuration's)")
+    plan.add_argument("--out", metavar="DIR", default="runs/plan", type=_out_dir,
+                      help="where the figures go (default runs/plan)")
     plan.add_argument("--no-volume-constraint", action="store_true",
                       help="switch the volume constraint off: only the force constraint bounds how much a dig "
                            "sweeps (§7.2.2, Figs. 115-117; the setting of the Fig. 87 comparison)")
@@ -418,10 +629,11 @@ def build_parser() -> argparse.ArgumentParser:
                      help="experiments of configs/experiments (fig113 ... fig117), YAML files, or 'all'; "
                           "none: list them")
     exp.add_argument("--list", action="store_true", help="list the experiments and exit")
-    exp.add_argument("--out", metavar="DIR", default="runs/experiments",
+    exp.add_argument("--out", metavar="DIR", default="runs/experiments", type=_out_dir,
                      help="output directory, one subdirectory per experiment (default runs/experiments)")
-    exp.add_argument("--dig-budget", type=int, metavar="N", help="override every run's dig budget")
-    exp.add_argument("--seeds", type=int, default=1, metavar="N",
+    exp.add_argument("--dig-budget", type=_dig_budget, metavar="N",
+                     help=f"override every run's dig budget (1 to {MAX_DIG_BUDGET})")
+    exp.add_argument("--seeds", type=_int_in(1, 1000), default=1, metavar="N",
                      help="run every run with N seeds (its own, then the next N - 1) and pool them (default 1)")
     exp.add_argument("--verbose", action="store_true", help="print every scan and dig")
     exp.set_defaults(func=_cmd_experiment)
@@ -429,23 +641,27 @@ def build_parser() -> argparse.ArgumentParser:
     learn = sub.add_parser("learn", help="learn to predict soil forces: data from digs, Tables 4-5, Fig. 81, "
                                          "nominal vs learned in the loop")
     learn.add_argument("--soil", metavar="NAME", help="soil preset of configs/soils.yaml (default: the scene's)")
-    learn.add_argument("--digs", type=int, default=30, metavar="N", help="digs to collect (default 30)")
-    learn.add_argument("--seed", type=int, default=0, metavar="N", help="seeds the soil beds, actions and folds")
-    learn.add_argument("--out", metavar="DIR", default="runs/learn", help="output directory (default runs/learn)")
-    learn.add_argument("--dataset", metavar="FILE",
+    learn.add_argument("--digs", type=_int_in(1, 100_000), default=30, metavar="N",
+                       help="digs to collect (default 30)")
+    learn.add_argument("--seed", type=_seed, default=0, metavar="N", help="seeds the soil beds, actions and folds")
+    learn.add_argument("--out", metavar="DIR", default="runs/learn", type=_out_dir,
+                       help="output directory (default runs/learn)")
+    learn.add_argument("--dataset", metavar="FILE", type=_out_file((".parquet", ".csv", ".npz")),
                        help="force data set (.parquet, .csv, .npz): loaded if it exists, else built and saved there")
-    learn.add_argument("--folds", type=int, default=10, metavar="N", help="cross-validation folds (default 10)")
+    learn.add_argument("--folds", type=_int_in(2, 1000), default=10, metavar="N",
+                       help="cross-validation folds (default 10)")
     learn.add_argument("--split", choices=["samples", "digs", "both"], default="both",
                        help="cross-validate over shuffled samples (the thesis), whole digs, or both (default)")
     learn.add_argument("--compare", action="store_true",
                        help="also run episodes planned with the nominal wedge model and with learned predictors")
-    learn.add_argument("--episodes", type=int, default=2, metavar="N", help="episodes per predictor (default 2)")
-    learn.add_argument("--dig-budget", type=int, default=6, metavar="N", help="digs per episode (default 6)")
-    learn.add_argument("--wrist-limit", type=float, metavar="NM",
+    learn.add_argument("--episodes", type=_int_in(1, 1000), default=2, metavar="N",
+                       help="episodes per predictor (default 2)")
+    learn.add_argument("--dig-budget", type=_dig_budget, default=6, metavar="N", help="digs per episode (default 6)")
+    learn.add_argument("--wrist-limit", type=_float_in(10, 1e6), metavar="NM",
                        help="wrist pitch torque limit in the comparison [N m] (default: configs/robot.yaml)")
     learn.add_argument("--method", default="global", metavar="NAME",
                        help="learned predictor in the comparison: global, global_rls, nn3, lwr, lwr_scaled, net")
-    learn.add_argument("--forgetting", type=float, default=1.0, metavar="F",
+    learn.add_argument("--forgetting", type=_float_in(0, 1, low_open=True), default=1.0, metavar="F",
                        help="forgetting factor of eq. 22 for a global regression in the comparison (default 1)")
     learn.set_defaults(func=_cmd_learn)
     return parser
@@ -453,11 +669,15 @@ def build_parser() -> argparse.ArgumentParser:
 
 def main(argv: list[str] | None = None) -> int:
     """Entry point of the console script; returns the exit status."""
-    args = build_parser().parse_args(argv)
+    try:
+        args = build_parser().parse_args(argv)
+    except SystemExit as exc:  # argparse has printed its message (status 2) or the help (status 0)
+        return exc.code if isinstance(exc.code, int) else (0 if exc.code is None else 2)
     try:
         return args.func(args)
-    except ExcavsimError as exc:
-        print(f"excavsim: error: {exc}", file=sys.stderr)
+    except ExcavsimError as exc:  # every line cut short: a message never repeats a huge input whole
+        text = "\n".join(shorten(line, 400) for line in str(exc).splitlines()[:50])
+        print(f"excavsim: error: {text}", file=sys.stderr)
         return 2
     except KeyboardInterrupt:
         print("excavsim: interrupted", file=sys.stderr)
