@@ -123,7 +123,8 @@ class ResolvedSpec:
                                             f"{spec.name}: robot")
         scene = _override(load_scene_config(scene_path), spec.scene, SceneConfig, f"{spec.name}: scene")
         self.scene: SceneConfig = scene.model_copy(update={"soil": spec.soil}) if spec.soil else scene
-        check_goal(self.goal, self.scene, source=f"{spec.name}: goal")
+        named = f" {shorten(spec.goal, 200)}" if isinstance(spec.goal, str) else ""
+        check_goal(self.goal, self.scene, source=f"{spec.name}: goal{named}")
         self.planner: PlannerConfig = _override(load_planner_config(), spec.planner, PlannerConfig,
                                                 f"{spec.name}: planner")
         self.executor: ExecutorConfig = _override(load_executor_config(), spec.executor, ExecutorConfig,
