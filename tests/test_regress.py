@@ -36,8 +36,11 @@ def _scenario_dir(path, **scenarios):
 
 
 def _json_run(argv, capsys):
+    """Run ``excavsim ARGV --json``: its exit status and the JSON it printed (a failure shows stderr)."""
     code = main([*argv, "--json"])
-    return code, json.loads(capsys.readouterr().out)
+    out = capsys.readouterr()
+    assert out.out.strip(), f"exit status {code} and no JSON; stderr ends:\n{out.err[-3000:]}"
+    return code, json.loads(out.out)
 
 
 # -- the statistics, on synthetic per-seed numbers ------------------------------------------------------
