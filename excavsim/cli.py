@@ -493,12 +493,14 @@ def _cmd_experiment(args: argparse.Namespace) -> int:
     if args.dig_budget is not None:
         specs = [s.model_copy(update={"runs": [r.model_copy(update={"dig_budget": args.dig_budget}) for r in s.runs]})
                  for s in specs]
-    if args.seeds > 1:  # every run once per seed: seed, seed + 1, ...
-        def reseeded(r, i):
-            return r.model_copy(update={"seed": r.seed + i, "name": f"{r.name}-s{r.seed + i}"})
+    if args.seeds > 1:  # every run once per seed: seed, then on by the number of runs (fig114's two
+        # runs from seeds 0 and 1 get 0, 2, 4, ... and 1, 3, 5, ...: never the same episode twice)
+        def reseeded(r, i, stride):
+            seed = r.seed + i * stride
+            return r.model_copy(update={"seed": seed, "name": f"{r.name}-s{seed}"})
 
-        specs = [s.model_copy(update={"runs": [reseeded(r, i) for r in s.runs for i in range(args.seeds)]})
-                 for s in specs]
+        specs = [s.model_copy(update={"runs": [reseeded(r, i, len(s.runs)) for r in s.runs
+                                               for i in range(args.seeds)]}) for s in specs]
     out = pathlib.Path(args.out)
     results = {}
     for exp in specs:

@@ -55,3 +55,20 @@ def test_an_experiment_writes_its_sections_table_and_summary(tmp_path):
     summary = (tmp_path / "summary.txt").read_text()
     assert "thesis: nothing" in summary and res.end in summary
     assert "tiny" in format_comparison({"tiny": (exp, runs)})
+
+
+def test_seeds_never_repeat_an_episode_of_a_two_run_experiment(monkeypatch, tmp_path):
+    """fig114's two runs start from seeds 0 and 1; with --seeds 3 they get 0, 2, 4 and 1, 3, 5 (a
+    stride of 1 ran seeds 1 and 2 twice each)."""
+    import excavsim.loop.experiment as experiment
+
+    seen = []
+
+    def fake_run(exp, out, progress=None):
+        seen.extend(r.seed for r in exp.runs)
+        raise SystemExit(0)  # stop before anything is written
+
+    monkeypatch.setattr(experiment, "run_experiment", fake_run)
+    with pytest.raises(SystemExit):
+        main(["experiment", "fig114", "--seeds", "3", "--out", str(tmp_path)])
+    assert seen == [0, 2, 4, 1, 3, 5]
