@@ -136,6 +136,27 @@ def test_a_dig_that_found_no_soil_clips_the_map_along_its_path(arm, reach_table)
     assert np.array_equal(experience.belief(risen, arm, 0.0, WIDTH, planner.surface(risen)).heights, risen.heights)
 
 
+
+def test_a_dig_shifted_up_at_touch_down_bounds_the_map_at_its_planned_edge(arm, reach_table):
+    """Touch-down found contact above the map and the executor ran the dig 1 cm above its plan; it
+    weighed nothing. The bound follows the planned edge, not the executed one: the same plan would be
+    shifted the same way, so the map must not promise the centimetre the bucket never reached."""
+    planner = planner_for(arm, reach_table)
+    emap = flat_map(0.515)
+    surface = planner.surface(emap)
+    path = np.column_stack([np.linspace(1.5, 0.9, 30), np.full(30, 0.496), np.full(30, 0.2)])
+    dig = Dig("planned", path, np.ones(30, np.int8), 0.003, TrenchAction(1.5, 0.0, 0.02, 0.6), 0.0)
+    executed = path + np.array([0.0, 0.01, 0.0])
+    experience = DigExperience()
+    rec = ExecutionRecord(outcome="completed", executed_path=list(executed), lifted_load_n=2.0)
+    assert experience.learn(1, dig, rec, surface, planner.density).kind == "little soil"
+    belief = experience.belief(emap, arm, 0.0, WIDTH, surface)
+    xc, yc = emap.centres()
+    xx, yy = np.meshgrid(xc, yc)
+    on = (np.abs(yy) < 0.1) & (xx > 1.0) & (xx < 1.4)
+    np.testing.assert_allclose(belief.heights[on], 0.496 + experience.cut_margin_m, atol=1e-12)
+
+
 class Weak(EpisodeObserver):
     """Installs a force model that predicts no soil force at all."""
 

@@ -11,8 +11,11 @@ execution record and the F/T sensor's weighing of the lifted load, never the wor
   fallback; both until the mapped terrain along the failed path has changed by more than
   ``terrain_change_m`` (soil moved there: the same action on new terrain is a new dig);
 * a dig that brought up little soil also leaves a **cut bound**: its edge passed there and found
-  (almost) nothing, so the terrain along its executed path is at most at the edge's height (plus
-  ``cut_margin_m``). Later maps are clipped to it (:meth:`DigExperience.belief`) until the map
+  (almost) nothing, so the terrain along its path is at most at the edge's height (plus
+  ``cut_margin_m``), the lower of the planned and the executed edge: when touch-down found contact
+  above the map the executor ran the whole dig up to a centimetre above its plan, and the same
+  plan would be shifted the same way (lean clay, end game: 14 such skims in a row, each a new
+  action, each weighing nothing). Later maps are clipped to it (:meth:`DigExperience.belief`) until the map
   there rises more than ``terrain_change_m`` above the first map after the dig (soil fell or was
   spilled there). This removes the soil a biased map shows (the scanner's systematic error of a
   centimetre or two, §7.1.2) where the bucket found none, so that the planner stops scraping it.
@@ -119,7 +122,7 @@ class DigExperience:
         terrain_change_m: a failure is forgotten, and a cut bound dropped, once the mapped terrain
             along its path has changed by more than this [m].
         neighbourhood: grid cells around a failed action (along each of k, alpha, d1) not planned again.
-        cut_margin_m: the bound lies this far above the executed edge [m].
+        cut_margin_m: the bound lies this far above the dig's edge (planned or executed, the lower) [m].
         margin_quantile, margin_max: the torque margin is this quantile of the measured/predicted
             ratios, at most ``margin_max``; margin_min_predicted_nm: digs predicted below this wrist
             torque do not count (their ratio is the bucket's weight, not the soil) [N m];
@@ -169,7 +172,7 @@ class DigExperience:
         if kind is None:
             return None
         if kind == "little soil" and len(record.executed_path) > 1:
-            self.cuts.append(self._cut(np.asarray(record.executed_path)))
+            self.cuts.append(self._cut(np.concatenate([np.asarray(record.executed_path)[:, :3], dig.poses[:, :3]])))
         failure = Failure(index, kind, dig.kind, dig.action, x, surface(x), float(load))
         self.failures.append(failure)
         return failure
