@@ -114,18 +114,25 @@ def test_a_stalled_dig_in_an_under_predicted_region_is_not_chosen_again(arm, rea
     assert not experience.excluded(planner.grid_k, planner.grid_alpha, planner.grid_d1, changed).any()
 
 
+def _empty_skim(planner, emap, edge_z: float, executed_above_m: float = 0.0):
+    """A drag at ``edge_z`` from x 1.5 to 0.9 m that weighed nothing, run ``executed_above_m`` above
+    its plan; returns the experience that learned it and the belief it gives on ``emap``."""
+    surface = planner.surface(emap)
+    path = np.column_stack([np.linspace(1.5, 0.9, 30), np.full(30, edge_z), np.full(30, 0.2)])
+    dig = Dig("planned", path, np.ones(30, np.int8), 0.003, TrenchAction(1.5, 0.0, 0.02, 0.6), 0.0)
+    executed = path + np.array([0.0, executed_above_m, 0.0])
+    experience = DigExperience()
+    rec = ExecutionRecord(outcome="completed", executed_path=list(executed), lifted_load_n=2.0)
+    assert experience.learn(1, dig, rec, surface, planner.density).kind == "little soil"
+    return experience, experience.belief(emap, planner.arm, 0.0, WIDTH, surface)
+
+
 def test_a_dig_that_found_no_soil_clips_the_map_along_its_path(arm, reach_table):
     """The map says 1.5 cm of soil where the bucket, passing at 0.5 m, weighed nothing: later maps are
     clipped to the edge's path there, and only there, until the map rises by more than 3 cm."""
     planner = planner_for(arm, reach_table)
     emap = flat_map(0.515)
-    surface = planner.surface(emap)
-    path = np.column_stack([np.linspace(1.5, 0.9, 30), np.full(30, 0.5), np.full(30, 0.2)])
-    dig = Dig("planned", path, np.ones(30, np.int8), 0.003, TrenchAction(1.5, 0.0, 0.02, 0.6), 0.0)
-    experience = DigExperience()
-    rec = ExecutionRecord(outcome="completed", executed_path=list(path), lifted_load_n=2.0)
-    assert experience.learn(1, dig, rec, surface, planner.density).kind == "little soil"
-    belief = experience.belief(emap, arm, 0.0, WIDTH, surface)
+    experience, belief = _empty_skim(planner, emap, 0.5)
     xc, yc = emap.centres()
     xx, yy = np.meshgrid(xc, yc)
     on = (np.abs(yy) < 0.1) & (xx > 1.0) & (xx < 1.4)
@@ -136,21 +143,13 @@ def test_a_dig_that_found_no_soil_clips_the_map_along_its_path(arm, reach_table)
     assert np.array_equal(experience.belief(risen, arm, 0.0, WIDTH, planner.surface(risen)).heights, risen.heights)
 
 
-
 def test_a_dig_shifted_up_at_touch_down_bounds_the_map_at_its_planned_edge(arm, reach_table):
     """Touch-down found contact above the map and the executor ran the dig 1 cm above its plan; it
     weighed nothing. The bound follows the planned edge, not the executed one: the same plan would be
     shifted the same way, so the map must not promise the centimetre the bucket never reached."""
     planner = planner_for(arm, reach_table)
     emap = flat_map(0.515)
-    surface = planner.surface(emap)
-    path = np.column_stack([np.linspace(1.5, 0.9, 30), np.full(30, 0.496), np.full(30, 0.2)])
-    dig = Dig("planned", path, np.ones(30, np.int8), 0.003, TrenchAction(1.5, 0.0, 0.02, 0.6), 0.0)
-    executed = path + np.array([0.0, 0.01, 0.0])
-    experience = DigExperience()
-    rec = ExecutionRecord(outcome="completed", executed_path=list(executed), lifted_load_n=2.0)
-    assert experience.learn(1, dig, rec, surface, planner.density).kind == "little soil"
-    belief = experience.belief(emap, arm, 0.0, WIDTH, surface)
+    experience, belief = _empty_skim(planner, emap, 0.496, executed_above_m=0.01)
     xc, yc = emap.centres()
     xx, yy = np.meshgrid(xc, yc)
     on = (np.abs(yy) < 0.1) & (xx > 1.0) & (xx < 1.4)
