@@ -76,6 +76,49 @@ def test_cast_matches_mj_multiray_on_rough_terrain(sim, rng):
         g.write_hfield(sim.model)
 
 
+def test_scans_reuse_and_recast_only_what_a_change_can_reach_and_equal_a_full_cast(sim, rng):
+    """The scanner casts its rays once per terrain and, after a change, recasts only the rays that
+    pass low over the changed cells; the ranges equal a from-scratch cast to the bit, for digs, piles
+    rising above the old maximum (a new cast bound) and changes no ray can see."""
+    g = sim.soil.grid
+    saved = g.heights.copy()
+    try:
+        g.heights[...] = rough_terrain(sim, rng)
+        cfg = load_sensing_config().scanner
+        scanner = LaserScanner(sim.model, g, cfg, np.random.default_rng(0))
+        fresh = LaserScanner(sim.model, g, cfg, np.random.default_rng(0))
+
+        def check(expect_partial: bool) -> None:
+            rays_before = scanner.cast_stats["rays"]
+            got = scanner.true_ranges()
+            want = fresh._cast(fresh._true_dirs, fresh._ztop())
+            for a, b in zip(got, want):
+                assert np.array_equal(a, b, equal_nan=True)
+            cast = scanner.cast_stats["rays"] - rays_before
+            if expect_partial:
+                assert 0 < cast < 0.2 * len(want[0])
+
+        check(False)
+        before = scanner.cast_stats["rays"]
+        scanner.true_ranges()  # same terrain: nothing cast
+        assert scanner.cast_stats["rays"] == before and scanner.cast_stats["reused"] == 1
+        for _ in range(4):  # digs and small piles within the cast bound
+            r0, c0 = rng.integers(10, g.shape[0] - 30), rng.integers(10, g.shape[1] - 30)
+            g.heights[r0:r0 + 12, c0:c0 + 8] += rng.uniform(-0.08, 0.02, (12, 8))
+            check(True)
+        g.heights[5, 5] = g.heights.max() + 0.3  # a pile above the bound: a full cast
+        full = scanner.cast_stats["full"]
+        check(False)
+        assert scanner.cast_stats["full"] == full + 1
+        # the scans themselves: the same images as a scanner casting every ray afresh
+        a = scanner.scan(1.0)
+        fresh._cache.clear()
+        b = fresh.scan(1.0)
+        assert np.array_equal(a.ranges, b.ranges, equal_nan=True)
+    finally:
+        g.heights[...] = saved
+
+
 def test_ideal_scanner_reproduces_the_terrain_within_the_cell_discretization(sim, rng):
     g = sim.soil.grid
     old = g.heights.copy()

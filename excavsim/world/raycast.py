@@ -201,3 +201,34 @@ def cast(h, x0, y0, cell, z0, ztop, boxes, origin, dirs, tmax, out_t, out_cos, o
             out_t[i] = np.inf
             out_cos[i] = 0.0
             out_kind[i] = HIT_NONE
+
+
+@numba.njit(cache=True)
+def affected(origin, dirs, t_end, x_lo, x_hi, y_lo, y_hi, z_hi, out):
+    """Which rays may see a change of the heightfield inside a window (for recasting only those).
+
+    A ray's first hit depends only on the heightfield cells its path crosses before the hit, and
+    a cell cannot stop a ray that passes above all of its samples. So a ray whose path up to its
+    previous hit (``t_end``; its maximum range where it hit nothing) never passes over the
+    rectangle ``[x_lo, x_hi] x [y_lo, y_hi]`` at or below ``z_hi`` (the highest sample there before
+    or after the change) has the same hit as before, to the bit, provided the walk starts at the
+    same place (the same ``ztop`` in :func:`cast`). Writes ``out[i]`` True for the others.
+    """
+    ox, oy, oz = origin[0], origin[1], origin[2]
+    for i in range(dirs.shape[0]):
+        dx, dy, dz = dirs[i, 0], dirs[i, 1], dirs[i, 2]
+        t0, t1 = 0.0, t_end[i]
+        hit = True
+        for o, d, lo, hi in ((ox, dx, x_lo, x_hi), (oy, dy, y_lo, y_hi)):
+            if abs(d) < 1e-15:
+                if o < lo or o > hi:
+                    hit = False
+            else:
+                ta = (lo - o) / d
+                tb = (hi - o) / d
+                if ta > tb:
+                    ta, tb = tb, ta
+                t0 = max(t0, ta)
+                t1 = min(t1, tb)
+        # over the rectangle for t in [t0, t1]: the ray's lowest point there is at an end
+        out[i] = hit and t0 <= t1 and min(oz + t0 * dz, oz + t1 * dz) <= z_hi

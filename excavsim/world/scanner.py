@@ -26,6 +26,9 @@ ranges) and what it receives is :class:`RangeImage`.
 
 from __future__ import annotations
 
+import dataclasses
+import math
+
 import mujoco
 import numpy as np
 
@@ -35,6 +38,20 @@ from excavsim.handoff.maps import RangeImage, ScanGeometry
 from excavsim.readouts import element_id
 from excavsim.world import raycast
 from excavsim.world.terrain import SoilGrid
+
+
+ZTOP_STEP_M = 0.1  # the cast's upper bound on the terrain moves in steps of this (see LaserScanner._ztop)
+
+
+@dataclasses.dataclass
+class _CastCache:
+    """The true ranges of one ray set on the terrain ``heights``, cast with the bound ``ztop``."""
+
+    heights: np.ndarray
+    ztop: float
+    t: np.ndarray
+    cos: np.ndarray
+    kind: np.ndarray
 
 
 def _small_rotation(angles: np.ndarray) -> np.ndarray:
@@ -103,6 +120,8 @@ class LaserScanner:
         self.misalignment = _small_rotation(rng.normal(0.0, np.radians(config.pose_error_deg), 3))
         self._surveyed_dirs = np.ascontiguousarray(np.concatenate([directions.reshape(-1, 3), t_dirs.reshape(-1, 3)]))
         self._true_dirs = np.ascontiguousarray(self._surveyed_dirs @ self.misalignment.T)
+        self._cache: dict[int, _CastCache] = {}
+        self.cast_stats = {"full": 0, "reused": 0, "rays": 0}  # casts from scratch, reuses, rays cast
 
     def _target_rays(self, model: mujoco.MjModel, data: mujoco.MjData,
                      origin: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
@@ -122,22 +141,76 @@ class LaserScanner:
         return np.asarray(dirs), np.asarray(ranges)
 
     # -- scanning -------------------------------------------------------------------------------
+    def _ztop(self) -> float:
+        """The heightfield's upper bound for the cast: the highest sample rounded up to ``ZTOP_STEP_M``.
+
+        Rounded so that it stays put while the spoil pile grows within a step: the walk of every
+        ray starts where it crosses this height, and an unchanged start is what lets
+        :meth:`true_ranges` reuse the ranges of rays the terrain's change cannot reach.
+        """
+        g = self.grid
+        return g.z0 + math.ceil(float(g.heights.max()) / ZTOP_STEP_M + 1e-9) * ZTOP_STEP_M
+
+    def _cast(self, dirs: np.ndarray, ztop: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        n = dirs.shape[0]
+        t, cos, kind = np.empty(n), np.empty(n), np.empty(n, np.int64)
+        g = self.grid
+        raycast.cast(g.heights, g.x0, g.y0, g.cell, g.z0, ztop, self.boxes, self.geometry.origin, dirs,
+                     self.config.max_range_m, t, cos, kind)
+        return t, cos, kind
+
     def true_ranges(self, directions: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """Exact ranges, incidence cosines and hit kinds along rays (privileged; image + target rays).
 
         Returns flat arrays over ``directions`` (n, 3, world frame), by default the image rays then the
         target rays as the misaligned scanner actually casts them.
+
+        The scanner's own ray sets (the misaligned and the surveyed directions) are cast once per
+        terrain: the scans of one map see the same terrain (the arm is parked out of view), so they
+        reuse the ranges; after a dig only the rays that pass over the changed cells low enough to
+        touch them are recast (:func:`~excavsim.world.raycast.affected`), and the result equals a
+        full cast to the bit (a test holds them equal). Callers get copies.
         """
-        dirs = self._true_dirs if directions is None else np.ascontiguousarray(directions, dtype=float)
-        n = dirs.shape[0]
-        t = np.empty(n)
-        cos = np.empty(n)
-        kind = np.empty(n, np.int64)
+        if directions is not None:
+            return self._cast(np.ascontiguousarray(directions, dtype=float), self._ztop())
+        return self._cached(self._true_dirs)
+
+    def _cached(self, dirs: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         g = self.grid
-        ztop = g.z0 + float(g.heights.max()) + 1e-9
-        raycast.cast(g.heights, g.x0, g.y0, g.cell, g.z0, ztop, self.boxes, self.geometry.origin, dirs,
-                     self.config.max_range_m, t, cos, kind)
-        return t, cos, kind
+        ztop = self._ztop()
+        entry = self._cache.get(id(dirs))
+        if entry is not None and entry.ztop == ztop and entry.heights.shape == g.heights.shape:
+            changed = entry.heights != g.heights
+            if changed.any():
+                self._recast(entry, dirs, changed)
+            self.cast_stats["reused"] += 1
+        else:
+            t, cos, kind = self._cast(dirs, ztop)
+            entry = _CastCache(g.heights.copy(), ztop, t, cos, kind)
+            self._cache[id(dirs)] = entry
+            self.cast_stats["full"] += 1
+            self.cast_stats["rays"] += dirs.shape[0]
+        return entry.t.copy(), entry.cos.copy(), entry.kind.copy()
+
+    def _recast(self, entry: _CastCache, dirs: np.ndarray, changed: np.ndarray) -> None:
+        """Recast the rays of ``entry`` that the ``changed`` samples can reach; update it in place."""
+        g = self.grid
+        rows, cols = np.nonzero(changed)
+        # a changed sample is a corner of the cells around it: the window spans one cell either side
+        pad = 1e-9  # rays grazing the window's edge count as crossing it
+        x_lo, x_hi = g.x0 + (cols.min() - 1) * g.cell - pad, g.x0 + (cols.max() + 1) * g.cell + pad
+        y_lo, y_hi = g.y0 + (rows.min() - 1) * g.cell - pad, g.y0 + (rows.max() + 1) * g.cell + pad
+        window = (slice(max(rows.min() - 1, 0), rows.max() + 2), slice(max(cols.min() - 1, 0), cols.max() + 2))
+        z_hi = g.z0 + max(float(entry.heights[window].max()), float(g.heights[window].max())) + 1e-9
+        t_end = np.where(np.isfinite(entry.t), entry.t, self.config.max_range_m)
+        todo = np.empty(dirs.shape[0], np.bool_)
+        raycast.affected(self.geometry.origin, dirs, t_end, x_lo, x_hi, y_lo, y_hi, z_hi, todo)
+        idx = np.nonzero(todo)[0]
+        if idx.size:
+            t, cos, kind = self._cast(np.ascontiguousarray(dirs[idx]), entry.ztop)
+            entry.t[idx], entry.cos[idx], entry.kind[idx] = t, cos, kind
+        entry.heights[...] = g.heights
+        self.cast_stats["rays"] += int(idx.size)
 
     def drift(self) -> None:
         """Advance the scale and offset errors by one scan (the temperature-like random walk)."""
@@ -151,7 +224,7 @@ class LaserScanner:
         ``noise=False`` gives an ideal scanner: exact ranges along the surveyed directions (no
         misalignment, drift, noise, dropouts or outliers; rays that hit nothing still return NaN).
         """
-        t, cos, _ = self.true_ranges(None if noise else self._surveyed_dirs)
+        t, cos, _ = self._cached(self._true_dirs if noise else self._surveyed_dirs)
         c = self.config
         r = t.copy()
         r[~np.isfinite(r)] = np.nan
