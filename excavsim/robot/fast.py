@@ -4,7 +4,10 @@ The planner evaluates IK and ``tau = tau_grav - J^T F`` (eq. 28) at hundreds of 
 trajectory samples per plan. These scalar loops compute exactly what
 :meth:`~excavsim.robot.kinematics.PlanarArm.inverse` and
 :func:`~excavsim.robot.statics.static_joint_torques` compute with numpy broadcasting (a test holds
-them equal, and those are tested against MuJoCo), an order of magnitude faster.
+them equal, and those are tested against MuJoCo), an order of magnitude faster. The per-pose steps,
+:func:`solve_pose` and :func:`pose_torques`, are compiled functions of their own so that other
+compiled code (the planner's kernel, :mod:`excavsim.planning.kernel`) solves a pose once for both
+its reachability and its torques, with the same arithmetic.
 """
 
 from __future__ import annotations
@@ -31,6 +34,85 @@ def _wrap(a):
 
 
 @numba.njit(cache=True)
+def chain_lengths(p):
+    """The shoulder-elbow and elbow-wrist lengths and their angles at zero configuration, from :func:`arm_params`.
+
+    Constant for an arm: callers of :func:`solve_pose` compute them once.
+    """
+    return math.hypot(p[2], p[3]), math.hypot(p[4], p[5]), math.atan2(p[3], p[2]), math.atan2(p[5], p[4])
+
+
+@numba.njit(cache=True)
+def solve_pose(p, l1, l2, b0, b1, x, z, pitch):
+    """Elbow-up IK of one tip pose (x, z, pitch) within joint limits (App. A1-1.3, eqs. A1 11-19).
+
+    Args:
+        p: :func:`arm_params`; l1, l2, b0, b1: :func:`chain_lengths` of ``p``.
+
+    Returns:
+        ``(ok, q0, q1, q2)``: whether the pose is reachable, and its joint angles (meaningless where not).
+    """
+    sx, sz = p[0], p[1]
+    th3 = pitch + math.pi - p[11]
+    c3, s3 = math.cos(th3), math.sin(th3)
+    wx = x - (c3 * p[6] - s3 * p[7])
+    wz = z - (s3 * p[6] + c3 * p[7])
+    dx, dz = wx - sx, wz - sz
+    cg = (dx * dx + dz * dz - l1 * l1 - l2 * l2) / (2.0 * l1 * l2)
+    ok = abs(cg) <= 1.0 and math.isfinite(x) and math.isfinite(z) and math.isfinite(pitch)
+    gam = -math.acos(min(max(cg, -1.0), 1.0))
+    a1 = math.atan2(dz, dx) - math.atan2(l2 * math.sin(gam), l1 + l2 * math.cos(gam))
+    t1 = a1 - b0
+    t2 = a1 + gam - b1 - t1
+    t3 = th3 - t1 - t2
+    q0 = _wrap(t1 * p[8])
+    q1 = _wrap(t2 * p[9])
+    q2 = _wrap(t3 * p[10])
+    ok = ok and p[12] - 1e-12 <= q0 <= p[15] + 1e-12 and p[13] - 1e-12 <= q1 <= p[16] + 1e-12 \
+        and p[14] - 1e-12 <= q2 <= p[17] + 1e-12
+    return ok, q0, q1, q2
+
+
+@numba.njit(cache=True)
+def pose_torques(p, q0, q1, q2, fx, fz, mom, w, load_tip):
+    """Static joint torques ``tau = tau_grav - J^T F`` (eq. 28) at joint angles (q0, q1, q2).
+
+    Args:
+        p: :func:`arm_params`; fx, fz, mom: the soil wrench on the bucket at the tip [N, N, N m];
+        w: load in the bucket [kg]; load_tip: (2,) its centre in the tip frame [m].
+
+    Returns:
+        ``(tau0, tau1, tau2)`` [N m].
+    """
+    sx, sz = p[0], p[1]
+    sg0, sg1, sg2 = p[8], p[9], p[10]
+    mass0, mass1, mass2 = p[18], p[19], p[20]
+    # link angles and joint points from the wrapped joint angles (as PlanarArm does)
+    h0 = q0 * sg0
+    h1 = h0 + q1 * sg1
+    h2 = h1 + q2 * sg2
+    c0, s0 = math.cos(h0), math.sin(h0)
+    c1, s1 = math.cos(h1), math.sin(h1)
+    c2, s2 = math.cos(h2), math.sin(h2)
+    p1x, p1z = sx + c0 * p[2] - s0 * p[3], sz + s0 * p[2] + c0 * p[3]
+    p2x, p2z = p1x + c1 * p[4] - s1 * p[5], p1z + s1 * p[4] + c1 * p[5]
+    p3x, p3z = p2x + c2 * p[6] - s2 * p[7], p2z + s2 * p[6] + c2 * p[7]
+    m0 = mass0 * (sx + c0 * p[21] - s0 * p[22])
+    m1 = mass1 * (p1x + c1 * p[23] - s1 * p[24])
+    m2 = mass2 * (p2x + c2 * p[25] - s2 * p[26])
+    a = math.pi + _wrap(p[11] + h2 - math.pi)
+    load_x = p3x + math.cos(a) * load_tip[0] + math.sin(a) * load_tip[1]  # rot(pi + pitch) (x, -z)
+    g = p[27]
+    # joint j holds links n >= j and the payload: g sum m_n (x_com_n - x_j) (eq. 31)
+    g2 = m2 + w * load_x - (mass2 + w) * p2x
+    g1 = m1 + m2 + w * load_x - (mass1 + mass2 + w) * p1x
+    g0 = m0 + m1 + m2 + w * load_x - (mass0 + mass1 + mass2 + w) * sx
+    return (sg0 * (g * g0 - (-(p3z - sz) * fx + (p3x - sx) * fz + mom)),
+            sg1 * (g * g1 - (-(p3z - p1z) * fx + (p3x - p1x) * fz + mom)),
+            sg2 * (g * g2 - (-(p3z - p2z) * fx + (p3x - p2x) * fz + mom)))
+
+
+@numba.njit(cache=True)
 def ik_torques(p, poses, wrench, payload, load_tip, want_torques, q_out, ok_out, tau_out):
     """Elbow-up IK of ``poses`` (n, 3) and, where reachable and ``want_torques``, the static torques.
 
@@ -41,40 +123,9 @@ def ik_torques(p, poses, wrench, payload, load_tip, want_torques, q_out, ok_out,
         payload: (n,) load in the bucket [kg]; load_tip: (2,) its centre in the tip frame.
         q_out, ok_out, tau_out: (n, 3), (n,), (n, 3) outputs (NaN where unreachable).
     """
-    sx, sz = p[0], p[1]
-    lx = p[2:8:2]
-    lz = p[3:8:2]
-    sg = p[8:11]
-    blade0 = p[11]
-    lo = p[12:15]
-    hi = p[15:18]
-    mass = p[18:21]
-    cx = p[21:27:2]
-    cz = p[22:27:2]
-    g = p[27]
-    l1 = math.hypot(lx[0], lz[0])
-    l2 = math.hypot(lx[1], lz[1])
-    b0 = math.atan2(lz[0], lx[0])
-    b1 = math.atan2(lz[1], lx[1])
+    l1, l2, b0, b1 = chain_lengths(p)
     for i in range(poses.shape[0]):
-        x, z, pitch = poses[i, 0], poses[i, 1], poses[i, 2]
-        th3 = pitch + math.pi - blade0
-        c3, s3 = math.cos(th3), math.sin(th3)
-        wx = x - (c3 * lx[2] - s3 * lz[2])
-        wz = z - (s3 * lx[2] + c3 * lz[2])
-        dx, dz = wx - sx, wz - sz
-        cg = (dx * dx + dz * dz - l1 * l1 - l2 * l2) / (2.0 * l1 * l2)
-        ok = abs(cg) <= 1.0 and math.isfinite(x) and math.isfinite(z) and math.isfinite(pitch)
-        gam = -math.acos(min(max(cg, -1.0), 1.0))
-        a1 = math.atan2(dz, dx) - math.atan2(l2 * math.sin(gam), l1 + l2 * math.cos(gam))
-        t1 = a1 - b0
-        t2 = a1 + gam - b1 - t1
-        t3 = th3 - t1 - t2
-        q0 = _wrap(t1 * sg[0])
-        q1 = _wrap(t2 * sg[1])
-        q2 = _wrap(t3 * sg[2])
-        ok = ok and lo[0] - 1e-12 <= q0 <= hi[0] + 1e-12 and lo[1] - 1e-12 <= q1 <= hi[1] + 1e-12 \
-            and lo[2] - 1e-12 <= q2 <= hi[2] + 1e-12
+        ok, q0, q1, q2 = solve_pose(p, l1, l2, b0, b1, poses[i, 0], poses[i, 1], poses[i, 2])
         ok_out[i] = ok
         if not ok:
             for j in range(3):
@@ -86,27 +137,7 @@ def ik_torques(p, poses, wrench, payload, load_tip, want_torques, q_out, ok_out,
         q_out[i, 2] = q2
         if not want_torques:
             continue
-        # link angles and joint points from the wrapped joint angles (as PlanarArm does)
-        h0 = q0 * sg[0]
-        h1 = h0 + q1 * sg[1]
-        h2 = h1 + q2 * sg[2]
-        c0, s0 = math.cos(h0), math.sin(h0)
-        c1, s1 = math.cos(h1), math.sin(h1)
-        c2, s2 = math.cos(h2), math.sin(h2)
-        p1x, p1z = sx + c0 * lx[0] - s0 * lz[0], sz + s0 * lx[0] + c0 * lz[0]
-        p2x, p2z = p1x + c1 * lx[1] - s1 * lz[1], p1z + s1 * lx[1] + c1 * lz[1]
-        p3x, p3z = p2x + c2 * lx[2] - s2 * lz[2], p2z + s2 * lx[2] + c2 * lz[2]
-        m0 = mass[0] * (sx + c0 * cx[0] - s0 * cz[0])
-        m1 = mass[1] * (p1x + c1 * cx[1] - s1 * cz[1])
-        m2 = mass[2] * (p2x + c2 * cx[2] - s2 * cz[2])
-        a = math.pi + _wrap(blade0 + h2 - math.pi)
-        load_x = p3x + math.cos(a) * load_tip[0] + math.sin(a) * load_tip[1]  # rot(pi + pitch) (x, -z)
-        w = payload[i]
-        fx, fz, mom = wrench[i, 0], wrench[i, 1], wrench[i, 2]
-        # joint j holds links n >= j and the payload: g sum m_n (x_com_n - x_j) (eq. 31)
-        g2 = m2 + w * load_x - (mass[2] + w) * p2x
-        g1 = m1 + m2 + w * load_x - (mass[1] + mass[2] + w) * p1x
-        g0 = m0 + m1 + m2 + w * load_x - (mass[0] + mass[1] + mass[2] + w) * sx
-        tau_out[i, 0] = sg[0] * (g * g0 - (-(p3z - sz) * fx + (p3x - sx) * fz + mom))
-        tau_out[i, 1] = sg[1] * (g * g1 - (-(p3z - p1z) * fx + (p3x - p1x) * fz + mom))
-        tau_out[i, 2] = sg[2] * (g * g2 - (-(p3z - p2z) * fx + (p3x - p2x) * fz + mom))
+        t0, t1, t2 = pose_torques(p, q0, q1, q2, wrench[i, 0], wrench[i, 1], wrench[i, 2], payload[i], load_tip)
+        tau_out[i, 0] = t0
+        tau_out[i, 1] = t1
+        tau_out[i, 2] = t2
