@@ -10,7 +10,7 @@ import numpy as np
 
 from excavsim.config import SoilParams
 from excavsim.handoff.forces import DigContext
-from excavsim.mechanics.wedge import MIN_RAKE_RAD, WedgeTable, wedge_force
+from excavsim.mechanics.wedge import G_M_S2, MIN_RAKE_RAD, WedgeTable, wedge_force
 
 
 class WedgePredictor:
@@ -43,6 +43,19 @@ class WedgePredictor:
             raise ValueError(f"capacity_m3 must be positive (inf: no limit); given {capacity_m3!r}")
         self.table = WedgeTable.for_soil(soil)
         self._rake_lo = max(self.table.rake_min, MIN_RAKE_RAD)
+
+    def kernel_params(self) -> dict[str, float | np.ndarray]:
+        """The numbers of :meth:`predict`, for the compiled planner kernel (:mod:`excavsim.planning.kernel`).
+
+        A predictor that has this method promises that its forces are this model's with these numbers;
+        the kernel computes them with the same arithmetic as :meth:`predict`.
+        """
+        soil, t = self.soil, self.table
+        return {"rake0": float(t.rake[0]), "rake_step": float(t.rake_step), "rake_lo": float(self._rake_lo),
+                "rake_hi": float(t.rake_max), "delta": float(soil.delta), "gamma_g": soil.density_kg_m3 * G_M_S2,
+                "cohesion": float(soil.cohesion_pa), "adhesion": float(soil.adhesion_pa), "width": self.width,
+                "share": self.surcharge_fraction, "capacity": self.capacity, "n_gamma": t.n_gamma, "n_c": t.n_c,
+                "n_a": t.n_a, "denominator": t.denominator}
 
     def predict(self, depth: np.ndarray, rake: np.ndarray, volume: np.ndarray,
                 context: DigContext | None = None) -> np.ndarray:
