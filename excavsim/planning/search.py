@@ -10,7 +10,11 @@ cells only (§6.2.2) and finds each cell's longest admissible drag d2
 loop's boundary-following fallback, §7.2). :class:`PlanResult` keeps what the search learned on the
 way, per cell and per constraint, for the feasible-set figures (Figs. 38-49, Fig. 87).
 
-All of it is numpy on :class:`~excavsim.robot.kinematics.PlanarArm` and the elevation map: no MuJoCo.
+With the nominal force model the search runs as one compiled per-candidate evaluation
+(:mod:`~excavsim.planning.kernel`), the vectorized :class:`~excavsim.planning.feasibility.Feasibility`
+being its reference, which other predictors, ``prune=False`` and ``classify_limits`` use; both give
+the same answer. All of it is numpy and numba on :class:`~excavsim.robot.kinematics.PlanarArm` and the
+elevation map: no MuJoCo.
 """
 
 from __future__ import annotations
@@ -28,6 +32,7 @@ from excavsim.handoff.forces import ForcePredictor, trajectory_progress
 from excavsim.handoff.goal import SurfaceProfile
 from excavsim.handoff.maps import ElevationMap
 from excavsim.planning import action as geometry
+from excavsim.planning import kernel as compiled
 from excavsim.planning.constraints import (CONSTRAINTS, ArmStatics, force, reachability, sensible, sensible_curl,
                                            shaping, torque_ratio, touchdown, volume)
 from excavsim.planning.feasibility import NO_DIG, CellVerdicts, Feasibility, prune_along_d1
@@ -45,7 +50,8 @@ class PlanResult:
     ``action`` is (k, alpha, d1, d2) [m, rad, m, m] or None for "no dig"; per-cell arrays have the
     grid's shape (n_k, n_alpha, n_d1). ``masks`` holds, per constraint, the cells whose dig with the
     shortest drag satisfies that constraint (evaluated on every cell, for figures) and
-    ``feasible`` the cells with some drag satisfying all of them.
+    ``feasible`` the cells with some drag satisfying all of them; ``curl_radius`` is each feasible
+    cell's curl radius [m] (NaN elsewhere).
     """
 
     action: TrenchAction | None
@@ -64,6 +70,7 @@ class PlanResult:
     volume: np.ndarray
     peak_torque_ratio: np.ndarray
     cumulative_torque: np.ndarray
+    curl_radius: np.ndarray
     limiting: np.ndarray
     masks: dict[str, np.ndarray]
     counts: dict[str, int]
@@ -82,11 +89,15 @@ class TrenchPlanner:
         config: rules, grid and objective.
         predictor: force predictor for the force constraint (assignable: a learner may swap it).
         density: soil density for the load's weight [kg/m^3].
+        kernel: search with the compiled kernel (:mod:`~excavsim.planning.kernel`) where it applies
+            (a predictor with ``kernel_params``, ``prune``, no ``classify_limits``); False always uses
+            the vectorized reference (:class:`~excavsim.planning.feasibility.Feasibility`). Same
+            answer either way; assignable, and ``plan(kernel=...)`` overrides it for one plan.
     """
 
     def __init__(self, arm: PlanarArm, table: ReachabilityTable, torque_limits: np.ndarray, bucket_width: float,
                  bucket_capacity: float, goal: TrenchGoal, config: PlannerConfig, predictor: ForcePredictor,
-                 density: float = 2000.0):
+                 density: float = 2000.0, *, kernel: bool = True):
         self.arm = arm
         self.limits = np.asarray(torque_limits, dtype=float)
         if self.limits.shape != (3,) or np.any(self.limits <= 0):
@@ -97,6 +108,7 @@ class TrenchPlanner:
         self.cfg = config
         self.predictor = predictor
         self.density = float(density)
+        self.kernel = bool(kernel)
         self.statics = ArmStatics(arm, table, config.payload_com_tip_m)
         g = config.grid
         self.grid_k = _steps(g.k_min_m, g.k_max_m, g.k_step_m)
@@ -196,8 +208,13 @@ class TrenchPlanner:
         (:meth:`penetrate`) and drags ``drag`` (m, J, 3) (:meth:`drag`) are given, judged cell by cell."""
         return self.feasibility(surface, vmax).evaluate(pen, drag, prune)
 
+    def uses_kernel(self, *, prune: bool = True, classify_limits: bool = False, kernel: bool | None = None) -> bool:
+        """Whether :meth:`plan` with these arguments searches with the compiled kernel."""
+        return bool((self.kernel if kernel is None else kernel) and prune and not classify_limits
+                    and compiled.supports(self.predictor))
+
     def plan(self, emap: ElevationMap, *, prune: bool = True, classify_limits: bool = False,
-             exclude: np.ndarray | None = None, torque_margin: float = 1.0) -> PlanResult:
+             exclude: np.ndarray | None = None, torque_margin: float = 1.0, kernel: bool | None = None) -> PlanResult:
         """Choose one dig on ``emap`` by exhaustive search over the grid (see the module docstring).
 
         Args:
@@ -217,6 +234,8 @@ class TrenchPlanner:
                 divided by this factor (>= 1): a margin for what the force model under-predicts,
                 learned from the digs' measured torques
                 (:meth:`~excavsim.planning.experience.DigExperience.torque_margin`).
+            kernel: True or False to use the compiled kernel or the vectorized reference for this
+                plan, where the kernel applies (:meth:`uses_kernel`); None: the planner's ``kernel``.
         """
         t0 = time.perf_counter()
         cfg = self.cfg
@@ -226,6 +245,17 @@ class TrenchPlanner:
         shape = self.grid_shape
         vmax = cfg.volume_limit_m3(self.capacity)
         counts = {"cells": n}
+        if not (math.isfinite(torque_margin) and torque_margin >= 1.0):
+            raise ExcavsimError(f"torque_margin must be a finite factor >= 1; given {torque_margin!r}")
+        if self.uses_kernel(prune=prune, classify_limits=classify_limits, kernel=kernel):
+            feas = self.feasibility(surface, vmax, limits=self.limits / torque_margin)
+            out = compiled.evaluate_grid(feas, self.grid_k, self.grid_alpha, self.grid_d1)
+            counts["pruned_d1"] = int(n - out.alive.sum())
+            counts["evaluated"] = int(out.alive.sum())
+            counts.update(out.counts)
+            return self._result(surface, t0, k, alpha, d1, out.j, out.radius,
+                                {"volume": out.volume, "peak": out.peak, "cum": out.cum}, out.masks,
+                                np.where(out.j >= 0, 0, 1).astype(np.int8), counts, exclude)
 
         # Penetration: shaping and sensible on every cell (cheap), then prune along d1.
         pen = self.penetrate(k, alpha, d1, surface)
@@ -244,8 +274,6 @@ class TrenchPlanner:
         idx = np.nonzero(alive)[0]
         counts["evaluated"] = idx.size
         if idx.size:
-            if not (math.isfinite(torque_margin) and torque_margin >= 1.0):
-                raise ExcavsimError(f"torque_margin must be a finite factor >= 1; given {torque_margin!r}")
             feas = self.feasibility(surface, vmax, limits=self.limits / torque_margin)
             lines = feas.penetration_lines(self.grid_k, self.grid_alpha, self.grid_d1, k, alpha, d1)
             out = feas.evaluate(pen[idx], drag_all[idx], prune, lines.take(idx))
@@ -259,12 +287,19 @@ class TrenchPlanner:
                 free = dataclasses.replace(feas, limits=np.full(3, np.inf)).evaluate(pen[idx], drag_all[idx], prune)
                 limiting[idx] = np.where(out.j >= 0, np.where(free.j > out.j, 3, 0), np.where(free.j >= 0, 2, 1))
             counts.update({k_: int(v) for k_, v in out.counts.items()})
-        feasible = res_j >= 0
-        d2 = res_j * cfg.sample_spacing_m
         # Mask of the penetration constraints on every cell (pruned cells failed shaping).
         masks["shaping"] &= pen_shape
         masks["sensible"] &= pen_sense
+        return self._result(surface, t0, k, alpha, d1, res_j, res_r, res, masks, limiting, counts, exclude)
 
+    def _result(self, surface, t0, k, alpha, d1, res_j, res_r, res, masks, limiting, counts, exclude
+                ) -> PlanResult:
+        """The choice among the feasible cells and its path: the :class:`PlanResult` of :meth:`plan`."""
+        cfg = self.cfg
+        n = k.size
+        shape = self.grid_shape
+        feasible = res_j >= 0
+        d2 = res_j * cfg.sample_spacing_m
         allowed = feasible
         if exclude is not None:
             exclude = np.asarray(exclude, dtype=bool).reshape(-1)
@@ -290,7 +325,8 @@ class TrenchPlanner:
             torques=torques, grid_k=self.grid_k, grid_alpha=self.grid_alpha, grid_d1=self.grid_d1,
             feasible=feasible.reshape(shape), d2=np.where(feasible, d2, np.nan).reshape(shape),
             volume=res["volume"].reshape(shape), peak_torque_ratio=res["peak"].reshape(shape),
-            cumulative_torque=res["cum"].reshape(shape), limiting=limiting.reshape(shape),
+            cumulative_torque=res["cum"].reshape(shape), curl_radius=np.where(feasible, res_r, np.nan).reshape(shape),
+            limiting=limiting.reshape(shape),
             masks={c: m.reshape(shape) for c, m in masks.items()}, counts=counts,
             seconds=time.perf_counter() - t0,
         )
