@@ -39,7 +39,7 @@ import numba
 import numpy as np
 
 from excavsim.planning.constraints import CONSTRAINTS
-from excavsim.robot.fast import chain_lengths, pose_torques, solve_pose
+from excavsim.robot.fast import chain_lengths, pose_torques, solve_pose_turned
 
 NO_DIG = -1  # as feasibility.NO_DIG
 _CURL_STRIDE = 4  # as feasibility._CURL_STRIDE
@@ -51,6 +51,9 @@ _CURL_STRIDE = 4  # as feasibility._CURL_STRIDE
  W_RAKE0, W_STEP, W_LO, W_HI, W_DELTA, W_GAMMA_G, W_COH, W_ADH, W_WIDTH, W_SHARE, W_CAP, N_SCALARS) = range(36)
 # Counters (out_counts).
 C_REACH, C_FORCE, C_CURLS = range(3)
+# A pitch's terms (_terms): the pitch, its cosine and sine, the wrist link's turn with its cosine and sine, and
+# the sine and cosine of the soil force's angle.
+P_PITCH, P_COS, P_SIN, P_TH3, P_C3, P_S3, P_SA, P_CA, N_TERMS = range(9)
 _SQRT2 = math.sqrt(2.0)
 _MAX_FLOAT = float(np.finfo(np.float64).max)
 
@@ -122,13 +125,13 @@ def _shaping(x, z, sc):
 
 
 @numba.njit(cache=True)
-def _in_box(x, pitch, sc, outline):
-    """The whole bucket outline keeps the clearance from the box's walls (``SurfaceProfile.in_box``)."""
+def _in_box(x, c, s, sc, outline):
+    """The whole bucket outline keeps the clearance from the box's walls (``SurfaceProfile.in_box``), at a
+    pitch of cosine ``c`` and sine ``s``."""
     lo, hi = sc[BOX_LO], sc[BOX_HI]
     if not (x >= lo and x <= hi):
         return False
     if outline.shape[0]:
-        c, s = math.cos(pitch), math.sin(pitch)
         for i in range(outline.shape[0]):
             px = x - outline[i, 0] * c - outline[i, 1] * s
             if not (px >= lo and px <= hi):
@@ -137,9 +140,9 @@ def _in_box(x, pitch, sc, outline):
 
 
 @numba.njit(cache=True)
-def _sensible(x, z, pitch, sc, sx, sz, outline):
+def _sensible(x, z, t, sc, sx, sz, outline):
     """Sensible (§4.3.6) for a penetrate or drag pose: in the soil, within the tolerance, and inside the box."""
-    return z <= _surface(x, sx, sz) + sc[TOL_SURF] and _in_box(x, pitch, sc, outline)
+    return z <= _surface(x, sx, sz) + sc[TOL_SURF] and _in_box(x, t[P_COS], t[P_SIN], sc, outline)
 
 
 @numba.njit(cache=True)
@@ -165,7 +168,7 @@ def _in_table(x, z, pitch, sc, x_lo, x_hi):
 
 
 @numba.njit(cache=True)
-def _wedge(depth, rake, volume, sc, ng, nc, na, den):
+def _wedge(depth, rake, volume, sc, ng, nc, na, den, sin_a, cos_a):
     """The nominal soil force (F_x, F_z) on the bucket (``WedgePredictor.predict``: eq. 8 and the surcharge)."""
     depth = max(depth, 0.0)
     if not depth > 0:
@@ -191,8 +194,7 @@ def _wedge(depth, rake, volume, sc, ng, nc, na, den):
         f = f + sc[W_GAMMA_G] * q / (den[ii] + t * (den[ii + 1] - den[ii]))
     if not math.isfinite(f_ng):
         f = math.inf
-    a = rk + sc[W_DELTA]
-    return f * math.sin(a), -f * math.cos(a)
+    return f * sin_a, -f * cos_a  # a = rk + delta (_terms)
 
 
 @numba.njit(cache=True)
@@ -203,12 +205,12 @@ def _finite_abs(t):
 
 
 @numba.njit(cache=True)
-def _load(x, z, pitch, depth, vcum, ok, q0, q1, q2, sc, wedge, arm, load_tip, limits):
+def _load(t, depth, vcum, ok, q0, q1, q2, sc, wedge, arm, load_tip, limits):
     """The largest torque/limit ratio (``inf`` where unreachable, NaN propagated as ``np.max`` does) and the
     sum of the absolute joint torques at a pose solved by IK, under the predicted force and the load (eq. 28)."""
     if not ok:
         return math.inf, 0.0
-    fx, fz = _wedge(depth, pitch, vcum, sc, wedge[0], wedge[1], wedge[2], wedge[3])
+    fx, fz = _wedge(depth, t[P_PITCH], vcum, sc, wedge[0], wedge[1], wedge[2], wedge[3], t[P_SA], t[P_CA])
     t0, t1, t2 = pose_torques(arm, q0, q1, q2, fx, fz, 0.0, sc[DENSITY] * vcum, load_tip)
     r0, r1, r2 = abs(t0) / limits[0], abs(t1) / limits[1], abs(t2) / limits[2]
     if math.isnan(r0) or math.isnan(r1) or math.isnan(r2):
@@ -250,39 +252,89 @@ def _pairwise(a, n):
 
 
 @numba.njit(cache=True)
-def _reach(x, z, pitch, sc, x_lo, x_hi, arm, chain):
+def _ik(x, z, t, arm, chain):
+    """Exact elbow-up IK of a pose with the pitch terms ``t``; returns (ok, q0, q1, q2)."""
+    return solve_pose_turned(arm, chain[0], chain[1], chain[2], chain[3], x, z, t[P_PITCH], t[P_TH3], t[P_C3],
+                             t[P_S3])
+
+
+@numba.njit(cache=True)
+def _reach(x, z, t, sc, x_lo, x_hi, arm, chain):
     """Reachability (§4.3.3): the table first, then exact IK; returns (ok, q0, q1, q2)."""
-    if not _in_table(x, z, pitch, sc, x_lo, x_hi):
+    if not _in_table(x, z, t[P_PITCH], sc, x_lo, x_hi):
         return False, 0.0, 0.0, 0.0
-    return solve_pose(arm, chain[0], chain[1], chain[2], chain[3], x, z, pitch)
+    return _ik(x, z, t, arm, chain)
+
+
+@numba.njit(cache=True)
+def _terms(pitch, sc, arm, out):
+    """The terms of ``pitch`` that every pose at that pitch needs (P_*), into ``out``."""
+    out[P_PITCH] = pitch
+    out[P_COS], out[P_SIN] = math.cos(pitch), math.sin(pitch)
+    th3 = pitch + math.pi - arm[11]  # as robot.fast.solve_pose
+    out[P_TH3], out[P_C3], out[P_S3] = th3, math.cos(th3), math.sin(th3)
+    a = min(max(pitch, sc[W_LO]), sc[W_HI]) + sc[W_DELTA]  # as _wedge's clipped rake
+    out[P_SA], out[P_CA] = math.sin(a), math.cos(a)
+
+
+@numba.njit(cache=True)
+def _tables(grid_alpha, n_j, frac, sc, arm):
+    """The pitch terms of the whole search: every pitch is a function of alpha and the drag sample.
+
+    Returns ``pen`` (n_alpha, N_TERMS) of the penetrations (rake alpha + epsilon), ``drag`` (n_alpha, n_j,
+    N_TERMS) of the drag samples (eq. 1) and ``curl`` (n_alpha, n_j, M, 2 + N_TERMS): the cosine and sine
+    of the curl's turn at each of its M samples from drag sample j, then that sample's pitch terms.
+    """
+    na, m_n = grid_alpha.size, frac.size
+    pen = np.empty((na, N_TERMS))
+    drag = np.empty((na, n_j, N_TERMS))
+    crl = np.empty((na, n_j, m_n, 2 + N_TERMS))
+    ds = sc[DS]
+    for ia in range(na):
+        rho = grid_alpha[ia] + sc[EPS]
+        _terms(rho, sc, arm, pen[ia])
+        for j in range(n_j):
+            rho0 = max(sc[ZETA], rho - sc[OMEGA] * (j * ds))
+            _terms(rho0, sc, arm, drag[ia, j])
+            turn = max(rho0 - sc[END_PITCH], 0.0)
+            for m in range(m_n):
+                th = turn * frac[m]
+                crl[ia, j, m, 0], crl[ia, j, m, 1] = math.cos(th), math.sin(th)
+                _terms(rho0 - th, sc, arm, crl[ia, j, m, 2:])
+    return pen, drag, crl
 
 
 # ---------------------------------------------------------------------------------------------- the curl
 @numba.njit(cache=True)
-def _curl(x0, z0, rho0, vb, sc, radii, frac, sx, sz, outline, x_lo, x_hi, arm, chain, load_tip, limits, wedge,
+def _curl(x0, z0, vb, td, tc, sc, radii, sx, sz, outline, x_lo, x_hi, arm, chain, load_tip, limits, wedge,
           scratch, counts):
     """The curl from a drag end pose (§3.4.2.4) with its smallest reachable radius (Fig. 23), and whether it
     passes every constraint (``Feasibility._curls``), given up at the first that fails.
+
+    Args:
+        x0, z0, vb: the drag end's position and the volume swept so far; td: its pitch terms; tc: the curl's
+            (M, 2 + N_TERMS) from it (:func:`_tables`).
 
     Returns:
         ``(ok, radius, volume, peak, cum)``: the curl's own swept volume, peak torque ratio and cumulative
         torque (eq. 43); radius 0 when no radius reaches.
     """
     counts[C_CURLS] += 1
-    m_n = frac.size
-    turn = max(rho0 - sc[END_PITCH], 0.0)
-    cr, sr = math.cos(rho0), math.sin(rho0)
+    m_n = tc.shape[0]
+    cr, sr = td[P_COS], td[P_SIN]
     ux = (cr - sr) / _SQRT2
     uz = (sr + cr) / _SQRT2
+    c, s = tc[m_n - 1, 0], tc[m_n - 1, 1]
     radius = -1.0
+    end_q0 = end_q1 = end_q2 = 0.0
     for r in radii:
         cx = x0 + r * ux
         cz = z0 + r * uz
         vx, vz = x0 - cx, z0 - cz
-        th = turn * frac[m_n - 1]
-        c, s = math.cos(th), math.sin(th)
         counts[C_REACH] += 1
-        if _reach(cx + c * vx + s * vz, cz - s * vx + c * vz, rho0 - th, sc, x_lo, x_hi, arm, chain)[0]:
+        ok, end_q0, end_q1, end_q2 = _reach(cx + c * vx + s * vz, cz - s * vx + c * vz, tc[m_n - 1, 2:], sc, x_lo,
+                                            x_hi, arm, chain)
+        if ok:
             radius = r
             break
     if radius < 0:
@@ -290,41 +342,43 @@ def _curl(x0, z0, rho0, vb, sc, radii, frac, sx, sz, outline, x_lo, x_hi, arm, c
     cx = x0 + radius * ux
     cz = z0 + radius * uz
     vx, vz = x0 - cx, z0 - cz
-    px, pz, pp, vol = scratch[0], scratch[1], scratch[2], scratch[3]
+    px, pz, vol = scratch[0], scratch[1], scratch[2]
     # shaping, sensible (the exit rule and the box), volume: the cheap ones, on every pose first
     exited = False
     run = 0.0
     for m in range(m_n):
-        th = turn * frac[m]
-        c, s = math.cos(th), math.sin(th)
+        c, s = tc[m, 0], tc[m, 1]
         x = cx + c * vx + s * vz
         z = cz - s * vx + c * vz
-        pitch = rho0 - th
-        px[m], pz[m], pp[m] = x, z, pitch
+        px[m], pz[m] = x, z
         if not _shaping(x, z, sc):
             return False, radius, 0.0, 0.0, 0.0
         if not exited and z > _surface(x, sx, sz) + sc[TOL_SURF]:
             exited = True  # the edge leaves the soil here: the bucket must have curled enough
-            if not pitch <= sc[EXIT_PITCH]:
+            if not tc[m, 2 + P_PITCH] <= sc[EXIT_PITCH]:
                 return False, radius, 0.0, 0.0, 0.0
-        if not _in_box(x, pitch, sc, outline):
+        if not _in_box(x, tc[m, 2 + P_COS], tc[m, 2 + P_SIN], sc, outline):
             return False, radius, 0.0, 0.0, 0.0
         if m:
             run += _swept(px[m - 1], pz[m - 1], x, z, sc, sx, sz)
         vol[m] = vb + run
     if not vol[m_n - 1] <= sc[VMAX]:
         return False, radius, 0.0, 0.0, 0.0
-    # reachability and force, one IK per pose
+    # reachability and force, one IK per pose (the end pose's from the radius search)
     peak = -math.inf
-    seg = scratch[4]
+    seg = scratch[3]
     for m in range(m_n):
-        counts[C_REACH] += 1
-        ok, q0, q1, q2 = _reach(px[m], pz[m], pp[m], sc, x_lo, x_hi, arm, chain)
-        if not ok:
-            return False, radius, 0.0, 0.0, 0.0
+        t = tc[m, 2:]
+        if m == m_n - 1:
+            ok, q0, q1, q2 = True, end_q0, end_q1, end_q2
+        else:
+            counts[C_REACH] += 1
+            ok, q0, q1, q2 = _reach(px[m], pz[m], t, sc, x_lo, x_hi, arm, chain)
+            if not ok:
+                return False, radius, 0.0, 0.0, 0.0
         counts[C_FORCE] += 1
         depth = max(_surface(px[m], sx, sz) - pz[m], 0.0)
-        ratio, tsum = _load(px[m], pz[m], pp[m], depth, vol[m], ok, q0, q1, q2, sc, wedge, arm, load_tip, limits)
+        ratio, tsum = _load(t, depth, vol[m], ok, q0, q1, q2, sc, wedge, arm, load_tip, limits)
         if not ratio <= 1.0:
             return False, radius, 0.0, 0.0, 0.0
         peak = max(peak, ratio)
@@ -336,9 +390,9 @@ def _curl(x0, z0, rho0, vb, sc, radii, frac, sx, sz, outline, x_lo, x_hi, arm, c
 
 # ---------------------------------------------------------------------------------------------- a line
 @numba.njit(cache=True)
-def _line(k, alpha, ca, sa, zk, n_s, sc, sx, sz, outline, x_lo, x_hi, arm, chain, load_tip, limits, wedge,
-          ln, counts):
-    """The penetration samples of one (k, alpha) line every ``sample_spacing_m`` (``penetration_lines``).
+def _line(k, ca, sa, zk, tp, n_s, sc, sx, sz, outline, x_lo, x_hi, arm, chain, load_tip, limits, wedge, ln, counts):
+    """The penetration samples of one (k, alpha) line every ``sample_spacing_m`` (``penetration_lines``);
+    ``tp``: the pitch terms of its rake.
 
     Fills ``ln`` (10, n_s): x, z, then per sample the prefix AND of shaping, sensible and reachability,
     the swept volume so far, the prefix peak torque ratio, the cumulative torque of the samples after the
@@ -346,7 +400,6 @@ def _line(k, alpha, ca, sa, zk, n_s, sc, sx, sz, outline, x_lo, x_hi, arm, chain
     whether the touch-down below the entry is reachable (§7.1.3).
     """
     ds = sc[DS]
-    rho = alpha + sc[EPS]
     ok_shape = ok_sense = ok_reach = True
     peak = -math.inf
     for i in range(n_s):
@@ -354,20 +407,20 @@ def _line(k, alpha, ca, sa, zk, n_s, sc, sx, sz, outline, x_lo, x_hi, arm, chain
         x = k - s * ca
         z = zk - s * sa
         sh = _shaping(x, z, sc)
-        se = _sensible(x, z, rho, sc, sx, sz, outline)
+        se = _sensible(x, z, tp, sc, sx, sz, outline)
         ok_shape = ok_shape and sh
         ok_sense = ok_sense and se
         counts[C_REACH] += 1
         counts[C_FORCE] += 1
-        tab = _in_table(x, z, rho, sc, x_lo, x_hi)
-        ik, q0, q1, q2 = solve_pose(arm, chain[0], chain[1], chain[2], chain[3], x, z, rho)
+        tab = _in_table(x, z, tp[P_PITCH], sc, x_lo, x_hi)
+        ik, q0, q1, q2 = _ik(x, z, tp, arm, chain)
         ok_reach = ok_reach and tab and ik
         if i:
             ln[5, i] = ln[5, i - 1] + _swept(ln[0, i - 1], ln[1, i - 1], x, z, sc, sx, sz)
         else:
             ln[5, i] = 0.0
         depth = max(_surface(x, sx, sz) - z, 0.0)
-        ratio, tsum = _load(x, z, rho, depth, ln[5, i], ik, q0, q1, q2, sc, wedge, arm, load_tip, limits)
+        ratio, tsum = _load(tp, depth, ln[5, i], ik, q0, q1, q2, sc, wedge, arm, load_tip, limits)
         peak = max(peak, ratio if math.isfinite(ratio) else math.inf)
         ln[0, i], ln[1, i] = x, z
         ln[2, i], ln[3, i], ln[4, i] = ok_shape, ok_sense, ok_reach
@@ -375,34 +428,34 @@ def _line(k, alpha, ca, sa, zk, n_s, sc, sx, sz, outline, x_lo, x_hi, arm, chain
         ln[7, i] = ln[7, i - 1] + tsum * ds if i else 0.0
         ln[8, i], ln[9, i] = sh, se
     counts[C_REACH] += 1
-    return _reach(k, zk - sc[TD_REACH], rho, sc, x_lo, x_hi, arm, chain)[0]
+    return _reach(k, zk - sc[TD_REACH], tp, sc, x_lo, x_hi, arm, chain)[0]
 
 
 # ---------------------------------------------------------------------------------------------- a cell
 @numba.njit(cache=True)
-def _cell(k, alpha, d1, ca, sa, zk, n_s, n_j, entry_ok, ln, sc, radii, frac, sx, sz, outline, x_lo, x_hi, arm,
+def _cell(k, d1, ca, sa, zk, tp, tdr, tcu, n_s, n_j, entry_ok, ln, sc, radii, sx, sz, outline, x_lo, x_hi, arm,
           chain, load_tip, limits, wedge, drag, scratch, counts, c, out_j, out_f, out_m):
     """One cell (k, alpha, d1) of an evaluated line: its penetration's verdicts, its drag, its d2 and curl.
 
-    Writes the cell ``c`` of ``out_j`` (the drag samples of d2, ``NO_DIG`` where none), ``out_f`` (4, n):
-    radius, volume, peak, cum (NaN where infeasible; radius 0) and ``out_m`` (5, n): the constraint masks.
+    ``tp``, ``tdr``, ``tcu``: the pitch terms of its alpha (:func:`_tables`). Writes the cell ``c`` of
+    ``out_j`` (the drag samples of d2, ``NO_DIG`` where none), ``out_f`` (4, n): radius, volume, peak, cum
+    (NaN where infeasible; radius 0) and ``out_m`` (5, n): the constraint masks.
     """
     ds = sc[DS]
-    rho = alpha + sc[EPS]
     # the penetration: the line's samples before d1, then its end point (penetration_lines)
     last = min(max(math.ceil(d1 / ds - 1e-9), 1), n_s) - 1
     ex = k - d1 * ca
     ez = zk - d1 * sa
     p_shape = ln[2, last] != 0 and _shaping(ex, ez, sc)
-    p_sense = ln[3, last] != 0 and _sensible(ex, ez, rho, sc, sx, sz, outline)
+    p_sense = ln[3, last] != 0 and _sensible(ex, ez, tp, sc, sx, sz, outline)
     p_vol = ln[5, last] + _swept(ln[0, last], ln[1, last], ex, ez, sc, sx, sz)
     counts[C_REACH] += 1
     counts[C_FORCE] += 1
-    tab = _in_table(ex, ez, rho, sc, x_lo, x_hi)
-    ik, q0, q1, q2 = solve_pose(arm, chain[0], chain[1], chain[2], chain[3], ex, ez, rho)
+    tab = _in_table(ex, ez, tp[P_PITCH], sc, x_lo, x_hi)
+    ik, q0, q1, q2 = _ik(ex, ez, tp, arm, chain)
     p_reach = ln[4, last] != 0 and tab and ik and entry_ok
     depth = max(_surface(ex, sx, sz) - ez, 0.0)
-    ratio_e, tsum_e = _load(ex, ez, rho, depth, p_vol, ik, q0, q1, q2, sc, wedge, arm, load_tip, limits)
+    ratio_e, tsum_e = _load(tp, depth, p_vol, ik, q0, q1, q2, sc, wedge, arm, load_tip, limits)
     p_peak = math.inf
     if p_reach:
         pl = ln[6, last]
@@ -414,24 +467,21 @@ def _cell(k, alpha, d1, ca, sa, zk, n_s, n_j, entry_ok, ln, sc, radii, frac, sx,
     s_end = min((n_s - 1) * ds, d1)
     x0 = k - s_end * ca
     z0 = zk - s_end * sa
-    dxs, dzs, dps, dvs = drag[0], drag[1], drag[2], drag[3]
-    dpeak, dcum = drag[4], drag[5]
-    zeta, omega = sc[ZETA], sc[OMEGA]
+    dxs, dvs, dpeak, dcum = drag[0], drag[1], drag[2], drag[3]
     j_all = n_j
     run = 0.0
     acc = 0.0
     pk = -math.inf
     a0 = 0.0
     for j in range(n_j):
-        s = j * ds
-        x = x0 - s
-        pitch = max(zeta, rho - omega * s)
+        t = tdr[j]
+        x = x0 - j * ds
         if j:
             run += _swept(dxs[j - 1], z0, x, z0, sc, sx, sz)
         v = p_vol + run
-        dxs[j], dzs[j], dps[j], dvs[j] = x, z0, pitch, v
+        dxs[j], dvs[j] = x, v
         sh = _shaping(x, z0, sc)
-        se = _sensible(x, z0, pitch, sc, sx, sz, outline)
+        se = _sensible(x, z0, t, sc, sx, sz, outline)
         vo = v <= sc[VMAX]
         if j == 0:  # the masks judge the dig with the shortest drag (Feasibility.evaluate)
             out_m[0, c] = p_shape and sh
@@ -441,9 +491,9 @@ def _cell(k, alpha, d1, ca, sa, zk, n_s, n_j, entry_ok, ln, sc, radii, frac, sx,
             f0 = True
             if p_force and sh and se and vo:
                 counts[C_FORCE] += 1
-                ik0, r0, r1, r2 = solve_pose(arm, chain[0], chain[1], chain[2], chain[3], x, z0, pitch)
+                ik0, r0, r1, r2 = _ik(x, z0, t, arm, chain)
                 dep = max(_surface(x, sx, sz) - z0, 0.0)
-                f0 = _load(x, z0, pitch, dep, v, ik0, r0, r1, r2, sc, wedge, arm, load_tip, limits)[0] <= 1.0
+                f0 = _load(t, dep, v, ik0, r0, r1, r2, sc, wedge, arm, load_tip, limits)[0] <= 1.0
             out_m[4, c] = p_force and f0
             if not (p_shape and p_sense and p_reach and p_force):
                 return
@@ -451,13 +501,13 @@ def _cell(k, alpha, d1, ca, sa, zk, n_s, n_j, entry_ok, ln, sc, radii, frac, sx,
             j_all = j
             break
         counts[C_REACH] += 1
-        ok, q0, q1, q2 = _reach(x, z0, pitch, sc, x_lo, x_hi, arm, chain)
+        ok, q0, q1, q2 = _reach(x, z0, t, sc, x_lo, x_hi, arm, chain)
         if not ok:
             j_all = j
             break
         counts[C_FORCE] += 1
         dep = max(_surface(x, sx, sz) - z0, 0.0)
-        ratio, tsum = _load(x, z0, pitch, dep, v, ok, q0, q1, q2, sc, wedge, arm, load_tip, limits)
+        ratio, tsum = _load(t, dep, v, ok, q0, q1, q2, sc, wedge, arm, load_tip, limits)
         if not ratio <= 1.0:
             j_all = j
             break
@@ -472,7 +522,7 @@ def _cell(k, alpha, d1, ca, sa, zk, n_s, n_j, entry_ok, ln, sc, radii, frac, sx,
     best, best_r, best_v, best_p, best_c = NO_DIG, 0.0, 0.0, 0.0, 0.0
     jj = hi
     while jj >= 0:
-        ok, r, cv, cp, cc = _curl(dxs[jj], dzs[jj], dps[jj], dvs[jj], sc, radii, frac, sx, sz, outline, x_lo, x_hi,
+        ok, r, cv, cp, cc = _curl(dxs[jj], z0, dvs[jj], tdr[jj], tcu[jj], sc, radii, sx, sz, outline, x_lo, x_hi,
                                   arm, chain, load_tip, limits, wedge, scratch, counts)
         if ok:
             best, best_r, best_v, best_p, best_c = jj, r, cv, cp, cc
@@ -482,8 +532,8 @@ def _cell(k, alpha, d1, ca, sa, zk, n_s, n_j, entry_ok, ln, sc, radii, frac, sx,
         for up in range(_CURL_STRIDE - 1, 0, -1):
             jj = min(best + up, hi)
             if jj > best:
-                ok, r, cv, cp, cc = _curl(dxs[jj], dzs[jj], dps[jj], dvs[jj], sc, radii, frac, sx, sz, outline,
-                                          x_lo, x_hi, arm, chain, load_tip, limits, wedge, scratch, counts)
+                ok, r, cv, cp, cc = _curl(dxs[jj], z0, dvs[jj], tdr[jj], tcu[jj], sc, radii, sx, sz, outline, x_lo,
+                                          x_hi, arm, chain, load_tip, limits, wedge, scratch, counts)
                 if ok:
                     best, best_r, best_v, best_p, best_c = jj, r, cv, cp, cc
     if best < 0:
@@ -504,16 +554,16 @@ def plan_grid(grid_k, grid_alpha, grid_d1, cos_a, sin_a, surf_k, n_s, n_j, sc, r
     through the goal (§6.2.1), in C order of the grid (see the module docstring)."""
     nk, na, nd = grid_k.size, grid_alpha.size, grid_d1.size
     chain = chain_lengths(arm)
+    t_pen, t_drag, t_curl = _tables(grid_alpha, n_j, frac, sc, arm)
     ln = np.zeros((10, n_s))
-    drag = np.zeros((6, n_j))
-    scratch = np.zeros((5, frac.size))
+    drag = np.zeros((4, n_j))
+    scratch = np.zeros((4, frac.size))
     ds = sc[DS]
     for il in range(nk * na):
         ik, ia = il // na, il % na
-        k, alpha, ca, sa, zk = grid_k[ik], grid_alpha[ia], cos_a[ia], sin_a[ia], surf_k[ik]
-        entry_ok = _line(k, alpha, ca, sa, zk, n_s, sc, sx, sz, outline, x_lo, x_hi, arm, chain, load_tip, limits,
+        k, ca, sa, zk, tp = grid_k[ik], cos_a[ia], sin_a[ia], surf_k[ik], t_pen[ia]
+        entry_ok = _line(k, ca, sa, zk, tp, n_s, sc, sx, sz, outline, x_lo, x_hi, arm, chain, load_tip, limits,
                          wedge, ln, counts)
-        rho = alpha + sc[EPS]
         for id1 in range(nd):
             d1 = grid_d1[id1]
             # the padded penetration's shaping and sensible verdicts (TrenchPlanner.plan): the line's
@@ -528,13 +578,13 @@ def plan_grid(grid_k, grid_alpha, grid_d1, cos_a, sin_a, surf_k, n_s, n_j, sc, r
                 full_sense = full_sense and ln[9, i] != 0
             if cnt < n_s:
                 full_shape = full_shape and _shaping(ex, ez, sc)
-                full_sense = full_sense and _sensible(ex, ez, rho, sc, sx, sz, outline)
+                full_sense = full_sense and _sensible(ex, ez, tp, sc, sx, sz, outline)
             if not full_shape:
                 break  # pruned: every longer penetration of the line contains this one
             c = il * nd + id1
             out_alive[c] = True
-            _cell(k, alpha, d1, ca, sa, zk, n_s, n_j, entry_ok, ln, sc, radii, frac, sx, sz, outline, x_lo, x_hi,
-                  arm, chain, load_tip, limits, wedge, drag, scratch, counts, c, out_j, out_f, out_m)
+            _cell(k, d1, ca, sa, zk, tp, t_drag[ia], t_curl[ia], n_s, n_j, entry_ok, ln, sc, radii, sx, sz, outline,
+                  x_lo, x_hi, arm, chain, load_tip, limits, wedge, drag, scratch, counts, c, out_j, out_f, out_m)
             out_m[1, c] = out_m[1, c] and full_sense
 
 
@@ -545,21 +595,22 @@ def plan_cells(cells, grid_k, grid_alpha, grid_d1, cos_a, sin_a, surf_k, n_s, n_
     a line is evaluated once for consecutive cells on it (sort them for that)."""
     na, nd = grid_alpha.size, grid_d1.size
     chain = chain_lengths(arm)
+    t_pen, t_drag, t_curl = _tables(grid_alpha, n_j, frac, sc, arm)
     ln = np.zeros((10, n_s))
-    drag = np.zeros((6, n_j))
-    scratch = np.zeros((5, frac.size))
+    drag = np.zeros((4, n_j))
+    scratch = np.zeros((4, frac.size))
     prev = -1
     entry_ok = False
     for c in range(cells.size):
         il, id1 = cells[c] // nd, cells[c] % nd
         ik, ia = il // na, il % na
-        k, alpha, ca, sa, zk = grid_k[ik], grid_alpha[ia], cos_a[ia], sin_a[ia], surf_k[ik]
+        k, ca, sa, zk, tp = grid_k[ik], cos_a[ia], sin_a[ia], surf_k[ik], t_pen[ia]
         if il != prev:
-            entry_ok = _line(k, alpha, ca, sa, zk, n_s, sc, sx, sz, outline, x_lo, x_hi, arm, chain, load_tip,
-                             limits, wedge, ln, counts)
+            entry_ok = _line(k, ca, sa, zk, tp, n_s, sc, sx, sz, outline, x_lo, x_hi, arm, chain, load_tip, limits,
+                             wedge, ln, counts)
             prev = il
-        _cell(k, alpha, grid_d1[id1], ca, sa, zk, n_s, n_j, entry_ok, ln, sc, radii, frac, sx, sz, outline, x_lo,
-              x_hi, arm, chain, load_tip, limits, wedge, drag, scratch, counts, c, out_j, out_f, out_m)
+        _cell(k, grid_d1[id1], ca, sa, zk, tp, t_drag[ia], t_curl[ia], n_s, n_j, entry_ok, ln, sc, radii, sx, sz,
+              outline, x_lo, x_hi, arm, chain, load_tip, limits, wedge, drag, scratch, counts, c, out_j, out_f, out_m)
 
 
 # ---------------------------------------------------------------------------------------------- Python side

@@ -52,9 +52,15 @@ def solve_pose(p, l1, l2, b0, b1, x, z, pitch):
     Returns:
         ``(ok, q0, q1, q2)``: whether the pose is reachable, and its joint angles (meaningless where not).
     """
-    sx, sz = p[0], p[1]
     th3 = pitch + math.pi - p[11]
-    c3, s3 = math.cos(th3), math.sin(th3)
+    return solve_pose_turned(p, l1, l2, b0, b1, x, z, pitch, th3, math.cos(th3), math.sin(th3))
+
+
+@numba.njit(cache=True)
+def solve_pose_turned(p, l1, l2, b0, b1, x, z, pitch, th3, c3, s3):
+    """:func:`solve_pose` given the wrist link's turn ``th3 = pitch + pi - blade_angle0`` and its cosine and
+    sine (for callers that meet the same pitch many times)."""
+    sx, sz = p[0], p[1]
     wx = x - (c3 * p[6] - s3 * p[7])
     wz = z - (s3 * p[6] + c3 * p[7])
     dx, dz = wx - sx, wz - sz
