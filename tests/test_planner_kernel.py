@@ -183,3 +183,21 @@ def test_the_kernel_matches_the_reference_evaluation_directly(arm, reach_table):
     assert ok.sum() > 100 and len(np.unique(ref.radius[ok])) > 1  # more than the smallest radius occurs
     for key in ("volume", "peak", "cum"):
         np.testing.assert_allclose(getattr(out, key)[idx][ok], getattr(ref, key)[ok], rtol=1e-9, err_msg=key)
+
+
+def test_annealing_with_the_kernel_chooses_what_it_chose_with_the_reference(arm, reach_table):
+    from excavsim.planning.anneal import anneal
+
+    planner = planner_for(arm, reach_table, "sand", limits=WEAK)
+    emap = make_map("dug", "sand")
+    fast = anneal(planner, emap, seed=2)
+    planner.kernel = False
+    ref = anneal(planner, emap, seed=2)
+    assert fast.action is not None and fast.action == ref.action and fast.cell == ref.cell
+    np.testing.assert_array_equal(fast.evaluated, ref.evaluated)
+    for key in ("volume_m3", "peak_torque_ratio", "cumulative_torque", "curl_radius_m"):
+        assert getattr(fast, key) == pytest.approx(getattr(ref, key), rel=1e-9), key
+    planner.kernel = True
+    exhaustive = planner.plan(emap)  # the kernel's cells are the plan's, bit for bit
+    c = fast.cell
+    assert fast.volume_m3 == exhaustive.volume[c] and fast.peak_torque_ratio == exhaustive.peak_torque_ratio[c]
