@@ -12,12 +12,15 @@ $(PY):
 	$(PYTHON) -m venv $(VENV)
 	$(PY) -m pip install --quiet --upgrade pip
 
+# after installing, compile the numba kernels once (about 15 s of CPU) so that the first run starts warm
 $(STAMP_RUN): pyproject.toml | $(PY)
 	$(PY) -m pip install --quiet -e .
+	$(VENV)/bin/excavsim warmup
 	touch $@
 
 $(STAMP_DEV): pyproject.toml | $(PY)
 	$(PY) -m pip install --quiet -e ".[dev]"
+	$(VENV)/bin/excavsim warmup
 	touch $@ $(STAMP_RUN)
 
 # one default trenching episode, headless, recorded for the Rerun viewer (`excavsim replay runs/demo.rrd`)

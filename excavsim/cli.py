@@ -294,6 +294,13 @@ def _cmd_regress(args: argparse.Namespace) -> int:
     return 0
 
 
+def _cmd_warmup(args: argparse.Namespace) -> int:
+    from excavsim.loop.warmup import warm_up
+
+    warm_up()
+    return 0
+
+
 def _cmd_bench(args: argparse.Namespace) -> int:
     from excavsim.bench import BENCHMARKS, run_benchmarks
 
@@ -582,6 +589,10 @@ def build_parser() -> argparse.ArgumentParser:
     regress.add_argument("--json", action="store_true",
                          help="print the result as JSON on stdout (progress goes to stderr)")
     regress.set_defaults(func=_cmd_regress)
+
+    warm = sub.add_parser("warmup", help="compile every numba kernel into the cache (make runs it after installing), "
+                                          "so the first run starts warm")
+    warm.set_defaults(func=_cmd_warmup)
 
     bench = sub.add_parser("bench", help="run benchmarks and print one table of numbers and ratios")
     bench.add_argument("names", nargs="*", metavar="NAME", help="benchmarks to run (default: all)")

@@ -39,3 +39,12 @@ def test_the_table_says_which_targets_are_missed(monkeypatch):
     slow = next(line for line in lines if line.startswith("slow thing"))
     assert " met " in fast and "MISSED" in slow
     assert "targets: 1 of 2 met; missed: slow thing (90 ms, target <= 50)" in text
+
+
+def test_warm_up_runs_an_episode_and_the_reference_planner():
+    from excavsim.loop.warmup import warm_up
+
+    lines: list[str] = []
+    seconds = warm_up(say=lines.append)
+    assert seconds > 0 and lines[-1].startswith("warm: ")
+    assert any("short episode" in line for line in lines) and any("reference path" in line for line in lines)
