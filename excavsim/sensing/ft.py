@@ -28,6 +28,14 @@ tool): ``F_env = -F_wrist - m g`` and, about the tip point t, ``M_env = -M_wrist
 - (c - t) × m g`` with s the sensor origin, c the bucket's centre of mass and m its mass, both read
 from the model. The bucket's acceleration is ignored (as in the thesis' statics, App. 2): while the
 arm accelerates, the reading is off by the bucket's inertial force ``m a`` (28 kg × a).
+
+Speed: the executor reads the sensor every control step. :meth:`ForceSensor.reading_into` does the
+validation and the balance in compiled code (:func:`wrench_kernel`) around MuJoCo's kinematics,
+with the arithmetic of the numpy reference (:func:`environment_wrench`, which :meth:`ForceSensor.reading`
+keeps using): the same products and sums in the same order, and for the rotation into world axes
+the fused multiply-adds of the BLAS product numpy calls (:func:`compiled_matches_numpy` checks on
+first use that they give numpy's numbers bit for bit on this machine; where they do not, the
+sensor computes with numpy instead).
 """
 
 from __future__ import annotations
@@ -36,7 +44,11 @@ import dataclasses
 import math
 
 import mujoco
+import numba
 import numpy as np
+from llvmlite import ir
+from numba import types
+from numba.extending import intrinsic
 
 from excavsim import constants
 from excavsim.config import ForceSensorConfig
@@ -108,6 +120,108 @@ def _cross3(a: np.ndarray, b: np.ndarray) -> np.ndarray:
     return np.array([a[1] * b[2] - a[2] * b[1], a[2] * b[0] - a[0] * b[2], a[0] * b[1] - a[1] * b[0]])
 
 
+@intrinsic
+def _fma(typingctx, a, b, c):
+    """``a * b + c`` rounded once (LLVM's fma), as the BLAS kernels numpy's matrix products use."""
+    sig = types.float64(types.float64, types.float64, types.float64)
+
+    def codegen(context, builder, signature, args):
+        d = ir.DoubleType()
+        fn = builder.module.declare_intrinsic("llvm.fma", [d], ir.FunctionType(d, [d, d, d]))
+        return builder.call(fn, args)
+
+    return sig, codegen
+
+
+@numba.njit(cache=True, inline="always")
+def _rot_row(m, off, v0, v1, v2):
+    """Row ``off // 3`` of a row-major 3x3 matrix ``m[off:off + 9]`` times (v0, v1, v2), in the order
+    of the BLAS ``gemv`` numpy calls for ``(3, 3) @ (3,)``: fma(a2, x2, fma(a0, x0, a1 * x1))."""
+    return _fma(m[off + 2], v2, _fma(m[off], v0, m[off + 1] * v1))
+
+
+@numba.njit(cache=True)
+def wrench_kernel(force, torque, xmat, xpos, com, ft_site, tip_site, bucket, weight, out):
+    """The environment's wrench about the tip from one wrist reading, as :func:`environment_wrench`
+    computes it for one reading (same operations, same order), straight from MuJoCo's arrays.
+
+    Args:
+        force, torque: (3,) the wrist reading (sensor frame) [N, N m].
+        xmat, xpos: ``site_xmat`` (nsite, 9) and ``site_xpos`` (nsite, 3) of the sensor's MjData.
+        com: ``subtree_com`` (nbody, 3); ft_site, tip_site, bucket: the sensor site, tip site and bucket body.
+        weight: (3,) the bucket's weight [N].
+        out: (4, 3) written: force_tip, torque_tip, force_world, torque_world.
+
+    Returns:
+        False (and ``out`` untouched) when the reading is not finite.
+    """
+    for k in range(3):
+        if not (math.isfinite(force[k]) and math.isfinite(torque[k])):
+            return False
+    sr = xmat[ft_site]
+    tr = xmat[tip_site]
+    fw = np.empty(3)
+    mw = np.empty(3)
+    for k in range(3):
+        fw[k] = _rot_row(sr, 3 * k, force[0], force[1], force[2])
+        mw[k] = _rot_row(sr, 3 * k, torque[0], torque[1], torque[2])
+    fe = np.empty(3)
+    sp = np.empty(3)
+    cp = np.empty(3)
+    for k in range(3):
+        fe[k] = -fw[k] - weight[k]
+        sp[k] = xpos[ft_site, k] - xpos[tip_site, k]
+        cp[k] = com[bucket, k] - xpos[tip_site, k]
+    for k in range(3):
+        i, j = (k + 1) % 3, (k + 2) % 3
+        c1 = sp[i] * fw[j] - sp[j] * fw[i]
+        c2 = cp[i] * weight[j] - cp[j] * weight[i]
+        out[3, k] = -mw[k] - c1 - c2
+        out[2, k] = fe[k]
+    for k in range(3):  # tip_rot.T @ v: numpy's own loop, sums in order
+        out[0, k] = tr[k] * fe[0] + tr[3 + k] * fe[1] + tr[6 + k] * fe[2]
+        out[1, k] = tr[k] * out[3, 0] + tr[3 + k] * out[3, 1] + tr[6 + k] * out[3, 2]
+    return True
+
+
+@numba.njit(cache=True)
+def _finite_q(q, qpos, qadr):
+    """Write the joint angles ``q`` into ``qpos`` at ``qadr``; False (nothing written) if one is not finite."""
+    for k in range(q.shape[0]):
+        if not math.isfinite(q[k]):
+            return False
+    for k in range(q.shape[0]):
+        qpos[qadr[k]] = q[k]
+    return True
+
+
+_MATCHES: list[bool] = []
+
+
+def compiled_matches_numpy(n: int = 2000) -> bool:
+    """Whether :func:`wrench_kernel` gives :func:`environment_wrench`'s numbers bit for bit on this
+    machine (checked once, on ``n`` random readings and frames; the BLAS kernel numpy's matrix
+    product runs, and so its rounding, depends on the CPU)."""
+    if not _MATCHES:
+        rng = np.random.default_rng(17)
+        ok = True
+        out = np.empty((4, 3))
+        for _ in range(n):
+            rot = [rng.normal(size=(3, 3)) for _ in range(2)]
+            xmat = np.stack([r.ravel() for r in rot])
+            xpos = rng.normal(size=(2, 3))
+            com, weight = rng.normal(size=(1, 3)), rng.normal(size=3) * 300.0
+            f, t = rng.normal(size=3) * 500.0, rng.normal(size=3) * 200.0
+            ref = environment_wrench(f, t, sensor_rot=rot[0], sensor_pos=xpos[0], tip_rot=rot[1], tip_pos=xpos[1],
+                                     com=com[0], weight=weight)
+            wrench_kernel(f, t, xmat, xpos, com, 0, 1, 0, weight, out)
+            if not all(np.array_equal(r, o) for r, o in zip(ref, out)):
+                ok = False
+                break
+        _MATCHES.append(ok)
+    return _MATCHES[0]
+
+
 class ForceSensor:
     """The wrist F/T sensor programmed to report the soil's wrench at the bucket tip, at a fixed rate.
 
@@ -141,6 +255,11 @@ class ForceSensor:
                              f"(the sensor measures the bucket subtree)")
         self.bucket_mass_kg = float(model.body_subtreemass[self._bucket])
         self._weight = self.bucket_mass_kg * np.asarray(model.opt.gravity, dtype=float)
+        # views into the private MjData for the compiled reading (they live as long as ``_data``)
+        d = self._data
+        self._qpos, self._xmat, self._xpos, self._com = d.qpos, d.site_xmat, d.site_xpos, d.subtree_com
+        self._qshape = (len(self._qadr),)
+        self._fast = compiled_matches_numpy()
         self.reset()
 
     @classmethod
@@ -168,6 +287,29 @@ class ForceSensor:
             "tip_pos": d.site_xpos[self._tip_site].copy(),
             "com": d.subtree_com[self._bucket].copy(),
         }
+
+    def reading_into(self, obs: Observation, out: np.ndarray) -> np.ndarray:
+        """:meth:`reading`'s four vectors written into ``out`` (4, 3): force_tip, torque_tip,
+        force_world, torque_world, equal to it bit for bit; the executor's per-step reading, without
+        the copies and the :class:`FTReading`.
+
+        Raises:
+            ExcavsimError: as :meth:`reading`.
+        """
+        q, f, t = getattr(obs, "q", None), getattr(obs, "ft_force", None), getattr(obs, "ft_torque", None)
+        if not (self._fast and type(q) is np.ndarray and type(f) is np.ndarray and type(t) is np.ndarray
+                and q.dtype == f.dtype == t.dtype == np.float64 and q.shape == self._qshape
+                and f.shape == (3,) and t.shape == (3,) and _finite_q(q, self._qpos, self._qadr)
+                and math.isfinite(obs.time)):
+            r = self.reading(obs)  # the reference: validates (and raises) the same way
+            out[0], out[1], out[2], out[3] = r.force_tip, r.torque_tip, r.force_world, r.torque_world
+            return out
+        mujoco.mj_kinematics(self.model, self._data)
+        mujoco.mj_comPos(self.model, self._data)
+        if not wrench_kernel(f, t, self._xmat, self._xpos, self._com, self._ft_site, self._tip_site, self._bucket,
+                             self._weight, out):
+            _checked(obs, len(self._qadr))  # raises: the reading is not finite
+        return out
 
     def reading(self, obs: Observation) -> FTReading:
         """The environment's wrench on the bucket about its tip, from one observation (static balance).
