@@ -2,12 +2,17 @@
 
 A path's length counts the turn of the bucket as ``pitch_radius_m`` times its angle, so that a
 path that mostly turns the bucket (the curl, the pour) still takes time to follow.
+
+The follower moves every control step: :meth:`PathFollower.advance` interpolates with the compiled
+:func:`interp_pose`, which computes what :func:`point_at` (``np.interp`` per coordinate) does, bit
+for bit.
 """
 
 from __future__ import annotations
 
 import math
 
+import numba
 import numpy as np
 
 
@@ -35,6 +40,50 @@ def point_at(path: np.ndarray, s: float, cum: np.ndarray) -> np.ndarray:
     return np.array([np.interp(s, cum, path[:, k]) for k in range(3)])
 
 
+@numba.njit(cache=True)
+def interp_pose(path, s, cum, out):
+    """:func:`point_at` into ``out`` (3,), compiled: ``np.interp``'s arithmetic (the last vertex at or
+    before ``s``; its pose exactly when ``s`` falls on it or at the end; else the slope times the
+    distance from it, with numpy's fallbacks where that is not a number) with ``s`` clamped to the path."""
+    n = cum.shape[0]
+    if cum[n - 1] <= 0:
+        for k in range(3):
+            out[k] = path[n - 1, k]
+        return
+    if math.isnan(s):
+        for k in range(3):
+            out[k] = s
+        return
+    if s < cum[0]:
+        for k in range(3):
+            out[k] = path[0, k]
+        return
+    if s > cum[n - 1]:
+        for k in range(3):
+            out[k] = path[n - 1, k]
+        return
+    lo, hi = 0, n  # the last j with cum[j] <= s (cum never decreases)
+    while lo < hi:
+        mid = lo + ((hi - lo) >> 1)
+        if s >= cum[mid]:
+            lo = mid + 1
+        else:
+            hi = mid
+    j = lo - 1
+    if j == n - 1 or cum[j] == s:
+        for k in range(3):
+            out[k] = path[j, k]
+        return
+    for k in range(3):
+        slope = (path[j + 1, k] - path[j, k]) / (cum[j + 1] - cum[j])
+        v = slope * (s - cum[j]) + path[j, k]
+        if math.isnan(v):
+            v = slope * (s - cum[j + 1]) + path[j + 1, k]
+            if math.isnan(v) and path[j, k] == path[j + 1, k]:
+                v = path[j, k]
+        out[k] = v
+
+
 class PathFollower:
     """A cursor that moves along a pose path at a fixed speed, one control step at a time.
 
@@ -48,20 +97,24 @@ class PathFollower:
 
     def __init__(self, path: np.ndarray, speed: float, pitch_radius_m: float, cut_from: float = math.inf):
         self.path = path
+        self._path = np.ascontiguousarray(path, dtype=np.float64)  # one layout for the compiled interpolation
         self.speed = speed
         self.cum = np.concatenate([[0.0], np.cumsum(segment_lengths(path, pitch_radius_m))])
+        self._end = float(self.cum[-1])
         self.cut_from = cut_from
         self.s = 0.0  # the cursor's length along the path [m]
 
     def advance(self, dt: float) -> np.ndarray:
         """Move the cursor on by ``dt`` [s] (not past the end) and return the pose (3,) there."""
-        self.s = min(self.s + self.speed * dt, float(self.cum[-1]))
-        return point_at(self.path, self.s, self.cum)
+        self.s = min(self.s + self.speed * dt, self._end)
+        out = np.empty(3)
+        interp_pose(self._path, self.s, self.cum, out)
+        return out
 
     @property
     def at_end(self) -> bool:
         """The cursor has reached the end of the path."""
-        return bool(self.s >= self.cum[-1])
+        return self.s >= self._end
 
     @property
     def in_cut(self) -> bool:

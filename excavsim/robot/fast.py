@@ -147,3 +147,24 @@ def ik_torques(p, poses, wrench, payload, load_tip, want_torques, q_out, ok_out,
         tau_out[i, 0] = t0
         tau_out[i, 1] = t1
         tau_out[i, 2] = t2
+
+
+@numba.njit(cache=True)
+def forward_pose(p, q0, q1, q2):
+    """The tip pose (x, z, pitch) at planar joint angles (q0, q1, q2), as
+    :meth:`~excavsim.robot.kinematics.PlanarArm.forward` computes it (the same operations in the same
+    order: cumulative link angles, the links' rotated vectors summed from the shoulder, the pitch wrapped).
+
+    Args:
+        p: :func:`arm_params`.
+    """
+    h0 = q0 * p[8]
+    h1 = h0 + q1 * p[9]
+    h2 = h1 + q2 * p[10]
+    x = 0.0
+    z = 0.0
+    for k, h in enumerate((h0, h1, h2)):
+        c, s = math.cos(h), math.sin(h)
+        lx, lz = p[2 + 2 * k], p[3 + 2 * k]
+        x, z = x + (c * lx - s * lz), z + (s * lx + c * lz)  # sum() starts from 0 too
+    return p[0] + x, p[1] + z, _wrap(p[11] + h2 - math.pi)
