@@ -25,6 +25,15 @@ the dig ends at once with outcome ``diverged``; when the episode's wall-clock li
 (:class:`~excavsim.handoff.observation.OutOfTime`), with ``timeout: ...``. Besides the script's own
 time limit in simulated time, the executor counts its control steps and stops the script as
 ``timeout in step ...`` once they cover that limit, so a clock that stalls cannot hold a dig forever.
+
+Speed: the loop runs every control step (38 000 in the default episode). By default the executor
+runs the script on a :class:`~excavsim.execution.script.CompiledEngine` and does a tick's work in
+one or two calls of the compiled :func:`_tick_kernel` (the engine's tick, the path cursor, IK, the
+report, the stall watch, the engine's end of tick), with the F/T reading from
+:meth:`~excavsim.sensing.ft.ForceSensor.reading_into`; Python only lays out paths, announces steps,
+records at the F/T rate and handles stalls and timeouts. ``DigExecutor(..., reference=True)`` (and
+compliance, which the compiled loop does not do) runs the original Python loop on
+:class:`~excavsim.execution.script.ScriptEngine`: both give the same dig to the bit (tested).
 """
 
 from __future__ import annotations
@@ -32,6 +41,7 @@ from __future__ import annotations
 import math
 from collections.abc import Callable
 
+import numba
 import numpy as np
 
 from excavsim import constants
@@ -39,11 +49,13 @@ from excavsim.config import ExecutorConfig
 from excavsim.errors import ExcavsimError
 from excavsim.execution.conditions import (Sense, all_of, always, any_of, event, force_above, force_below, held,
                                            past, path_done, path_end, reached, settled, started, timed_out)
-from excavsim.execution.paths import PathFollower, path_length
-from excavsim.execution.script import Abort, Command, Script, ScriptEngine, Step, Stop, SubScript, Transition, Watch
+from excavsim.execution.paths import PathFollower, interp_pose, path_length
+from excavsim.execution.script import (_S_PATH, _S_TG0, _S_TGN, Abort, Command, CompiledEngine, Script, ScriptEngine,
+                                       Step, Stop, SubScript, Transition, Watch, engine_end_tick, engine_report,
+                                       engine_tick)
 from excavsim.handoff.dig import DigPlan, ExecutionRecord
 from excavsim.handoff.observation import Diverged, Observation, OutOfTime, Servos
-from excavsim.robot.fast import arm_params, ik_torques
+from excavsim.robot.fast import arm_params, chain_lengths, forward_pose, ik_torques, solve_pose
 from excavsim.robot.kinematics import PlanarArm
 from excavsim.sensing.ft import ForceSensor, FTReading
 
@@ -136,10 +148,14 @@ class DigExecutor:
         cfg: the script's numbers.
         ft: the wrist F/T sensor reporting at the bucket tip.
         park: (6,) joint angles of the park pose, the model's keyframe [rad].
+        reference: run the original Python loop (:class:`ScriptEngine`, :meth:`ForceSensor.reading`)
+            instead of the compiled one; the same dig to the bit, ten times slower.
     """
 
-    def __init__(self, sim: Servos, arm: PlanarArm, cfg: ExecutorConfig, ft: ForceSensor, park: np.ndarray):
+    def __init__(self, sim: Servos, arm: PlanarArm, cfg: ExecutorConfig, ft: ForceSensor, park: np.ndarray, *,
+                 reference: bool = False):
         self.sim = sim
+        self.reference = reference
         self.arm = arm
         self.cfg = cfg
         self.ft = ft
@@ -175,15 +191,119 @@ class DigExecutor:
         rec = ExecutionRecord(planned_volume_m3=plan.volume_m3, touch_expected_z=expected)
         script = dig_script(plan, self.arm, self.cfg, self.park)
         rec.script_text = script.describe()
-        engine = ScriptEngine(script)
-        joints = [[self._names.index(j) for j in sub.joints] for sub in script.subscripts]
-        paths: list[PathFollower | None] = [None] * len(joints)  # the path each sub-script follows
-        stall = _StallWatch(self.cfg, sim.torque_limit[self._arm_idx])
         weighed: list[float] = []  # F/T weight of the load while the lifted bucket is held [N]
         target = sim.observe().q.copy()  # hold still until the first commands; this reading draws F/T noise too
         obs = sim.observe()
         # the script's time limit counted in steps (the engine's own check reads the clock, a tick earlier)
         max_steps = math.ceil(script.timeout_s / sim.control_dt) + 2 if script.timeout_s else math.inf
+        compiled = not self.reference and self.cfg.compliance == "off" and all(
+            not st.command.path for k, sub in enumerate(script.subscripts) if k != ARM_SUB for st in sub.steps)
+        loop = self._loop if compiled else self._loop_reference
+        engine, obs = loop(plan, script, rec, target, obs, weighed, max_steps, announce)
+        if engine.stop is not None:
+            try:
+                self._conclude(rec, engine.stop, bool(engine.timeouts), announce)
+            except ExcavsimError as exc:  # while parking after an abort
+                self._failed(rec, exc)
+        rec.lifted_load_n = float(np.median(weighed)) if weighed else math.nan
+        names = [tr.name for tr in engine.transitions if tr.subscript == ARM_SUB]
+        times = [tr.time for tr in engine.transitions if tr.subscript == ARM_SUB] + [obs.time]
+        rec.phase_times = {n: times[i + 1] - times[i] for i, n in enumerate(names)}
+        rec.phase_starts = {n: times[i] for i, n in enumerate(names)}
+        return rec
+
+    def _loop(self, plan: DigPlan, script: Script, rec: ExecutionRecord, target: np.ndarray, obs: Observation,
+              weighed: list[float], max_steps: float, announce: Callable[[str, ExecutionRecord], None]
+              ) -> tuple[CompiledEngine, Observation]:
+        """The control loop, compiled: :meth:`_loop_reference`'s work in the same order, with a tick's
+        per-step part in :func:`_tick_kernel` (see the module docstring). Returns the engine and the
+        last observation."""
+        sim, cfg = self.sim, self.cfg
+        engine = CompiledEngine(script, self._names)
+        prog, state = engine.prog, engine.state
+        paths: list[PathFollower | None] = [None] * len(script.subscripts)
+        arm_idx = np.asarray(self._arm_idx, dtype=np.int64)
+        limit = np.asarray(sim.torque_limit, dtype=np.float64)[arm_idx]
+        # cursor s, speed, end, cut_from, stall since (NaN: not), control dt, stall fraction, error, time
+        fs = np.array([0.0, 0.0, 0.0, math.inf, math.nan, sim.control_dt, cfg.stall_torque_fraction,
+                       cfg.stall_error_rad, cfg.stall_time_s])
+        out = np.zeros(4, dtype=np.int64)  # stalled joint
+        pose = np.zeros(3)
+        ftw = np.zeros((4, 3))
+        chain = np.array(chain_lengths(self._ik_params))
+        no_path = np.zeros((1, 3)), np.zeros(1)
+        path_arrays = no_path
+        hold_lifted = [st.name for st in script.subscripts[ARM_SUB].steps].index("hold lifted") \
+            if any(st.name == "hold lifted" for st in script.subscripts[ARM_SUB].steps) else -1
+        period = 1.0 / self.ft.rate_hz - 1e-9
+        last_record = -math.inf
+        steps = 0
+        while True:
+            self.ft.reading_into(obs, ftw)
+            q = obs.q
+            flags = _tick_kernel(True, prog, state, obs.time, q, obs.actuator_force, ftw, target, arm_idx,
+                                 self._ik_params, chain, path_arrays[0], path_arrays[1], fs, limit, pose, out)
+            if flags & _F_TICKED:  # new steps (lay out their paths, announce them) or an abort
+                engine._sync()
+                for tr in engine.transitions[len(engine.transitions) - int(out[1]):]:
+                    cmd = script.subscripts[tr.subscript].steps[tr.step].command
+                    paths[tr.subscript] = self._lay_out(cmd, q, plan, rec) if cmd.path else None
+                    if tr.subscript == ARM_SUB:
+                        p = paths[ARM_SUB]
+                        path_arrays = (p._path, p.cum) if p is not None else no_path
+                        fs[:4] = (p.s, p.speed, p._end, p.cut_from) if p is not None else (0.0, 0.0, 0.0, math.inf)
+                        announce(tr.name, rec)
+                if engine.stop is not None:
+                    break
+                flags = _tick_kernel(False, prog, state, obs.time, q, obs.actuator_force, ftw, target, arm_idx,
+                                     self._ik_params, chain, path_arrays[0], path_arrays[1], fs, limit, pose, out)
+            if flags & (_F_LATE | _F_STOP):
+                engine._sync()
+            p = paths[ARM_SUB]
+            if p is not None:
+                p.s = float(fs[0])
+                if flags & _F_CUT:
+                    rec.executed_path.append(pose.copy())
+                if flags & _F_STALL:
+                    j = int(out[0])
+                    rec.stall = {"joint": ARM[j], "time": obs.time, "tip": pose.copy(),
+                                 "torque": float(obs.actuator_force[self._arm_idx[j]])}
+                    target[self._arm_idx] = q[self._arm_idx]
+                    p = paths[ARM_SUB] = PathFollower(np.asarray(rec.executed_path)[::-1], p.speed, cfg.pitch_radius_m)
+                    path_arrays = (p._path, p.cum)
+                    fs[:4] = (p.s, p.speed, p._end, p.cut_from)
+            if obs.time - last_record >= period:  # _record
+                last_record = obs.time
+                rec.times.append(obs.time)
+                rec.ft.append((obs.time, ftw[0].copy()))
+                rec.torques.append(obs.actuator_force.copy())
+            if state[0][ARM_SUB] == hold_lifted:  # weigh the load (the environment pulls down)
+                weighed.append(-float(ftw[2, 2]))
+            if flags & _F_LATE:
+                for late in engine.timeouts[len(engine.timeouts) - int(out[2]):]:
+                    self._warn_late(rec, script, late, q, target)
+            if engine.stop is None and steps >= max_steps:
+                engine.stop = Stop(obs.time, "timeout", step=engine.current(ARM_SUB).name)
+            if engine.stop is not None:
+                break
+            try:
+                obs = sim.track(target)
+            except ExcavsimError as exc:  # a physical failure of the simulation: report, do not raise
+                self._failed(rec, exc)
+                break
+            steps += 1
+        return engine, obs
+
+    def _loop_reference(self, plan: DigPlan, script: Script, rec: ExecutionRecord, target: np.ndarray,
+                        obs: Observation, weighed: list[float], max_steps: float,
+                        announce: Callable[[str, ExecutionRecord], None]) -> tuple[ScriptEngine, Observation]:
+        """The control loop in Python on :class:`ScriptEngine` (the reference for :meth:`_loop`, and
+        the loop with compliance on). Returns the engine and the last observation."""
+        sim = self.sim
+        engine = ScriptEngine(script)
+        joints = [[self._names.index(j) for j in sub.joints] for sub in script.subscripts]
+        paths: list[PathFollower | None] = [None] * len(joints)  # the path each sub-script follows
+        stall = _StallWatch(self.cfg, sim.torque_limit[self._arm_idx])
         steps = 0
         while True:
             reading = self.ft.reading(obs)
@@ -223,17 +343,7 @@ class DigExecutor:
                 self._failed(rec, exc)
                 break
             steps += 1
-        if engine.stop is not None:
-            try:
-                self._conclude(rec, engine.stop, bool(engine.timeouts), announce)
-            except ExcavsimError as exc:  # while parking after an abort
-                self._failed(rec, exc)
-        rec.lifted_load_n = float(np.median(weighed)) if weighed else math.nan
-        names = [tr.name for tr in engine.transitions if tr.subscript == ARM_SUB]
-        times = [tr.time for tr in engine.transitions if tr.subscript == ARM_SUB] + [obs.time]
-        rec.phase_times = {n: times[i + 1] - times[i] for i, n in enumerate(names)}
-        rec.phase_starts = {n: times[i] for i, n in enumerate(names)}
-        return rec
+        return engine, obs
 
     def _lay_out(self, cmd: Command, q: np.ndarray, plan: DigPlan, rec: ExecutionRecord) -> PathFollower:
         """The path a path command names, laid out as its step starts with the joints at ``q`` (6,)."""
@@ -404,3 +514,86 @@ class _StallWatch:
             return None
         self.since = time if self.since is None else self.since
         return int(np.argmax(bad)) if time - self.since >= self.cfg.stall_time_s else None
+
+
+_F_TICKED, _F_CUT, _F_STALL, _F_LATE, _F_STOP = 1, 2, 4, 8, 16
+
+
+@numba.njit(cache=True)
+def _tick_kernel(tick, prog, state, time, q, torque, ftw, target, arm_idx, ik, chain, path, cum, fs, limit, pose, out):
+    """One control tick of :meth:`DigExecutor._loop` in compiled code (the reference's operations, in its order).
+
+    With ``tick``: the engine's tick; when it made transitions or stopped, returns ``_F_TICKED`` at
+    once with their number in ``out[1]`` (the caller lays out their paths and calls again without
+    ``tick``). Then each sub-script's command: a path (the arm's) moves its cursor ``fs[0]`` by
+    ``speed x dt`` (:meth:`PathFollower.advance`), solves IK (:func:`~excavsim.robot.fast.solve_pose`,
+    as :meth:`DigExecutor._inverse`), sets the arm's ``target`` where reachable and reports it; joint
+    targets are copied into ``target``. In the cut (``fs[0] >= fs[3]``) the tip pose is written to
+    ``pose`` (``_F_CUT``) and the stall watch runs (:class:`_StallWatch`; ``_F_STALL`` with the joint in
+    ``out[0]``). Last the engine's end of tick (``_F_LATE`` with the number of timeouts in ``out[2]``,
+    ``_F_STOP`` when the script stopped).
+
+    Args:
+        q, torque: (6,) joint angles and actuator forces; ftw: (4, 3) the F/T reading
+            (:meth:`~excavsim.sensing.ft.ForceSensor.reading_into`); target: (6,) the joint targets, updated.
+        arm_idx: (3,) the planar joints; ik, chain: :func:`~excavsim.robot.fast.arm_params` and its
+            :func:`~excavsim.robot.fast.chain_lengths`; path, cum: the arm's path and its cumulative lengths.
+        fs: cursor, speed, end, cut_from, stall since (NaN: not), dt, stall fraction, error and time.
+        limit: (3,) the planar joints' relief torques.
+    """
+    f = ftw[0]
+    fnorm = math.sqrt(f[0] * f[0] + f[1] * f[1] + f[2] * f[2])
+    if tick:
+        n = engine_tick(prog, state, time, q, fnorm)
+        if n > 0 or state[11][0] != 0:
+            out[1] = n
+            return _F_TICKED
+    flags = 0
+    steps, jl, subs, tg = prog[3], prog[2], prog[7], prog[5]
+    index = state[0]
+    for i in range(subs.shape[0]):
+        g = subs[i, 0] + index[i]
+        if steps[g, _S_PATH]:
+            s = fs[0] + fs[1] * fs[5]
+            if fs[2] < s:
+                s = fs[2]
+            fs[0] = s
+            interp_pose(path, s, cum, pose)
+            ok, q0, q1, q2 = solve_pose(ik, chain[0], chain[1], chain[2], chain[3], pose[0], pose[1], pose[2])
+            if ok:
+                target[arm_idx[0]] = q0
+                target[arm_idx[1]] = q1
+                target[arm_idx[2]] = q2
+            rep = np.empty(3)
+            for k in range(3):
+                rep[k] = target[arm_idx[k]]
+            engine_report(prog, state, i, rep, s >= fs[2])
+        else:
+            for k in range(steps[g, _S_TGN]):
+                target[jl[subs[i, 2] + k]] = tg[steps[g, _S_TG0] + k]
+    arm_path = steps[subs[0, 0] + index[0], _S_PATH]
+    if arm_path and fs[0] >= fs[3]:  # in the cut: log the tip, watch for a stall
+        x, z, pitch = forward_pose(ik, q[arm_idx[0]], q[arm_idx[1]], q[arm_idx[2]])
+        pose[0], pose[1], pose[2] = x, z, pitch
+        flags |= _F_CUT
+        bad = -1
+        for k in range(3):
+            j = arm_idx[k]
+            if abs(torque[j]) >= fs[6] * limit[k] and abs(q[j] - target[j]) > fs[7]:
+                bad = k
+                break
+        if bad < 0:
+            fs[4] = math.nan
+        else:
+            if math.isnan(fs[4]):
+                fs[4] = time
+            if time - fs[4] >= fs[8]:
+                out[0] = bad
+                flags |= _F_STALL
+    n = engine_end_tick(prog, state, time, q, fnorm)
+    if n > 0:
+        out[2] = n
+        flags |= _F_LATE
+    if state[11][0] != 0:
+        flags |= _F_STOP
+    return flags
