@@ -255,3 +255,43 @@ def test_the_online_observer_updates_the_predictor_after_every_dig():
     # the first dig was planned with the nominal model, the second with the one learned from the first
     assert math.isnan(observer.history[0].learned_mae) and np.isfinite(observer.history[1].learned_mae)
     assert np.isfinite(observer.history[1].nominal_mae)
+    # the peak ratios: the first dig's against the nominal model (it planned it), the second's
+    # against the learned one; the peak margin is the answering model's, clipped to [1, peak_max]
+    p = observer.predictor
+    assert len(p.nominal_peak_ratios) == 1 and len(p.peak_ratios) == 1
+    assert p.peak_margin == pytest.approx(min(max(p.peak_ratios[0], 1.0), p.peak_max))
+    with p.nominal_answers():
+        assert not p.active
+        assert p.peak_margin == pytest.approx(min(max(p.nominal_peak_ratios[0], 1.0), p.peak_max))
+    assert p.active
+
+
+class _Boulders(GlobalRegression):
+    """A learned model gone wrong: it predicts 100 kN everywhere (every dig over the torque limits)."""
+
+    def predict(self, samples):
+        return np.full(np.shape(samples["v"]) + (2,), 1e5)
+
+
+def test_a_learned_model_that_forbids_every_dig_hands_the_choice_to_the_nominal_model():
+    from excavsim.loop.digs import PlannedDigs
+    from excavsim.loop.rig import make_rig
+    from excavsim.world.simulation import Simulation
+
+    rig = make_rig(Simulation(seed=0))
+    emap = _flat_map()
+    nominal = rig.planner.predictor
+    learned = LearnedForcePredictor(_Boulders("mechanics"), density_kg_m3=SAND.density_kg_m3,
+                                    epsilon_rad=math.radians(10.0), nominal=nominal)
+    learned.model.k = np.zeros(1)  # "fitted": the adapter asks it, and its predictions are the boulders
+    learned.peak_ratios[:] = [3.0]  # and it learned that peaks run far above its predictions
+    assert learned.peak_margin == learned.peak_max
+    learned.bind(Terrain.from_map(emap, rig.arm, 0.0, rig.width))
+    rig.planner.predictor = learned
+    assert rig.planner.plan(emap).action is None  # the learned model alone leaves no dig
+    choice = PlannedDigs().choose(rig, emap)
+    assert choice.dig is not None and choice.dig.kind == "planned"
+    assert "the learned force model leaves no dig" in choice.note and "nominal model planned" in choice.note
+    rig.planner.predictor = nominal
+    assert choice.dig.action == rig.planner.plan(emap).action  # what the nominal model plans alone
+    assert learned.active  # answering nominally was for that choice only

@@ -20,6 +20,9 @@ across-trench elevations equal to it.
 
 from __future__ import annotations
 
+import contextlib
+from collections.abc import Iterator
+
 import numpy as np
 
 from excavsim.errors import ExcavsimError
@@ -38,17 +41,45 @@ class LearnedForcePredictor:
         epsilon_rad: the planner's rake offset during penetration (to read ``alpha`` off paths that
             come without progress).
         nominal: the predictor used while ``model`` is not fitted (the nominal wedge model).
+        peak_quantile, peak_max: :attr:`peak_margin` is this quantile of the per-dig peak ratios, at
+            most ``peak_max`` (``peak_quantile=None``: no peak margin, the mean model alone).
     """
 
     def __init__(self, model: ForceModel, *, density_kg_m3: float, epsilon_rad: float,
-                 nominal: ForcePredictor | None = None):
+                 nominal: ForcePredictor | None = None, peak_quantile: float | None = 0.8,
+                 peak_max: float = 2.0):
         self.model = model
         self.density = float(density_kg_m3)
         self.epsilon = float(epsilon_rad)
         self.nominal = nominal
         self.terrain: Terrain | None = None
         self.active = True  # False: the nominal predictor answers (e.g. until the model has seen enough digs)
+        self.peak_ratios: list[float] = []  # per dig: observed over the model's predicted peak |F|, out of sample
+        self.nominal_peak_ratios: list[float] = []  # the same for the digs planned while the nominal answered
+        self.peak_quantile = peak_quantile
+        self.peak_max = float(peak_max)
         self._from_surface: tuple[object, Terrain] | None = None
+
+    @property
+    def peak_margin(self) -> float:
+        """The factor (>= 1, at most ``peak_max``) by which observed peak forces exceeded the model's
+        predicted ones: the ``peak_quantile`` of the per-dig ratios of the model that answers (the
+        learned one, or the nominal one before it is active; 1 before any ratio)."""
+        ratios = self.peak_ratios if (self.active and self.model.fitted) else self.nominal_peak_ratios
+        if self.peak_quantile is None or not ratios:
+            return 1.0
+        return float(np.clip(np.quantile(ratios, self.peak_quantile), 1.0, self.peak_max))
+
+    @contextlib.contextmanager
+    def nominal_answers(self) -> Iterator[None]:
+        """Within the block, the nominal predictor answers (with its own peak margin), as before the
+        learned model was active; e.g. when the learned model forbids every dig."""
+        was = self.active
+        self.active = False
+        try:
+            yield
+        finally:
+            self.active = was
 
     def bind(self, terrain: Terrain | None) -> None:
         """The terrain of the map the planner is about to plan on (None to forget it)."""

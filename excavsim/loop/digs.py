@@ -99,10 +99,25 @@ class PlannedDigs(DigSource):
         return self.experience.belief(emap, rig.arm, math.radians(rig.goal.waist_deg), rig.width, self._surface)
 
     def choose(self, rig: Rig, emap: ElevationMap) -> Choice:
+        choice = self._choose(rig, emap)
+        predictor = rig.planner.predictor
+        if choice.dig is None and getattr(predictor, "active", False) and hasattr(predictor, "nominal_answers"):
+            # A learned model fitted to a few digs can extrapolate forces that forbid every dig,
+            # boundary digs included, where the nominal model still finds one: the prior answers.
+            with predictor.nominal_answers():
+                prior = self._choose(rig, emap)
+            if prior.dig is not None:
+                line = f"  planner: the learned force model leaves no dig ({choice.reason}); the nominal model planned"
+                return dataclasses.replace(prior, note="\n".join(n for n in (line, prior.note) if n))
+        return choice
+
+    def _choose(self, rig: Rig, emap: ElevationMap) -> Choice:
         planner, exp = rig.planner, self.experience
         surface = self._surface if self._surface is not None else planner.surface(emap)
         exclude = exp.excluded(planner.grid_k, planner.grid_alpha, planner.grid_d1, surface) if exp else None
-        margin = exp.torque_margin() if exp else 1.0
+        # the memory's margin (measured over predicted wrist peaks) or the learned predictor's own
+        # peak margin (observed over predicted peak forces), whichever is larger
+        margin = max(exp.torque_margin() if exp else 1.0, float(getattr(planner.predictor, "peak_margin", 1.0)))
         seconds = 0.0
         for m in relaxed_margins(margin):
             plan = planner.plan(emap, exclude=exclude, torque_margin=m)

@@ -49,15 +49,22 @@ class OnlineLearning(DigSamples):
         prior: a data set to fit the model on before the first dig.
         min_digs: without a prior, the nominal wedge model plans until the model has learned from
             this many digs (a model of one dig extrapolates wildly to the others).
+        peak_quantile: the predictor's peak margin is this quantile of the per-dig ratios of observed
+            to predicted peak |F| (None: no peak margin); see
+            :attr:`~excavsim.learning.adapter.LearnedForcePredictor.peak_margin`.
+        peak_floor_n: digs whose predicted peak is below this [N] give no ratio (a near-empty skim's
+            ratio says nothing about the digs that stall).
         progress: called with one line per dig.
     """
 
     def __init__(self, model: ForceModel | str = "global", *, basis: str = "mechanics", forgetting: float = 1.0,
-                 prior: ForceDataset | None = None, min_digs: int = 3,
-                 progress: Callable[[str], None] | None = None):
+                 prior: ForceDataset | None = None, min_digs: int = 3, peak_quantile: float | None = 0.8,
+                 peak_floor_n: float = 100.0, progress: Callable[[str], None] | None = None):
         self.model = make_model(model, basis, forgetting=forgetting) if isinstance(model, str) else model
         self.prior = prior
         self.min_digs = int(min_digs)
+        self.peak_quantile = peak_quantile
+        self.peak_floor_n = float(peak_floor_n)
         self.say = progress or (lambda _s: None)
         self.history: list[DigLearning] = []
         self.data = ForceDataset.empty()
@@ -69,7 +76,8 @@ class OnlineLearning(DigSamples):
         soil = getattr(nominal, "soil", None)
         self.nominal = WedgeModel(soil, rig.width, fit_params=False) if soil is not None else None
         self.predictor = LearnedForcePredictor(self.model, density_kg_m3=rig.planner.density,
-                                               epsilon_rad=self.epsilon, nominal=nominal)
+                                               epsilon_rad=self.epsilon, nominal=nominal,
+                                               peak_quantile=self.peak_quantile)
         self.predictor.active = False
         if self.prior is not None and len(self.prior):
             self.model.fit(self.prior.samples, self.prior.forces)
@@ -89,9 +97,17 @@ class OnlineLearning(DigSamples):
                    if self.predictor.active else math.nan)
         nominal = (float(np.mean(np.abs(magnitude(self.nominal.predict(rows.samples)) - observed)))
                    if self.nominal is not None else math.nan)
+        # the peak ratio of the predictions the planner planned with: the learned model's once active,
+        # the nominal model's before (whose peaks the learned predictor corrects until then)
+        planned_with = self.model if self.predictor.active else self.nominal
+        if planned_with is not None:
+            peak = float(np.max(magnitude(planned_with.predict(rows.samples))))
+            if peak >= self.peak_floor_n:
+                ratios = self.predictor.peak_ratios if self.predictor.active else self.predictor.nominal_peak_ratios
+                ratios.append(float(np.max(observed)) / peak)
         self.model.update(rows.samples, rows.forces)
         self.data = ForceDataset.concat([self.data, rows])
         self.predictor.active = self.predictor.active or self.data.n_digs >= self.min_digs
         self.history.append(DigLearning(index, len(rows), learned, nominal))
         self.say(f"  learned from dig {index}: {len(rows)} samples; error on it before the update "
-                 f"{learned:.0f} N learned, {nominal:.0f} N nominal")
+                 f"{learned:.0f} N learned, {nominal:.0f} N nominal; peak margin {self.predictor.peak_margin:.2f}")
