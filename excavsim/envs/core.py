@@ -1,0 +1,718 @@
+"""The environments' cores: the trenching episode one decision at a time, free of any RL library.
+
+Two cores, each wrapped by a Gymnasium face (:mod:`~excavsim.envs.dig_env`,
+:mod:`~excavsim.envs.joint_env`) and a dm_env face (:mod:`~excavsim.envs.dm`):
+
+* :class:`DigCore`, one step per dig. The episode is the loop's own
+  (:func:`~excavsim.loop.episode.run_episode`, what ``excavsim trench`` runs), driven in a worker
+  thread with a dig source that is the planner's (:class:`~excavsim.loop.digs.PlannedDigs`) except
+  that it asks the agent for the trenching action. The worker and the caller never run at the same
+  time: the worker blocks while the agent thinks, the caller while the world digs, so an episode is
+  as deterministic as the loop's. The planner's choice on the same map is computed each cycle
+  anyway (it gives the feasible set, each cell's drag d2 and its curl), and when the agent's action
+  falls on the planner's cell the planner's dig is dug as it is, so the planner used as a policy
+  reproduces ``excavsim trench`` dig for dig.
+* :class:`JointCore`, one step per control period: the agent's set-point rates drive the waist,
+  shoulder, elbow and wrist pitch servos directly (the wrist's yaw and roll hold their home angles).
+
+Observations are what the robot senses (scanned maps, joint encoders, the F/T sensor), never the
+true terrain; rewards are measured on the true terrain, as the episode summary's removed volume
+and over-dig are. :class:`Field` describes one observation entry for both faces.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import math
+import pathlib
+import queue
+import threading
+import time
+from collections.abc import Mapping
+from typing import Any
+
+import numpy as np
+
+from excavsim.config import TrenchGoal, parse_config
+from excavsim.errors import ExcavsimError
+from excavsim.handoff.dig import Dig, TrenchAction
+from excavsim.handoff.episode import DigMetrics, EpisodeObserver, EpisodeResult, ObserverGroup
+from excavsim.handoff.goal import goal_profile
+from excavsim.handoff.maps import ElevationMap
+from excavsim.handoff.observation import Diverged, OutOfTime
+from excavsim.loop.digs import Choice, PlannedDigs
+from excavsim.loop.episode import map_done, run_episode, trench_footprint
+from excavsim.loop.rig import go_home, make_rig, scan
+from excavsim.loop.scenario import EpisodeSpec, ResolvedSpec, dig_rows, episode_summary, load_spec
+from excavsim.planning.experience import DigExperience
+from excavsim.robot.servo import setpoint_rates
+from excavsim.sensing.ft import ForceSensor
+from excavsim.world.simulation import Simulation
+
+MAX_SEED = 2**32 - 1  # EpisodeSpec.seed's bound
+OUTCOMES = ("none", "completed", "completed late", "stalled", "no contact", "failed")
+"""The last dig's outcome as an index: ``none`` before the first dig; ``failed`` covers the script's
+timeout, a divergence and a simulation failure."""
+TERMINAL_ENDS = ("done", "no_dig", "diverged")
+"""Episode ends that terminate (the trench is done, nothing is left to dig, the world broke); the
+dig budget and the wall-clock limit truncate."""
+TIMING_KEYS = ("planning_s", "wall_s")  # wall-clock numbers left out of ``info`` (they differ run to run)
+
+
+class EnvError(ExcavsimError, ValueError):
+    """A bad argument to an environment: an action outside its space or not finite, a bad seed or
+    option, a step before :meth:`reset` or after the episode ended."""
+
+
+@dataclasses.dataclass(frozen=True)
+class Field:
+    """One entry of an observation: a float box (``low``/``high``) or, with ``n``, an integer in [0, n).
+
+    Attributes:
+        shape: the array's shape (``()`` for a scalar).
+        dtype: numpy dtype name.
+        low, high: bounds of a box (scalars, or arrays of ``shape``).
+        n: number of values of a discrete entry (None for a box).
+        doc: what it is, with units.
+    """
+
+    shape: tuple[int, ...]
+    dtype: str
+    low: Any = None
+    high: Any = None
+    n: int | None = None
+    doc: str = ""
+
+
+def as_spec(spec: EpisodeSpec | Mapping | str | pathlib.Path | None) -> EpisodeSpec:
+    """An :class:`~excavsim.loop.scenario.EpisodeSpec` from itself, a mapping of its fields, a YAML
+    path, or None (the defaults: the ``sand`` trench, 20 digs, seed 0).
+
+    Raises:
+        ConfigError: the mapping or file is not a valid specification.
+    """
+    if spec is None:
+        return EpisodeSpec()
+    if isinstance(spec, EpisodeSpec):
+        return spec
+    if isinstance(spec, Mapping):
+        return parse_config(dict(spec), EpisodeSpec, source="the environment's spec")
+    if isinstance(spec, (str, pathlib.Path)):
+        return load_spec(spec)
+    raise EnvError(f"spec must be an EpisodeSpec, a mapping of its fields or a YAML path; given {type(spec).__name__}")
+
+
+def check_seed(seed: Any) -> int:
+    """``seed`` as an episode seed (an integer in [0, 2**32 - 1])."""
+    if isinstance(seed, (bool, np.bool_)) or not isinstance(seed, (int, np.integer)) or not 0 <= seed <= MAX_SEED:
+        raise EnvError(f"seed must be an integer from 0 to {MAX_SEED}; given {seed!r}")
+    return int(seed)
+
+
+def check_weights(weights: Mapping[str, float] | None, defaults: Mapping[str, float], what: str) -> dict[str, float]:
+    """Reward weights: ``defaults`` with ``weights`` over them, each a finite number >= 0."""
+    out = dict(defaults)
+    for key, value in (weights or {}).items():
+        if key not in defaults:
+            raise EnvError(f"unknown {what} reward weight {key!r}; allowed: {', '.join(defaults)}")
+        try:
+            v = float(value)
+        except (TypeError, ValueError):
+            v = math.nan
+        if not (math.isfinite(v) and v >= 0):
+            raise EnvError(f"{what} reward weight {key} must be a finite number >= 0; given {value!r}")
+        out[key] = v
+    return out
+
+
+def check_vector(action: Any, low: np.ndarray, high: np.ndarray, what: str) -> np.ndarray:
+    """``action`` as a float64 vector of ``low``'s shape within [low, high] (1e-6 of slack for rounding)."""
+    try:
+        a = np.asarray(action, dtype=np.float64)
+    except (TypeError, ValueError):
+        raise EnvError(f"{what} must be {low.size} numbers; given {action!r}") from None
+    if a.shape != low.shape:
+        raise EnvError(f"{what} must have shape {low.shape}; given shape {a.shape}: {a!r}")
+    if not np.all(np.isfinite(a)):
+        raise EnvError(f"{what} must be finite; given {a!r}")
+    slack = 1e-6 * np.maximum(1.0, np.abs(high - low))
+    if np.any(a < low - slack) or np.any(a > high + slack):
+        raise EnvError(f"{what} {a!r} is outside the action space (allowed: {low!r} to {high!r})")
+    return a
+
+
+def outcome_index(outcome: str | None) -> int:
+    """The index in :data:`OUTCOMES` of an execution outcome (None: no dig yet)."""
+    if outcome is None:
+        return 0
+    return OUTCOMES.index(outcome) if outcome in OUTCOMES else OUTCOMES.index("failed")
+
+
+class GoalWindow:
+    """A grid of points in the goal's arm plane around the trench, where the dig environment samples
+    the scanned map: radially from ``margin_m`` before the near edge to ``margin_m`` past the far
+    edge, laterally ``half_width_m`` either side of the plane, every ``spacing_m``.
+
+    Rows run along the lateral axis (towards +y at waist 0), columns radially away from the robot.
+    World points use the loop's convention for the trench's footprint
+    (:func:`~excavsim.loop.episode.trench_footprint`): the arm plane through the waist axis.
+    """
+
+    def __init__(self, goal: TrenchGoal, spacing_m: float, margin_m: float, half_width_m: float):
+        for name, v in (("spacing_m", spacing_m), ("margin_m", margin_m), ("half_width_m", half_width_m)):
+            if not (math.isfinite(v) and v >= 0) or (name == "spacing_m" and v <= 0):
+                raise EnvError(f"window {name} must be a finite number {'>' if name == 'spacing_m' else '>='} 0; "
+                               f"given {v!r}")
+        self.goal = goal
+        n_r = int(math.floor((goal.far_x_m - goal.near_x_m + 2 * margin_m) / spacing_m + 1e-9)) + 1
+        n_l = 2 * int(math.floor(half_width_m / spacing_m + 1e-9)) + 1
+        self.radial = goal.near_x_m - margin_m + spacing_m * np.arange(n_r)
+        self.lateral = spacing_m * (np.arange(n_l) - n_l // 2)
+        r, lat = np.meshgrid(self.radial, self.lateral)
+        w = math.radians(goal.waist_deg)
+        self.x = r * math.cos(w) - lat * math.sin(w)
+        self.y = r * math.sin(w) + lat * math.cos(w)
+        self._r, self._lat = r, lat
+
+    @property
+    def shape(self) -> tuple[int, int]:
+        """(lateral samples, radial samples)."""
+        return self.x.shape
+
+    def goal_layers(self, width: float) -> tuple[np.ndarray, np.ndarray]:
+        """The goal mask (1 inside the trench's footprint of bucket ``width`` [m], else 0) and the depth
+        to dig below ``surface_z_m`` at each point [m] (0 outside), float32 (lateral, radial)."""
+        mask = (np.abs(self._lat) <= width / 2) & (self._r >= self.goal.near_x_m) & (self._r <= self.goal.far_x_m)
+        depth = np.where(mask, self.goal.surface_z_m - goal_profile(self.goal, self._r), 0.0)
+        return mask.astype(np.float32), depth.astype(np.float32)
+
+    def elevation(self, emap: ElevationMap) -> np.ndarray:
+        """The map's heights at the points, relative to the goal's ``surface_z_m`` [m], float32."""
+        return (emap.height_at(self.x, self.y) - self.goal.surface_z_m).astype(np.float32)
+
+
+class TrueTrench:
+    """The trench against its goal on the true terrain (privileged: for rewards only), as the
+    loop's episode result measures it: soil removed above the goal profile inside the footprint,
+    and the over-dig below it [m^3]."""
+
+    def __init__(self, sim: Simulation, mask: np.ndarray, z_goal: np.ndarray):
+        self.sim = sim
+        self.idx = np.nonzero(mask)
+        self.z_goal = z_goal[self.idx]
+        self.h0 = sim.soil.grid.heights[self.idx].copy()
+        self.cell_area = sim.soil.grid.cell_area
+        self.goal_m3 = float(np.clip(self.h0 - self.z_goal, 0, None).sum() * self.cell_area)
+
+    def measure(self) -> tuple[float, float]:
+        """(removed above the goal, over-dig below it) [m^3] now."""
+        h = self.sim.soil.grid.heights[self.idx]
+        removed = float(np.clip(self.h0 - np.maximum(h, self.z_goal), 0, None).sum() * self.cell_area)
+        over = float(np.clip(self.z_goal - h, 0, None).sum() * self.cell_area)
+        return removed, over
+
+
+# -- the dig level ------------------------------------------------------------------------------
+DIG_WEIGHTS = {"removed_per_l": 1.0, "overdig_per_l": 2.0, "stall": 5.0}
+"""The dig environment's default reward weights: per litre removed inside the goal, per litre dug
+below the goal profile, per stalled dig."""
+
+
+class _Stop(BaseException):
+    """Raised in the worker thread to abandon its episode (a new reset, or close)."""
+
+
+@dataclasses.dataclass
+class _Decision:
+    """What the worker hands over when it needs the agent's action (or when its episode ended)."""
+
+    emap: ElevationMap | None = None
+    planner_action: TrenchAction | None = None
+    planner_fell_back: bool = False
+    result: EpisodeResult | None = None
+    error: BaseException | None = None
+
+
+class _AgentDigs(PlannedDigs):
+    """The planner's dig source with the agent's trenching action in place of the planner's choice
+    (see :class:`DigCore`); runs in the worker thread."""
+
+    def __init__(self, core: DigCore, experience: DigExperience | None):
+        super().__init__(experience)
+        self.core = core
+        self._scanned_surface = None
+
+    def belief(self, rig, emap):
+        self._scanned_surface = rig.planner.surface(emap)
+        believed = super().belief(rig, emap)
+        self.core._belief = believed
+        return believed
+
+    def choose(self, rig, emap):
+        choice = super().choose(rig, emap)
+        return self.core._agent_choice(rig, emap, choice, self)
+
+
+class _Watcher(EpisodeObserver):
+    """Follows the worker's episode for the core: the world, the truth for rewards, each dig."""
+
+    def __init__(self, core: DigCore):
+        self.core = core
+
+    def started(self, sim, rig, goal_mask, goal_z):
+        self.core._sim, self.core._rig = sim, rig
+        self.core._truth = TrueTrench(sim, goal_mask, goal_z)
+
+    def dug(self, index, record, metrics):
+        self.core._dug(record, metrics)
+
+
+class DigCore:
+    """The trenching episode, one step per dig (the core of ``excavsim/TrenchDig-v0``).
+
+    Each step digs one trenching action (k, alpha, d1) [m, rad, m]. The action is snapped to the
+    nearest cell of the planner's (k, alpha, d1) grid; its drag d2 and curl are the planner's for
+    that cell on the current map (the longest feasible d2, :meth:`TrenchPlanner.plan
+    <excavsim.planning.search.TrenchPlanner.plan>`). A cell the planner finds infeasible (or that its
+    memory of failed digs excludes) is dug as the nearest allowed cell of the grid (Euclidean in grid
+    steps; ties to the first in C order); ``info`` reports the requested and the executed cell. With
+    ``fallback`` (the default), a cycle in which the planner finds no trenching dig of minimum
+    utility digs the loop's boundary-following fallback, as ``excavsim trench`` does, and the
+    agent's action is not used (``info["action_used"]`` False); without it the agent's nearest
+    allowed cell is dug whatever its volume, and the episode ends (``no_dig``) when no cell is
+    allowed.
+
+    Args:
+        spec: the episode (see :func:`as_spec`); its seed is the first episode's unless reset gives one.
+        weights: reward weights over :data:`DIG_WEIGHTS`.
+        fallback: see above.
+        window_margin_m, window_half_width_m: the observation window (:class:`GoalWindow`) at the
+            map's cell size.
+        observer: an extra :class:`~excavsim.handoff.episode.EpisodeObserver` (a Rerun recorder, say).
+        robot_path, scene_path: base configuration files under the spec's overrides.
+    """
+
+    def __init__(self, spec=None, *, weights: Mapping[str, float] | None = None, fallback: bool = True,
+                 window_margin_m: float = 0.25, window_half_width_m: float = 0.3,
+                 observer: EpisodeObserver | None = None, robot_path=None, scene_path=None):
+        self.spec = as_spec(spec)
+        self.resolved = ResolvedSpec(self.spec, robot_path=robot_path, scene_path=scene_path)
+        self.weights = check_weights(weights, DIG_WEIGHTS, "dig")
+        self.fallback = bool(fallback)
+        self.observer = observer
+        self.robot_path, self.scene_path = robot_path, scene_path
+        g = self.resolved.planner.grid
+        self.action_low = np.array([g.k_min_m, math.radians(g.alpha_min_deg), g.d1_min_m])
+        self.action_high = np.array([g.k_max_m, math.radians(g.alpha_max_deg), g.d1_max_m])
+        self.window = GoalWindow(self.resolved.goal, self.resolved.sensing.map.cell_size_m, window_margin_m,
+                                 window_half_width_m)
+        self.fields = {
+            "elevation": Field(self.window.shape, "float32", -2.0, 2.0,
+                               doc="scanned (believed) map around the goal, relative to the goal's surface [m]"),
+            "goal_mask": Field(self.window.shape, "float32", 0.0, 1.0, doc="1 inside the trench's footprint"),
+            "goal_depth": Field(self.window.shape, "float32", 0.0, 2.0,
+                                doc="depth of the goal profile below its surface [m], 0 outside"),
+            "ft": Field((2,), "float32", 0.0, 1e6, doc="last dig's peak and mean F/T force in the soil [N]"),
+            "outcome": Field((), "int64", n=len(OUTCOMES), doc="last dig's outcome, an index of OUTCOMES"),
+            "digs_left": Field((), "int64", n=self.spec.dig_budget + 1, doc="digs left in the budget"),
+        }
+        self._thread: threading.Thread | None = None
+        self._actions: queue.Queue = queue.Queue()
+        self._events: queue.Queue = queue.Queue()
+        self._closed = False
+        self._clear()
+
+    def _clear(self) -> None:
+        self._sim = self._rig = self._truth = self._belief = None
+        self._pending: _Decision | None = None
+        self._last: dict[str, Any] | None = None  # the last dig's metrics, record summary and reward terms
+        self._goal_layers = None
+        self._measured = (0.0, 0.0)
+        self.result: EpisodeResult | None = None
+        self.over = True  # no episode to step
+        self.digs = 0
+
+    # -- the worker ------------------------------------------------------------------------------
+    def _run(self, seed: int) -> None:
+        r = self.resolved
+        spec = self.spec.model_copy(update={"seed": seed})
+        try:
+            observer = ObserverGroup(_Watcher(self), self.observer)
+            if spec.predictor != "wedge":  # as run_spec: learned online from this episode's digs
+                from excavsim.loop.online import OnlineLearning
+
+                observer = ObserverGroup(OnlineLearning(spec.predictor), observer)
+            sim = Simulation(r.robot, r.scene, seed=seed)
+            source = _AgentDigs(self, DigExperience() if spec.memory else None)
+            result = run_episode(sim, seed=seed, goal=r.goal, dig_budget=spec.dig_budget,
+                                 done_fraction=spec.done_fraction, tolerance_m=spec.tolerance_m, planner_cfg=r.planner,
+                                 executor_cfg=r.executor, sensing_cfg=r.sensing, digs=source, observer=observer)
+        except _Stop:
+            return
+        except BaseException as exc:  # handed to the caller, raised there
+            self._events.put(_Decision(error=exc))
+            return
+        self._events.put(_Decision(emap=self._belief, result=result))
+
+    def _agent_choice(self, rig, emap: ElevationMap, choice: Choice, source: _AgentDigs) -> Choice:
+        """In the worker: the dig of this cycle, with the agent's action (blocks until it comes)."""
+        plan = choice.plan
+        if plan is None:  # the source did not plan (no dig at all): the episode ends as the loop decides
+            return choice
+        planner_dug = plan is not None and plan.action is not None
+        if self.fallback and not planner_dug:
+            if choice.dig is None:
+                return choice  # no dig even after the fallback: the episode ends no_dig
+            self._wait_for_action(emap, None, True)
+            self._decided = {"action_used": False, "cell": None, "snapped": False}
+            return choice
+        allowed = plan.feasible.copy()
+        if source.experience is not None:
+            p = rig.planner
+            allowed &= ~source.experience.excluded(p.grid_k, p.grid_alpha, p.grid_d1, source._scanned_surface)
+        if not allowed.any():
+            return Choice(None, f"no trenching action is feasible on this map ({plan.reason})", plan)
+        action = self._wait_for_action(emap, plan.action if planner_dug else None, False)
+        grids = (plan.grid_k, plan.grid_alpha, plan.grid_d1)
+        requested = tuple(int(np.argmin(np.abs(g - v))) for g, v in zip(grids, action))
+        cell = requested
+        if not allowed[cell]:
+            cells = np.argwhere(allowed)
+            cell = tuple(int(i) for i in cells[int(np.argmin(((cells - np.array(requested)) ** 2).sum(axis=1)))])
+        self._decided = {"action_used": True, "cell": cell, "snapped": cell != requested}
+        chosen = tuple(int(np.argmin(np.abs(g - v))) for g, v in zip(grids, plan.action[:3])) if planner_dug else None
+        if cell == chosen:
+            return choice  # the planner's own dig, exactly as PlannedDigs dug it
+        planner = rig.planner
+        k, alpha, d1 = (float(g[i]) for g, i in zip(grids, cell))
+        act = TrenchAction(k, alpha, d1, float(plan.d2[cell]))
+        surface = planner.surface(emap)
+        poses, phases = planner.trajectory(act, surface, radius=float(plan.curl_radius[cell]))
+        _, torques = planner.path_loads(poses, phases, surface)
+        seconds = choice.dig.planning_s if choice.dig is not None else plan.seconds
+        dig = Dig("planned", poses, phases, float(plan.volume[cell]), act, seconds,
+                  predicted_peak_nm=np.abs(torques).max(axis=0))
+        return Choice(dig, plan=plan, note=choice.note)
+
+    def _wait_for_action(self, emap, planner_action, fell_back) -> np.ndarray:
+        self._events.put(_Decision(emap=emap, planner_action=planner_action, planner_fell_back=fell_back))
+        t0 = time.perf_counter()
+        item = self._actions.get()
+        if item is None:
+            raise _Stop
+        if self._sim is not None and self._sim.wall_deadline is not None:
+            self._sim.wall_deadline += time.perf_counter() - t0  # the agent's thinking is not the episode's
+        return item
+
+    def _dug(self, record, metrics: DigMetrics) -> None:
+        """In the worker, after each dig settled: the record's F/T summary and the reward's terms."""
+        lo, hi = record.in_soil_window()
+        forces = [np.linalg.norm(f) for t, f in record.ft if lo <= t <= hi]
+        removed, over = self._truth.measure()
+        d_removed, d_over = removed - self._measured[0], over - self._measured[1]
+        self._measured = (removed, over)
+        stalled = metrics.stall_joint is not None
+        w = self.weights
+        terms = {"removed_l": 1000 * d_removed, "overdig_l": 1000 * d_over, "stalled": stalled}
+        reward = (w["removed_per_l"] * terms["removed_l"] - w["overdig_per_l"] * terms["overdig_l"]
+                  - w["stall"] * stalled)
+        self._last = {"metrics": metrics, "ft": (max(forces, default=0.0), float(np.mean(forces)) if forces else 0.0),
+                      "terms": terms, "reward": float(reward)}
+
+    # -- the caller's side -------------------------------------------------------------------------
+    def reset(self, seed: int) -> tuple[dict[str, np.ndarray], dict[str, Any]]:
+        """Start an episode with ``seed`` (abandoning any running one); its first observation and info."""
+        if self._closed:
+            raise EnvError("the environment is closed")
+        seed = check_seed(seed)
+        self._stop()
+        self._clear()
+        self._decided = None
+        self._thread = threading.Thread(target=self._run, args=(seed,), name=f"excavsim-dig-episode-{seed}",
+                                        daemon=True)
+        self._thread.start()
+        self.over = False  # an episode that ended before its first dig reports its end at the first step
+        decision = self._next()
+        return self._observation(), self._info(decision, first=True)
+
+    def step(self, action: Any) -> tuple[dict[str, np.ndarray], float, bool, bool, dict[str, Any]]:
+        """Dig ``action`` (k, alpha, d1) [m, rad, m]; (observation, reward, terminated, truncated, info).
+
+        Raises:
+            EnvError: the action is outside the space or not finite, or no episode is running
+                (before the first reset, or after the episode ended).
+        """
+        if self.over:
+            raise EnvError("the episode has ended (or never started): call reset() first")
+        a = check_vector(action, self.action_low, self.action_high, "the dig action (k, alpha, d1)")
+        if self._pending.result is not None:  # the episode ended before this step: nothing to dig
+            decision = self._pending
+            self._last = None
+            reward = 0.0
+        else:
+            self._last = None
+            self._actions.put(a)
+            decision = self._next()
+            reward = self._last["reward"] if self._last is not None else 0.0
+            self.digs += 1 if self._last is not None else 0
+        terminated = truncated = False
+        if decision.result is not None:
+            self.result = decision.result
+            terminated = decision.result.end in TERMINAL_ENDS
+            truncated = not terminated
+            self.over = True
+            self._thread.join()
+        return self._observation(), float(reward), terminated, truncated, self._info(decision)
+
+    def _next(self) -> _Decision:
+        decision = self._events.get()
+        if decision.error is not None:
+            self.over = True
+            raise decision.error
+        self._pending = decision
+        return decision
+
+    def _observation(self) -> dict[str, np.ndarray]:
+        if self._goal_layers is None:
+            self._goal_layers = self.window.goal_layers(self._rig.width)
+        mask, depth = self._goal_layers
+        elevation = (self.window.elevation(self._belief) if self._belief is not None  # None: the world broke
+                     else np.zeros(self.window.shape, np.float32))                 # before the first scan
+        last = self._last or {}
+        m = last.get("metrics")
+        digs_left = self.spec.dig_budget - (len(self.result.digs) if self.result is not None else self.digs)
+        return {"elevation": elevation, "goal_mask": mask.copy(), "goal_depth": depth.copy(),
+                "ft": np.array(last.get("ft", (0.0, 0.0)), dtype=np.float32),
+                "outcome": np.int64(outcome_index(m.outcome if m is not None else None)),
+                "digs_left": np.int64(max(digs_left, 0))}
+
+    def _info(self, decision: _Decision, first: bool = False) -> dict[str, Any]:
+        info: dict[str, Any] = {
+            "planner_action": (None if decision.planner_action is None
+                               else np.array(decision.planner_action[:3], dtype=np.float64)),
+            "planner_fell_back": bool(decision.planner_fell_back),
+        }
+        emap = decision.emap if decision.emap is not None else self._belief
+        if emap is not None and self._rig is not None:
+            r = self.resolved
+            done, frac = map_done(emap, r.goal, self._rig.arm, self._rig.width, done_fraction=self.spec.done_fraction,
+                                  tolerance_m=self.spec.tolerance_m, initial_z=r.goal.surface_z_m)
+            info["map_removed_fraction"] = float(frac)
+        if not first and self._last is not None:
+            m = self._last["metrics"]
+            row = dig_rows(_Digs([m]))[0]
+            row = {k: (None if isinstance(v, float) and math.isnan(v) else v) for k, v in row.items()}
+            row["efficiency"] = float(m.efficiency) if math.isfinite(m.efficiency) else None
+            info["dig"] = row
+            info["reward_terms"] = dict(self._last["terms"])
+            decided = self._decided or {}
+            info["action_used"] = bool(decided.get("action_used", False))
+            cell = decided.get("cell")
+            info["executed_cell"] = None if cell is None else np.array(cell, dtype=np.int64)
+            info["snapped_to_allowed"] = bool(decided.get("snapped", False))
+        if decision.result is not None:
+            summary = episode_summary(decision.result)
+            info["episode"] = {k: (None if isinstance(v, float) and math.isnan(v) else v)
+                               for k, v in summary.items() if k not in TIMING_KEYS}
+        return info
+
+    def _stop(self) -> None:
+        if self._thread is not None and self._thread.is_alive():
+            self._actions.put(None)
+            self._thread.join()
+        self._thread = None
+        self._actions = queue.Queue()
+        self._events = queue.Queue()
+
+    def close(self) -> None:
+        """Abandon the running episode and free the world; a closed core cannot be reset (closing twice is fine)."""
+        self._stop()
+        self._clear()
+        self._closed = True
+
+
+class _Digs:
+    """The one attribute of an episode result that :func:`~excavsim.loop.scenario.dig_rows` reads."""
+
+    def __init__(self, digs):
+        self.digs = digs
+
+
+# -- the joint level ----------------------------------------------------------------------------
+JOINT_WEIGHTS = {"cut_per_l": 1.0, "dump_per_l": 1.0, "overdig_per_l": 2.0, "saturation_per_s": 1.0}
+"""The joint environment's default reward weights: per litre removed inside the goal, per litre
+dumped to the spoil (outside the box), per litre dug below the goal profile, per second of each
+driven joint at its torque limit."""
+DRIVEN = (0, 1, 2, 3)  # waist, shoulder, elbow, wrist pitch: the joints the agent drives
+SATURATION = 0.97  # a joint at this fraction of its relief limit counts as saturated (the executor's stall level)
+
+
+class JointCore:
+    """The trenching world at the control rate (the core of ``excavsim/TrenchJoint-v0``).
+
+    The action is four set-point rates, for waist, shoulder, elbow and wrist pitch, each as a
+    fraction in [-1, 1] of that servo's flow limit; the wrist's yaw and roll servos hold their home
+    angles. One step is one control period of the simulation (``1 / control_rate_hz``, 10 ms).
+
+    The observation is the joint encoders (angles and velocities of all six joints), the wrist F/T
+    reading as the robot's sensor reports it (the soil's force and moment on the bucket about its
+    tip, in the tip frame), the bucket tip's pose from the robot's own kinematic model, and a local
+    height patch around the tip taken from the **scanned elevation map**, rescanned every
+    ``scan_period_s`` of simulated time (the scanner's rays see the soil only, so the arm does not
+    hide it; between scans the patch is the last map's), beside the goal's height at the same points.
+
+    Reward, on the true terrain (privileged): soil removed above the goal profile inside the goal's
+    footprint and soil dumped to the spoil (out of the box), per litre, less the over-dig below the
+    goal profile per litre and the time driven joints spend at their relief limit (at least 97 %).
+    The episode terminates when a scan shows the trench within tolerance (the loop's done rule) or
+    the world diverges, and is truncated after ``max_time_s`` of simulated time.
+
+    Args:
+        spec: the world (goal, soil, seed, configuration overrides; see :func:`as_spec`); its dig
+            budget is not used.
+        weights: reward weights over :data:`JOINT_WEIGHTS`.
+        max_time_s: the episode's length in simulated time [s].
+        scan_period_s: simulated time between scans [s].
+        patch_size, patch_spacing_m: the height patch, ``patch_size`` x ``patch_size`` points
+            ``patch_spacing_m`` apart centred under the tip, in world axes.
+    """
+
+    def __init__(self, spec=None, *, weights: Mapping[str, float] | None = None, max_time_s: float = 60.0,
+                 scan_period_s: float = 1.0, patch_size: int = 9, patch_spacing_m: float = 0.1,
+                 robot_path=None, scene_path=None):
+        self.spec = as_spec(spec)
+        self.resolved = ResolvedSpec(self.spec, robot_path=robot_path, scene_path=scene_path)
+        self.weights = check_weights(weights, JOINT_WEIGHTS, "joint")
+        for name, v in (("max_time_s", max_time_s), ("scan_period_s", scan_period_s),
+                        ("patch_spacing_m", patch_spacing_m)):
+            if not (isinstance(v, (int, float)) and math.isfinite(v) and v > 0):
+                raise EnvError(f"{name} must be a finite number > 0; given {v!r}")
+        if isinstance(patch_size, bool) or not isinstance(patch_size, int) or not 1 <= patch_size <= 101:
+            raise EnvError(f"patch_size must be an integer from 1 to 101; given {patch_size!r}")
+        self.max_time_s, self.scan_period_s = float(max_time_s), float(scan_period_s)
+        self.patch_size, self.patch_spacing_m = patch_size, float(patch_spacing_m)
+        off = (np.arange(patch_size) - (patch_size - 1) / 2) * self.patch_spacing_m
+        self._off_x, self._off_y = np.meshgrid(off, off)
+        self.control_dt = 1.0 / self.resolved.robot.control_rate_hz  # refined by the world at reset
+        self.action_low, self.action_high = -np.ones(len(DRIVEN)), np.ones(len(DRIVEN))
+        self.fields = {
+            "q": Field((6,), "float64", -2 * math.pi, 2 * math.pi, doc="joint angles [rad]"),
+            "qdot": Field((6,), "float64", -50.0, 50.0, doc="joint velocities [rad/s]"),
+            "ft": Field((6,), "float64", -1e6, 1e6, doc="F/T: soil force [N] and moment [N m] on the bucket, "
+                                                         "tip frame"),
+            "tip": Field((4,), "float64", -10.0, 10.0, doc="bucket tip x, y, z [m] (world) and pitch [rad]"),
+            "patch": Field((2, patch_size, patch_size), "float32", -5.0, 5.0,
+                           doc="scanned terrain and goal heights around the tip, relative to the tip [m]"),
+            "time_left": Field((), "float64", 0.0, self.max_time_s, doc="simulated time left [s]"),
+        }
+        self.sim: Simulation | None = None
+        self.over = True
+        self._closed = False
+
+    def reset(self, seed: int) -> tuple[dict[str, np.ndarray], dict[str, Any]]:
+        """A fresh world with ``seed``, the arm at its ``home`` pose over the box, a first scan."""
+        if self._closed:
+            raise EnvError("the environment is closed")
+        seed = check_seed(seed)
+        r = self.resolved
+        self.sim = sim = Simulation(r.robot, r.scene, seed=seed)
+        self.rig = rig = make_rig(sim, seed=seed, goal=r.goal, planner_cfg=r.planner, executor_cfg=r.executor,
+                                  sensing_cfg=r.sensing)
+        self.control_dt = sim.control_dt
+        self.ft = ForceSensor.from_config(sim.model, r.sensing.force_sensor)
+        self._ft_out = np.zeros((4, 3))
+        mask, z_goal = trench_footprint(sim, r.goal, rig.width)
+        self.truth = TrueTrench(sim, mask, z_goal)
+        go_home(sim, rig)
+        self._hold = rig.home[4:].copy()
+        self._rates = np.zeros(6)
+        self._rate_limit = sim.rate_limit.copy()
+        self._torque_limit = sim.torque_limit[list(DRIVEN)].copy()
+        self._waist = math.radians(r.goal.waist_deg)
+        self._scan()
+        self.t0 = sim.time
+        self._measured = self.truth.measure()
+        self._spoil = self._spoil0 = float(sim.soil.spoil)
+        self.over = False
+        self.steps = 0
+        obs = sim.observe()
+        return self._observation(obs), {"time_s": 0.0, "map_removed_fraction": self._frac, "map_done": self._done}
+
+    def _scan(self) -> None:
+        r = self.resolved
+        self.emap, _ = scan(self.sim, self.rig)
+        self._scanned_at = self.sim.time
+        self._done, self._frac = map_done(self.emap, r.goal, self.rig.arm, self.rig.width,
+                                          done_fraction=self.spec.done_fraction, tolerance_m=self.spec.tolerance_m,
+                                          initial_z=r.goal.surface_z_m)
+        self._frac = float(self._frac)
+
+    def step(self, action: Any) -> tuple[dict[str, np.ndarray], float, bool, bool, dict[str, Any]]:
+        """One control step with set-point rates ``action`` (4,) in [-1, 1] of each servo's flow limit.
+
+        Raises:
+            EnvError: the action is outside [-1, 1], not finite or of the wrong shape, or no episode runs.
+        """
+        if self.over:
+            raise EnvError("the episode has ended (or never started): call reset() first")
+        a = check_vector(action, self.action_low, self.action_high, "the joint action (rates in [-1, 1])")
+        sim = self.sim
+        q = sim.joint_angles()
+        rates = self._rates
+        rates[:4] = np.clip(a, -1.0, 1.0) * self._rate_limit[:4]
+        rates[4:] = setpoint_rates(self._hold, q[4:], gain_per_s=float(sim.robot.setpoint_gain_per_s),
+                                   rate_limit=self._rate_limit[4:])
+        try:
+            obs = sim.step(rates)
+        except (Diverged, OutOfTime) as exc:
+            self.over = True
+            return (self._observation(sim.observe()), 0.0, True, False,
+                    {"time_s": sim.time - self.t0, "diverged": str(exc)})
+        self.steps += 1
+        w = self.weights
+        removed, over = self.truth.measure()
+        spoil = float(sim.soil.spoil)
+        d_removed, d_over, d_spoil = removed - self._measured[0], over - self._measured[1], spoil - self._spoil
+        self._measured, self._spoil = (removed, over), spoil
+        saturated = int(np.count_nonzero(np.abs(obs.actuator_force[list(DRIVEN)]) >= SATURATION * self._torque_limit))
+        reward = (1000 * (w["cut_per_l"] * d_removed + w["dump_per_l"] * d_spoil - w["overdig_per_l"] * d_over)
+                  - w["saturation_per_s"] * saturated * sim.control_dt)
+        elapsed = sim.time - self.t0
+        if sim.time - self._scanned_at >= self.scan_period_s - 1e-9:
+            self._scan()
+        terminated = bool(self._done)
+        truncated = not terminated and elapsed >= self.max_time_s - 1e-9
+        self.over = terminated or truncated
+        info = {"time_s": elapsed, "removed_l": 1000 * removed, "overdig_l": 1000 * over,
+                "spoil_l": 1000 * (spoil - self._spoil0), "saturated_joints": saturated,
+                "map_removed_fraction": self._frac, "map_done": bool(self._done)}
+        return self._observation(obs), float(reward), terminated, truncated, info
+
+    def _observation(self, obs) -> dict[str, np.ndarray]:
+        sim, arm = self.sim, self.rig.arm
+        q = np.array(obs.q, dtype=np.float64)
+        pose = arm.forward(q[1:4])
+        tip = arm.plane_to_world(q[0], pose[:2])
+        try:
+            ft = self.ft.reading_into(obs, self._ft_out)
+            wrench = np.concatenate([ft[0], ft[1]])
+        except ExcavsimError:  # a non-finite reading (a diverged world): report zeros
+            wrench = np.zeros(6)
+        px, py = tip[0] + self._off_x, tip[1] + self._off_y
+        terrain = self.emap.height_at(px, py) - tip[2]
+        r = self.resolved
+        w = self._waist
+        radial = px * math.cos(w) + py * math.sin(w)
+        lateral = -px * math.sin(w) + py * math.cos(w)
+        inside = (np.abs(lateral) <= self.rig.width / 2) & (radial >= r.goal.near_x_m) & (radial <= r.goal.far_x_m)
+        goal = np.where(inside, goal_profile(r.goal, radial), r.goal.surface_z_m) - tip[2]
+        return {"q": q, "qdot": np.array(obs.qdot, dtype=np.float64), "ft": wrench,
+                "tip": np.array([tip[0], tip[1], tip[2], pose[2]]),
+                "patch": np.stack([terrain, goal]).astype(np.float32),
+                "time_left": np.array(max(self.max_time_s - (sim.time - self.t0), 0.0))}
+
+    def close(self) -> None:
+        """Free the world; a closed core cannot be reset (closing twice is fine)."""
+        self.sim = None
+        self.over = True
+        self._closed = True

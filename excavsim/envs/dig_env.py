@@ -1,0 +1,122 @@
+"""``excavsim/TrenchDig-v0``: Singh's trenching action as the action, one step per dig (Gymnasium).
+
+:class:`TrenchDigEnv` is the Gymnasium face of :class:`~excavsim.envs.core.DigCore` (the episode
+loop of ``excavsim trench`` with the agent choosing each trenching action); :class:`PlannerPolicy`
+is the planner used as a policy through it.
+"""
+
+from __future__ import annotations
+
+from typing import Any
+
+import gymnasium as gym
+import numpy as np
+
+from excavsim.envs.core import DigCore, EnvError, check_seed
+from excavsim.envs.spaces import dict_space
+
+
+class TrenchDigEnv(gym.Env):
+    """A trenching episode, one step per dig: the action is (k, alpha, d1) [m, rad, m].
+
+    See :class:`~excavsim.envs.core.DigCore` for the rules (snapping to the planner's grid, the
+    nearest allowed cell for an infeasible one, the fallback). Spaces:
+
+    * action: ``Box(3,)`` float64 from the planner grid's (k_min, alpha_min, d1_min) to its maxima;
+    * observation: ``Dict`` of ``elevation``, ``goal_mask``, ``goal_depth`` (lateral x radial
+      float32 grids around the goal, from the scanned map), ``ft`` (the last dig's peak and mean F/T
+      force in the soil [N]), ``outcome`` (``Discrete``, an index of
+      :data:`~excavsim.envs.core.OUTCOMES`) and ``digs_left`` (``Discrete``).
+
+    Reward per dig: ``removed_per_l`` x litres removed above the goal inside its footprint, less
+    ``overdig_per_l`` x litres dug below the goal profile, less ``stall`` for a stalled dig (true
+    terrain, after settlement). ``terminated`` when the episode ends ``done`` (the map shows the
+    trench within tolerance), ``no_dig`` or ``diverged``; ``truncated`` when the dig budget (or the
+    episode's wall-clock limit) is spent. ``info``: ``planner_action`` (the planner's (k, alpha,
+    d1) on the current map, None when it has no trenching dig), ``planner_fell_back``,
+    ``map_removed_fraction``; after a dig ``dig`` (the row of the ``trench`` table: action, planned and
+    dug litres, efficiency, outcome, failure, stall, predicted and measured wrist peaks),
+    ``reward_terms``, ``action_used``, ``executed_cell`` and ``snapped_to_allowed``; at the end
+    ``episode`` (:func:`~excavsim.loop.scenario.episode_summary` without its wall-clock times).
+    The whole :class:`~excavsim.handoff.episode.EpisodeResult` is :attr:`result` once it ended.
+
+    Seeding: ``reset(seed=s)`` runs the episode with seed ``s`` (the world's soil, sensor noise and
+    scanner drift), so the same seed and actions give the same episode bit for bit; ``reset()``
+    without a seed runs the spec's seed first, then seeds drawn from :attr:`np_random`.
+
+    Args:
+        spec, weights, fallback, window_margin_m, window_half_width_m, observer, robot_path,
+            scene_path: as :class:`~excavsim.envs.core.DigCore`.
+        render_mode: only None (record episodes with ``observer=excavsim.record.RerunRecorder(...)``).
+    """
+
+    metadata = {"render_modes": []}
+
+    def __init__(self, spec=None, *, render_mode: str | None = None, **kwargs: Any):
+        if render_mode is not None:
+            raise EnvError(f"render_mode must be None (no render modes); given {render_mode!r}")
+        self.render_mode = None
+        self.core = DigCore(spec, **kwargs)
+        self.action_space = gym.spaces.Box(self.core.action_low, self.core.action_high, dtype=np.float64)
+        self.observation_space = dict_space(self.core.fields)
+        self._resets = 0
+
+    @property
+    def result(self):
+        """The :class:`~excavsim.handoff.episode.EpisodeResult` of the last episode once it ended, else None."""
+        return self.core.result
+
+    def reset(self, *, seed: int | None = None, options: dict[str, Any] | None = None):
+        """Start an episode (see the class docstring for seeding); returns (observation, info).
+
+        Raises:
+            EnvError: a seed outside [0, 2**32 - 1] or an option (none is defined).
+        """
+        if options:
+            raise EnvError(f"TrenchDig-v0 takes no reset options; given {sorted(options)}")
+        return self.core.reset(_episode_seed(self, seed))
+
+    def step(self, action):
+        """Dig ``action`` (k, alpha, d1); returns (observation, reward, terminated, truncated, info)."""
+        return self.core.step(action)
+
+    def close(self):
+        """Abandon the running episode (closing twice is fine)."""
+        self.core.close()
+
+
+def _episode_seed(env: gym.Env, seed: int | None) -> int:
+    """The seed of the episode ``env.reset(seed=seed)`` starts: ``seed``; without one, the spec's
+    on the first reset (which also seeds ``np_random`` with it), then draws from ``np_random``."""
+    if seed is not None:
+        check_seed(seed)
+        gym.Env.reset(env, seed=seed)
+        episode_seed = seed
+    elif env._resets == 0:
+        episode_seed = env.core.spec.seed
+        gym.Env.reset(env, seed=episode_seed)
+    else:
+        gym.Env.reset(env)
+        episode_seed = int(env.np_random.integers(0, 2**32))
+    env._resets += 1
+    return episode_seed
+
+
+class PlannerPolicy:
+    """The planner as a policy of :class:`TrenchDigEnv`: the planner's (k, alpha, d1) on the current
+    map (``info["planner_action"]``), and the middle of the action space in a cycle where the planner
+    has no trenching dig (there the environment digs the loop's fallback and does not use it).
+
+    Through the environment it reproduces ``excavsim trench`` for the same spec and seed.
+
+    Args:
+        action_space: the environment's action space.
+    """
+
+    def __init__(self, action_space: gym.spaces.Box):
+        self.default = ((action_space.low + action_space.high) / 2).astype(action_space.dtype)
+
+    def __call__(self, observation, info: dict[str, Any]) -> np.ndarray:
+        """The action for this cycle."""
+        action = info.get("planner_action")
+        return self.default.copy() if action is None else np.asarray(action, dtype=self.default.dtype)
