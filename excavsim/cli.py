@@ -534,7 +534,10 @@ def _world_options(parser: argparse.ArgumentParser) -> None:
 
 def build_parser() -> argparse.ArgumentParser:
     """The argument parser of the ``excavsim`` command."""
+    from excavsim import __version__
+
     parser = argparse.ArgumentParser(prog="excavsim", description="MuJoCo testbed for robotic trenching.")
+    parser.add_argument("--version", action="version", version=f"excavsim {__version__}")
     sub = parser.add_subparsers(dest="command", required=True, metavar="COMMAND")
 
     demo = sub.add_parser("demo", help="one hand-picked dig through the loop: scan, dig, dump, settle, scan")
