@@ -12,7 +12,7 @@ $(PY):
 	$(PYTHON) -m venv $(VENV)
 	$(PY) -m pip install --quiet --upgrade pip
 
-# after installing, compile the numba kernels once (about 15 s of CPU) so that the first run starts warm
+# after installing, compile the numba kernels once (about 22 s of CPU) so that the first run starts warm
 $(STAMP_RUN): pyproject.toml | $(PY)
 	$(PY) -m pip install --quiet -e .
 	$(VENV)/bin/excavsim warmup

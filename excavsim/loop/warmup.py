@@ -3,7 +3,7 @@
 numba compiles a kernel on its first call and, with ``cache=True``, keeps the machine code in a
 cache (``__pycache__`` beside the sources of an editable install; numba's user-wide cache directory
 when the package's own directory is not writable; ``NUMBA_CACHE_DIR`` when set). On a fresh clone
-the first episode pays about 14 s of CPU for compiling (``excavsim bench coldstart`` measures it).
+the first episode pays about 22 s of CPU for compiling (``excavsim bench coldstart`` measures it).
 :func:`warm_up` pays it at install time instead (``make`` runs ``excavsim warmup`` after
 installing): it runs one short episode through every path of the loop (scanning, planning with the
 compiled kernel, the executor, the soil, settlement) and the reference paths a default episode may
