@@ -75,8 +75,35 @@ def test_the_recording_holds_the_documented_entity_tree(recording):
                      "/truth/soil_force_n", "/metrics/bucket_l", "/metrics/efficiency", "/wall/planning_s"):
         assert tree[temporal]["sim_time"] >= 1, temporal
     assert tree["/metrics/bucket_l"]["dig"] == len(result.digs)
+    assert tree["/summary"]["sim_time"] == len(result.digs) + 2  # at the start, after every dig, at the end
     # 37 s simulated at the default 10 Hz: one sample per 0.1 s
     assert tree["/torque/shoulder"]["sim_time"] == pytest.approx(10 * result.sim_time_s, rel=0.05)
+
+
+def summaries(path: pathlib.Path) -> list[tuple[float, str]]:
+    """The /summary documents of a recording: (sim_time [s], markdown), in time order."""
+    found = []
+    for chunk in RrdReader(path).stream().to_chunks():
+        if chunk.entity_path == "/summary" and not chunk.is_static:
+            batch = chunk.to_record_batch()
+            times = batch.column("sim_time").cast(pa.int64()).to_pylist()
+            texts = batch.column("TextDocument:text").to_pylist()
+            found += [(t / 1e9, text[0]) for t, text in zip(times, texts)]
+    return sorted(found)
+
+
+def test_the_summary_grows_after_every_dig_on_sim_time(recording):
+    """The summary is there from the start and gains a table row per dig, so the viewer shows it at every
+    time of the sim_time timeline, not only at the end."""
+    path, result = recording
+    docs = summaries(path)
+    assert docs[0][0] == 0.0 and "No dig yet" in docs[0][1]
+    for k in range(1, len(result.digs) + 1):
+        rows = [line for line in docs[k][1].splitlines() if line.startswith("| ") and line[2].isdigit()]
+        assert len(rows) == k, docs[k][1]
+    end = docs[-1][1]
+    assert docs[-1][0] == pytest.approx(result.sim_time_s, abs=0.2)
+    assert "**Ended**" in end and result.reason in end and "wall" not in end
 
 
 def test_an_episode_that_raises_still_leaves_a_complete_separate_recording(recording, tmp_path):
@@ -91,7 +118,8 @@ def test_an_episode_that_raises_still_leaves_a_complete_separate_recording(recor
     done = subprocess.run([rerun_cli(), "rrd", "verify", str(path)], capture_output=True, text=True, timeout=60)
     assert done.returncode == 0, done.stderr
     tree = entities(path)
-    assert tree["/summary"]["sim_time"] == 1 and tree["/world/soil/scan"]["sim_time"] == 1
+    assert tree["/summary"]["sim_time"] == 2 and tree["/world/soil/scan"]["sim_time"] == 1  # the start, the error
+    assert "ended with an error" in summaries(path)[-1][1]
     assert "/world/exec/path" not in tree  # nothing of the other episode leaked in
     ids = {RrdReader(p).recordings()[0].recording_id for p in (path, recording[0])}
     assert len(ids) == 2

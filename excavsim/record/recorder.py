@@ -17,8 +17,9 @@ before the first scan; cycle k scans, plans and digs dig k). Entity tree::
                                (red where the goal profile is over-dug)
       soil/scan                Mesh3D of each scanned elevation map (orange: cells filled, not observed)
       goal                     LineStrips3D: the goal profile (centre line and bucket-width edges)
+      goal/name                Points3D: the goal's name, at the far end of the centre line
       goal/footprint           Points3D: grid samples in the trench footprint at the goal height
-      plan/path                LineStrips3D: the planned tip path (penetrate, drag, curl strips)
+      plan/path                LineStrips3D: the planned tip path (penetrate, drag, curl strips; one label)
       exec/path                LineStrips3D: the tip path the executor measured while digging
     plan/feasible              Boxes3D of the planner's feasible cells, coloured by swept volume
     plan/chosen                the chosen cell (wireframe, labelled)
@@ -34,8 +35,10 @@ before the first scan; cycle k scans, plans and digs dig k). Entity tree::
     wall/planning_s            wall time the dig's planning took, per dig (the one entity that differs
                                between two recordings of the same episode)
     config                     TextDocument: the resolved configuration of the run, static
-    log                        TextLog: scans, plans, digs and the end
-    summary                    TextDocument: format_episode of the result (less its wall time), at the end
+    notes                      TextDocument: how to read the recording (clipped plots, colours), static
+    log                        TextLog: scans, plans, digs, servo-saturated intervals (warnings) and the end
+    summary                    TextDocument at the start, after every dig (a growing per-dig table) and
+                               at the end (why it ended, the trench against the goal; no wall time)
 
 Reproducibility: the same episode (seed and configuration) recorded to files of the same name gives
 the same recording id (:func:`recording_id_for`) and, decoded, the same rows on every entity but
@@ -44,7 +47,9 @@ of the wall time and a random number, and has no way to set them; the recording 
 Rerun's recording properties (its start time).
 
 A default blueprint (:func:`default_blueprint`) goes with the file: 3D views of the world with the
-true terrain and with the map, the feasible set, time series of the signals and metrics, the summary.
+true terrain and with the map (the camera on the trench, :func:`trench_camera`), the feasible set,
+time series of the signals (force plots on fixed ranges that show digging) and metrics, the summary.
+With ``live``, the same stream also goes to a viewer as the episode runs.
 
 What recording costs (wall time, file size per dig) is measured in the README's recording section.
 """
@@ -63,7 +68,7 @@ import yaml
 
 from excavsim import constants
 from excavsim.errors import ExcavsimError
-from excavsim.handoff.episode import DigMetrics, EpisodeObserver, EpisodeResult, format_episode
+from excavsim.handoff.episode import DigMetrics, EpisodeObserver, EpisodeResult
 from excavsim.handoff.goal import goal_profile
 from excavsim.record.blueprint import default_blueprint
 from excavsim.record.geometry import (FILLED_RGB, MAP_RGB, OVERDIG_RGB, PHASE_NAMES, PHASE_RGB, PLAN_AXIS_LENGTH,
@@ -78,23 +83,89 @@ def recording_id_for(name: str, seed: int, config_text: str) -> str:
     return str(uuid.uuid5(uuid.NAMESPACE_URL, f"excavsim:{name}:seed {seed}:{digest}"))
 
 
+SATURATED = 0.999  # a servo whose |torque| is at least this fraction of its limit is saturated
+XYZ_RGB = ((235, 80, 70), (90, 200, 90), (80, 140, 250))
+ACTUATOR_RGB = ((31, 119, 180), (255, 127, 14), (44, 160, 44), (214, 39, 40), (148, 103, 189), (227, 119, 194))
+METRIC_SERIES = {  # entity: (series name with its unit, colour)
+    "metrics/predicted_l": ("planned [l]", (120, 160, 230)),
+    "metrics/bucket_l": ("dug, in the bucket [l]", (245, 160, 40)),
+    "metrics/removed_l": ("removed so far, cumulative [l]", (90, 200, 90)),
+    "metrics/efficiency": ("efficiency, dug / planned [-]", (245, 160, 40)),
+    "metrics/stall": ("stall [0 or 1]", (235, 80, 70)),
+    "metrics/sim_s": ("dig duration [s simulated]", (120, 160, 230)),
+    "wall/planning_s": ("planning [s wall]", (245, 160, 40)),
+    "metrics/map_rms_cm": ("map RMS error [cm]", (120, 160, 230)),
+}
+NOTES = """# How to read this recording
+
+* **Timelines**: `sim_time` (simulated seconds) and `dig` (the cycle: scan, plan and dig k).
+* **Forces**: *forces while digging* shows what the executor sensed at the bucket tip (points, only
+  during digs) and the true soil force on the bucket (white line). The wrist F/T plots hold the
+  sensor's reading in its own frame, bucket weight included (~275 N at rest). All force plots have
+  fixed ranges (-1 to 1.5 kN, +-1.5 kN, +-1 kN m): while a servo is at its torque limit (the park
+  move at the start, fast moves between digs) the wrist reads up to ~14 kN of the arm's own inertia;
+  those spikes are clipped, and the log names each such interval and its peak. Scroll or
+  double-click a plot to see its whole range.
+* **Planned path**: penetrate (orange), drag (yellow), curl (blue); the measured path is white.
+* **Terrain**: sand coloured darker with depth, red where the goal is over-dug; the scanned map is
+  blue, orange where cells were filled, not observed.
+* **Soil [l]**: planned and dug are per dig; *removed so far* is cumulative (the goal's footprint).
+* **Summary**: grows after every dig; the episode's end is added when it ends.
+"""
+
+
+def trench_camera(rig) -> tuple[np.ndarray, np.ndarray]:
+    """Where the 3-D views' camera starts and what it looks at: the middle of the trench, seen from
+    the side of the arm plane and above, so that the trench, the bucket and the spoil fill the view."""
+    goal, arm = rig.goal, rig.arm
+    waist = float(np.radians(goal.waist_deg))
+    near, mid, far = arm.plane_to_world(waist, np.array([[goal.near_x_m, goal.surface_z_m],
+                                                          [(goal.near_x_m + goal.far_x_m) / 2, goal.surface_z_m],
+                                                          [goal.far_x_m, goal.surface_z_m]]))
+    along = (far - near) / max(np.linalg.norm(far - near), 1e-9)
+    across = np.array([-along[1], along[0], 0.0])
+    # beside the arm plane, behind the trench's middle towards the robot, and above [m]
+    eye = mid - 2.6 * across - 0.9 * along + np.array([0.0, 0.0, 1.9])
+    return eye, mid - np.array([0.0, 0.0, 0.1])
+
+
+def episode_end_text(result: EpisodeResult) -> str:
+    """The end of an episode in a few short lines (markdown): why it ended, the trench against the
+    goal, the digs' failures. No wall time, so that two recordings of one episode hold the same text."""
+    digs = result.digs
+    return (f"**Ended**: {result.reason}.\n\n"
+            f"Removed {1000 * result.removed_m3:.1f} l of {1000 * result.goal_m3:.1f} l "
+            f"({100 * result.removed_fraction:.0f} %); over-dig max {100 * result.overdig_max_m:.1f} cm "
+            f"(RMS {100 * result.overdig_rms_m:.1f}), under-dig max {100 * result.underdig_max_m:.1f} cm "
+            f"(RMS {100 * result.underdig_rms_m:.1f}).\n\n"
+            f"{len(digs)} digs, {sum(d.stall_joint is not None for d in digs)} stalls, "
+            f"{sum(d.failed for d in digs)} failed; {result.sim_time_s:.0f} s simulated.")
+
+
 class RerunRecorder(EpisodeObserver):
     """Records one episode to ``path`` (an ``.rrd`` file; parent folders are created).
 
     Args:
-        path: the recording to write; an existing file is replaced.
+        path: the recording to write; an existing file is replaced. None: no file (``live`` only).
         rate_hz: how often the robot's pose and the signals are sampled [Hz of simulated time].
         recording_id: Rerun's recording id (default: :func:`recording_id_for` the file's name, the
             episode's seed and its configuration).
+        live: also stream the episode, as it runs, to the viewer at this gRPC URL
+            (``rerun+http://HOST:PORT/proxy``; see :func:`excavsim.record.live.viewer_url`).
 
     Raises:
-        ExcavsimError: ``rate_hz`` is not positive, or the recorder is started a second time.
+        ExcavsimError: ``rate_hz`` is not positive, neither ``path`` nor ``live`` is given, or the
+            recorder is started a second time.
     """
 
-    def __init__(self, path: str | os.PathLike, *, rate_hz: float = 10.0, recording_id: str | None = None):
+    def __init__(self, path: str | os.PathLike | None, *, rate_hz: float = 10.0, recording_id: str | None = None,
+                 live: str | None = None):
         if not (np.isfinite(rate_hz) and rate_hz > 0):
             raise ExcavsimError(f"RerunRecorder rate_hz must be a positive number [Hz]; given {rate_hz!r}")
-        self.path = pathlib.Path(path)
+        if path is None and not live:
+            raise ExcavsimError("RerunRecorder needs a file to write (path) or a viewer to stream to (live)")
+        self.path = pathlib.Path(path) if path is not None else None
+        self.live = live
         self.rate_hz = float(rate_hz)
         self.recording_id = recording_id  # None: derived when the episode starts
         self.rec: rr.RecordingStream | None = None
@@ -103,21 +174,29 @@ class RerunRecorder(EpisodeObserver):
         self._cycle = 0
         self._closed = False
         self._plan_axes_logged = False
+        self._rows: list[str] = []  # the summary's per-dig table, a markdown row per dig
+        self._saturated: dict | None = None  # the saturated-servo interval under way: start, joints, peak |F|
         self.sim = self.rig = None
 
     # -- the observer hooks ---------------------------------------------------------------------
     def started(self, sim, rig, goal_mask: np.ndarray, goal_z: np.ndarray) -> None:
         if self.rec is not None:
-            raise ExcavsimError(f"a RerunRecorder records one episode; make a new one for {self.path}")
-        self.path.parent.mkdir(parents=True, exist_ok=True)
+            raise ExcavsimError(f"a RerunRecorder records one episode; make a new one for {self.path or self.live}")
         config = self._config_text(sim, rig)
-        self.recording_id = self.recording_id or recording_id_for(self.path.name, sim.seed, config)
+        name = self.path.name if self.path is not None else "live.rrd"
+        self.recording_id = self.recording_id or recording_id_for(name, sim.seed, config)
         # no recording properties: they hold the wall-clock start time
         rec = rr.RecordingStream("excavsim", recording_id=self.recording_id, send_properties=False)
         rec.set_log_time_enabled(False)  # reproducible files: only our own timelines
         rec.set_log_tick_enabled(False)
-        rec.save(self.path, default_blueprint=default_blueprint())
-        rec.send_recording_name(self.path.stem)
+        sinks = []
+        if self.path is not None:
+            self.path.parent.mkdir(parents=True, exist_ok=True)
+            sinks.append(rr.FileSink(str(self.path)))
+        if self.live:
+            sinks.append(rr.GrpcSink(self.live))
+        rec.set_sinks(*sinks, default_blueprint=default_blueprint(*trench_camera(rig)))
+        rec.send_recording_name(pathlib.Path(name).stem)
         self.rec, self.sim, self.rig = rec, sim, rig
         self.goal_mask, self.goal_z, self.h0 = goal_mask, goal_z, sim.soil.grid.heights.copy()
         self.waist = float(np.radians(rig.goal.waist_deg))
@@ -132,6 +211,11 @@ class RerunRecorder(EpisodeObserver):
         rec.log("world", rr.ViewCoordinates.RIGHT_HAND_Z_UP, static=True)
         rec.log("plan", rr.ViewCoordinates.RIGHT_HAND_Z_UP, static=True)
         rec.log("config", rr.TextDocument(config, media_type=rr.MediaType.MARKDOWN), static=True)
+        rec.log("notes", rr.TextDocument(NOTES, media_type=rr.MediaType.MARKDOWN), static=True)
+        g0 = sim.soil.grid
+        self._goal_l = 1000 * float(np.clip(self.h0 - goal_z, 0, None)[goal_mask].sum() * g0.cell_area)
+        self._title = (f"# Episode: {rig.goal.name or 'inline'} trench, soil {sim.scene.soil}, seed {sim.seed}\n\n")
+        self._log_summary("No dig yet: the arm parks, the scanner maps the soil, the planner chooses the first dig.")
         self._log_bodies(sim)
         self._log_series_styles()
         self._log_goal(sim, rig, goal_mask, goal_z)
@@ -169,15 +253,19 @@ class RerunRecorder(EpisodeObserver):
             why = f" ({plan.reason}) and no fallback" if plan is not None else ""
             self._say(f"plan {index}: no dig{why}", level=rr.TextLogLevel.WARN)
             return
-        strips, colours, labels = [], [], []
+        strips, colours, names = [], [], []
         points = self.rig.arm.plane_to_world(self.waist, dig.poses[:, :2])
         for p, name in enumerate(PHASE_NAMES):
             idx = np.flatnonzero(dig.phases == p)
             if idx.size:  # each phase's strip starts at the end of the one before, so the path is unbroken
                 strips.append(points[max(idx[0] - 1, 0):idx[-1] + 1])
                 colours.append(PHASE_RGB[p])
-                labels.append(name)
-        self.rec.log("world/plan/path", rr.LineStrips3D(strips, colors=colours, labels=labels, radii=0.008))
+                names.append(name)
+        # One label for the whole path (the phases' own labels sat on top of each other, the strips are
+        # short): the phases in their colours' order, explained in the notes.
+        labels = [f"plan {index}: " + ", ".join(names) if i == len(strips) // 2 else "" for i in range(len(strips))]
+        self.rec.log("world/plan/path", rr.LineStrips3D(strips, colors=colours, labels=labels, radii=0.008,
+                                                         show_labels=True))
         if dig.action is None:
             why = f"{plan.reason}; " if plan is not None else ""
             self._say(f"plan {index}: {why}{dig.kind}, {1000 * dig.volume_m3:.1f} l")
@@ -194,10 +282,11 @@ class RerunRecorder(EpisodeObserver):
         self._next_t = t + 1.0 / self.rate_hz
         fa, ta = self._ft_adr
         contact = sim.contact
+        force, tau = d.sensordata[fa:fa + 3].copy(), d.actuator_force[self._act].copy()
         self._buffer.append((t, self._cycle, d.xpos[self._moving].copy(), d.xquat[self._moving].copy(),
-                             d.sensordata[fa:fa + 3].copy(), d.sensordata[ta:ta + 3].copy(),
-                             d.actuator_force[self._act].copy(), d.qpos[self._qadr].copy(),
+                             force, d.sensordata[ta:ta + 3].copy(), tau, d.qpos[self._qadr].copy(),
                              float(np.linalg.norm(contact.force)) if contact is not None else 0.0))
+        self._watch_saturation(t, tau, float(np.linalg.norm(force)))
         if len(self._buffer) >= 512:
             self._flush()
 
@@ -223,6 +312,12 @@ class RerunRecorder(EpisodeObserver):
         for name, value in values.items():
             self.rec.log(f"metrics/{name}", rr.Scalars(value))
         self.rec.log("wall/planning_s", rr.Scalars(metrics.planning_s))
+        self._rows.append(f"| {index} | {metrics.kind} | {record.outcome} | {values['predicted_l']:.1f} | "
+                          f"{values['bucket_l']:.1f} | {metrics.efficiency:.2f} | {values['removed_l']:.1f} | "
+                          f"{metrics.stall_joint or '-'} |")
+        share = 100 * values["removed_l"] / max(self._goal_l, 1e-9)
+        self._log_summary(f"After dig {index}, {self.sim.time:.0f} s simulated: {values['removed_l']:.1f} l of the "
+                          f"goal's {self._goal_l:.1f} l removed ({share:.0f} %).")
         warn = metrics.stall_joint is not None or not record.completed
         self._say(f"dig {index} ({metrics.kind}): {record.outcome}, {1000 * metrics.predicted_m3:.1f} l planned, "
                   f"{1000 * metrics.bucket_m3:.1f} l dug, touch-down offset {100 * record.touch_offset_m:.1f} cm"
@@ -235,15 +330,14 @@ class RerunRecorder(EpisodeObserver):
             return
         try:
             self._flush()
+            self._end_saturation()
             self._time(self.sim.time)
             if result is None:
-                text = "# Episode\n\nThe episode ended with an error; the log shows how far it got."
+                self._log_summary("**The episode ended with an error**; the log shows how far it got.")
                 self._say("the episode ended with an error", level=rr.TextLogLevel.ERROR)
             else:
-                table = format_episode(result).replace(f" in {result.wall_time_s:.1f} s wall", "")  # reproducible
-                text = f"# Episode\n\n```\n{table.strip()}\n```\n"
+                self._log_summary(episode_end_text(result))
                 self._say(f"ended: {result.reason}")
-            self.rec.log("summary", rr.TextDocument(text, media_type=rr.MediaType.MARKDOWN))
         finally:
             self._closed = True
             self.rec.flush()
@@ -256,6 +350,38 @@ class RerunRecorder(EpisodeObserver):
 
     def _say(self, text: str, *, level: str = rr.TextLogLevel.INFO) -> None:
         self.rec.log("log", rr.TextLog(text, level=level))
+
+    def _log_summary(self, text: str) -> None:
+        """The summary document at the current time: the title, ``text`` and the per-dig table so far."""
+        table = ""
+        if self._rows:
+            table = ("\n\n| dig | kind | outcome | plan [l] | dug [l] | eff. | removed [l] | stall |\n"
+                     "|---:|---|---|---:|---:|---:|---:|---|\n" + "\n".join(self._rows) + "\n\n"
+                     "removed: in the goal's footprint since the start (cumulative); eff.: dug / plan.")
+        self.rec.log("summary", rr.TextDocument(self._title + text + table, media_type=rr.MediaType.MARKDOWN))
+
+    def _watch_saturation(self, t: float, tau: np.ndarray, force_n: float) -> None:
+        """Follow the intervals in which a servo is at its torque limit, and log each when it ends: the
+        wrist F/T spikes there are the arm's inertia in a fast move, not soil (the plots clip them)."""
+        at_limit = np.abs(tau) >= SATURATED * self.sim.torque_limit
+        if at_limit.any():
+            if self._saturated is None:
+                self._saturated = {"start": t, "joints": set(), "peak": 0.0}
+            self._saturated["end"] = t
+            self._saturated["joints"].update(n for n, hit in zip(constants.ACTUATORS, at_limit) if hit)
+            self._saturated["peak"] = max(self._saturated["peak"], force_n)
+        elif self._saturated is not None:
+            self._end_saturation()
+
+    def _end_saturation(self) -> None:
+        sat, self._saturated = self._saturated, None
+        if sat is None:
+            return
+        joints = ", ".join(n for n in constants.ACTUATORS if n in sat["joints"])
+        self.rec.set_time("sim_time", duration=float(sat["end"]))
+        self._say(f"servos at their torque limit {sat['start']:.1f}-{sat['end']:.1f} s ({joints}): the wrist "
+                  f"|F| peaked at {sat['peak'] / 1000:.1f} kN, the arm's inertia in a fast move, not soil "
+                  "(the force plots are clipped)", level=rr.TextLogLevel.WARN)
 
     def _flush(self) -> None:
         """Send the buffered samples of :meth:`stepped` as columns (one chunk per entity)."""
@@ -300,22 +426,22 @@ class RerunRecorder(EpisodeObserver):
                              static=True)
 
     def _log_series_styles(self) -> None:
-        rgb = ((220, 60, 60), (60, 170, 60), (60, 100, 220))
+        """Every series' name (with its unit) and colour, static."""
         for i, axis in enumerate("xyz"):
-            self.rec.log(f"ft/force/{axis}", rr.SeriesLines(names=f"F{axis} [N]", colors=rgb[i]), static=True)
-            self.rec.log(f"ft/torque/{axis}", rr.SeriesLines(names=f"M{axis} [N m]", colors=rgb[i]),
+            self.rec.log(f"ft/force/{axis}", rr.SeriesLines(names=f"F{axis} [N]", colors=XYZ_RGB[i]), static=True)
+            self.rec.log(f"ft/torque/{axis}", rr.SeriesLines(names=f"M{axis} [N m]", colors=XYZ_RGB[i]),
                          static=True)
-            self.rec.log(f"ft/tip/{axis}", rr.SeriesPoints(names=f"tip F{axis} [N]", colors=rgb[i]),
+            self.rec.log(f"ft/tip/{axis}", rr.SeriesPoints(names=f"sensed tip F{axis} [N]", colors=XYZ_RGB[i],
+                                                           marker_sizes=1.5), static=True)
+        self.rec.log("ft/force/norm", rr.SeriesLines(names="|F| [N]", colors=(200, 200, 200)), static=True)
+        self.rec.log("truth/soil_force_n", rr.SeriesLines(names="true soil |F| on bucket [N]", colors=(250, 250, 250),
+                                                          widths=2.0), static=True)
+        for name, colour in zip(constants.ACTUATORS, ACTUATOR_RGB):
+            self.rec.log(f"torque/{name}", rr.SeriesLines(names=f"{name} [N m]", colors=colour), static=True)
+            self.rec.log(f"joint_deg/{name}", rr.SeriesLines(names=f"{name} [deg]", colors=colour), static=True)
+        for name, (label, colour) in METRIC_SERIES.items():
+            self.rec.log(name, rr.SeriesLines(names=label, colors=colour), rr.SeriesPoints(names=label, colors=colour),
                          static=True)
-        self.rec.log("ft/force/norm", rr.SeriesLines(names="|F| [N]", colors=(40, 40, 40)), static=True)
-        self.rec.log("truth/soil_force_n", rr.SeriesLines(names="soil on bucket |F| [N]"), static=True)
-        for name in constants.ACTUATORS:
-            self.rec.log(f"torque/{name}", rr.SeriesLines(names=f"{name} [N m]"), static=True)
-            self.rec.log(f"joint_deg/{name}", rr.SeriesLines(names=f"{name} [deg]"), static=True)
-        for name in ("metrics/predicted_l", "metrics/bucket_l", "metrics/efficiency", "wall/planning_s",
-                     "metrics/sim_s", "metrics/removed_l", "metrics/stall", "metrics/map_rms_cm"):
-            label = name.split("/")[1]
-            self.rec.log(name, rr.SeriesLines(names=label), rr.SeriesPoints(names=label), static=True)
 
     def _log_goal(self, sim, rig, goal_mask: np.ndarray, goal_z: np.ndarray) -> None:
         goal, arm = rig.goal, rig.arm
@@ -324,8 +450,12 @@ class RerunRecorder(EpisodeObserver):
         along = centre[-1, :2] - centre[0, :2]
         across = np.r_[-along[1], along[0], 0.0] / np.linalg.norm(along) * rig.width / 2
         strips = [centre - across, centre, centre + across]
-        self.rec.log("world/goal", rr.LineStrips3D(strips, colors=[(60, 200, 90)] * 3, radii=[0.004, 0.006, 0.004],
-                                                   labels=["", goal.name or "goal", ""]), static=True)
+        self.rec.log("world/goal", rr.LineStrips3D(strips, colors=[(60, 200, 90)] * 3, radii=[0.004, 0.006, 0.004]),
+                     static=True)
+        # the goal's name at the far end of its centre line, clear of the plan's label in the middle
+        self.rec.log("world/goal/name", rr.Points3D([centre[-1] + [0.0, 0.0, 0.05]], colors=(60, 200, 90), radii=0.01,
+                                                    labels=[f"goal: {goal.name or 'inline'}"], show_labels=True),
+                     static=True)
         g = sim.soil.grid
         rows, cols = np.nonzero(goal_mask)
         gx, gy = g.xy(rows, cols)
