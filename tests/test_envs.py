@@ -249,3 +249,17 @@ def test_joint_actions_drive_the_servos_and_the_episode_ends_on_time():
     assert obs["patch"].shape == (2, 9, 9) and obs["time_left"] == pytest.approx(0.0, abs=1e-9)
     # the bucket is high over the soil at home: the terrain is below the tip everywhere
     assert np.all(obs["patch"][0] < 0)
+
+
+def test_a_dropped_environment_ends_its_paused_episode():
+    import gc
+    import threading
+
+    env = gym.make(DIG_ENV_ID, spec=tiny())
+    env.reset(seed=0)
+    thread = env.unwrapped.core._thread
+    assert thread.is_alive()  # paused, waiting for the first action
+    del env
+    gc.collect()
+    thread.join(timeout=10)
+    assert not thread.is_alive() and thread not in threading.enumerate()

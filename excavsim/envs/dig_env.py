@@ -84,6 +84,12 @@ class TrenchDigEnv(gym.Env):
         """Abandon the running episode (closing twice is fine)."""
         self.core.close()
 
+    def __del__(self):
+        # the worker thread holds the core, not the environment: a dropped environment ends its episode
+        core = getattr(self, "core", None)
+        if core is not None:
+            core.close()
+
 
 def _episode_seed(env: gym.Env, seed: int | None) -> int:
     """The seed of the episode ``env.reset(seed=seed)`` starts: ``seed``; without one, the spec's

@@ -82,6 +82,11 @@ class _DmFace(dm_env.Environment):
         """Abandon the running episode (closing twice is fine)."""
         self.core.close()
 
+    def __del__(self):
+        core = getattr(self, "core", None)  # as TrenchDigEnv: a dropped environment ends its episode
+        if core is not None:
+            core.close()
+
 
 class DmTrenchDig(_DmFace):
     """``TrenchDig`` with a dm_env face: one step per dig, the action (k, alpha, d1) [m, rad, m]
