@@ -1,7 +1,7 @@
 """The README's Python quickstart runs as written, and the Python API it starts from holds.
 
 QUICKSTART_SOURCE is the file whose "## Python quickstart" section's first python block is run
-verbatim in a fresh interpreter (docs/envs-readme-draft.md until the section is merged into README.md).
+verbatim in a fresh interpreter.
 """
 
 from __future__ import annotations
@@ -14,7 +14,7 @@ import tomllib
 import excavsim
 from excavsim import cli, constants
 
-QUICKSTART_SOURCE = constants.REPO_ROOT / "docs" / "envs-readme-draft.md"
+QUICKSTART_SOURCE = constants.REPO_ROOT / "README.md"
 MAX_LINES = 10  # the quickstart's promise: at most ten lines of code
 
 
