@@ -161,10 +161,14 @@ def _cmd_trench(args: argparse.Namespace) -> int:
                         source="the command line")
     ResolvedSpec(spec, robot_path=args.robot_config, scene_path=args.scene_config)  # every file checked first
     observer = None
-    if args.record:
+    if args.record or args.live is not None:
         from excavsim.record import RerunRecorder
+        from excavsim.record.live import viewer_url
 
-        observer = RerunRecorder(args.record)
+        live = viewer_url(args.live or None) if args.live is not None else None  # checked before the episode
+        if live:
+            print(f"streaming the episode live to {live}")
+        observer = RerunRecorder(args.record, live=live)
     if args.save_maps:
         from excavsim.handoff.episode import ObserverGroup
         from excavsim.loop.episode import MapWriter
@@ -241,10 +245,57 @@ def _check_recording(path: str) -> None:
     raise ExcavsimError(f"{shown}: Rerun cannot load this recording: {shorten(lines[-1] if lines else out, 200)}")
 
 
+def _sim_time(text: str) -> float | None:
+    """An argparse type of ``replay --time``: simulated seconds (a number >= 0), or ``end``."""
+    if text.strip().lower() == "end":
+        return None
+    try:
+        value = float(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"{shorten(repr(text))} is not a time; allowed: seconds of simulated "
+                                         "time (>= 0) or 'end'") from None
+    if not (math.isfinite(value) and value >= 0):
+        raise argparse.ArgumentTypeError(f"{shorten(text)} is out of range (allowed: >= 0 s, or 'end')")
+    return value
+
+
+def _window_size(text: str) -> tuple[int, int]:
+    """An argparse type of ``replay --size``: WIDTHxHEIGHT in logical points, each 320 to 7680."""
+    import re
+
+    m = re.fullmatch(r"\s*(\d{1,5})\s*[xX]\s*(\d{1,5})\s*", text)
+    if not m:
+        raise argparse.ArgumentTypeError(f"{shorten(repr(text))} is not a size; allowed: WIDTHxHEIGHT, e.g. 1600x1000")
+    w, h = int(m.group(1)), int(m.group(2))
+    if not (320 <= w <= 7680 and 240 <= h <= 4320):
+        raise argparse.ArgumentTypeError(f"{w}x{h} is out of range (allowed: 320 to 7680 wide, 240 to 4320 high)")
+    return w, h
+
+
+def _screenshot_paths(png: str, times: list[float | None]) -> list[tuple[float | None, str]]:
+    """The PNG of each ``--time``: ``png`` itself for one time, else ``png``'s stem with the time added."""
+    if len(times) == 1:
+        return [(times[0], png)]
+    p = pathlib.Path(png)
+    return [(t, str(p.with_name(f"{p.stem}_{'end' if t is None else f'{t:g}s'}{p.suffix}"))) for t in times]
+
+
 def _cmd_replay(args: argparse.Namespace) -> int:
     from excavsim.record import replay
 
+    if args.screenshot is None and (args.time is not None or args.size is not None):
+        raise ExcavsimError("--time and --size go with --screenshot PNG (they choose what the headless viewer renders)")
     _check_recording(args.file)
+    if args.screenshot is not None:
+        from excavsim.record.replay import screenshots
+
+        shots = _screenshot_paths(args.screenshot, args.time or [None])
+        if args.dry_run:
+            print(f"would render {args.file} headless at {', '.join(f'{t}' for t, _ in shots)} to "
+                  f"{', '.join(p for _, p in shots)}")
+            return 0
+        screenshots(args.file, shots, size=args.size or (1600, 1000))
+        return 0
     replay(args.file, dry_run=args.dry_run)
     return 0
 
@@ -322,7 +373,16 @@ def _cmd_campaign(args: argparse.Namespace) -> int:
         except argparse.ArgumentTypeError as exc:
             raise ExcavsimError(f"--out (default): {exc}") from None
     recorder = None
-    if spec.record:
+    if args.live is not None:  # records every episode, streams the first of the grid
+        from excavsim.loop.campaign import check_campaign
+        from excavsim.record.live import LiveRecorders, viewer_url
+
+        first = check_campaign(spec, source=f"campaign {spec.name}")[0].id
+        url = viewer_url(args.live or None)
+        print(f"streaming episode {first} live to {url}; every episode is recorded (record: true)")
+        spec = spec.model_copy(update={"record": True})
+        recorder = LiveRecorders(url, first)
+    elif spec.record:
         from excavsim.record import RerunRecorder as recorder
     report = run_campaign(spec, out, workers=args.workers, resume=args.resume, ray_address=args.ray,
                           recorder=recorder, progress=print)
@@ -555,6 +615,9 @@ def build_parser() -> argparse.ArgumentParser:
                         help=f"most digs to try (1 to {MAX_DIG_BUDGET}, default 20)")
     trench.add_argument("--record", metavar="FILE.rrd", type=_out_file(()),
                         help="record the episode to a Rerun file (see `replay`)")
+    trench.add_argument("--live", nargs="?", const="", metavar="ADDRESS",
+                        help="stream the episode to a Rerun viewer as it runs: alone, spawn one (needs a display); "
+                             "with PORT, HOST:PORT or rerun+http://HOST:PORT/proxy, a running viewer (`rerun`)")
     trench.add_argument("--save-maps", metavar="DIR", type=_out_dir,
                         help="save every scanned elevation map (for `plan --map`)")
     trench.add_argument("--robot-config", metavar="YAML", help="servo configuration (default configs/robot.yaml)")
@@ -566,6 +629,14 @@ def build_parser() -> argparse.ArgumentParser:
     replay.add_argument("file", metavar="FILE.rrd",
                         help="a recording written by `excavsim trench --record` (checked with `rerun rrd verify`)")
     replay.add_argument("--dry-run", action="store_true", help="only print the viewer command")
+    replay.add_argument("--screenshot", metavar="PNG", type=_out_file((".png",)),
+                        help="render headless instead of opening a window, and write PNG (needs Vulkan: a GPU "
+                             "driver or, without one, Debian's mesa-vulkan-drivers)")
+    replay.add_argument("--time", nargs="+", type=_sim_time, metavar="T",
+                        help="simulated times [s] (or 'end', the default) of the screenshots; with several, "
+                             "PNG's name gets the time added (shot_20s.png)")
+    replay.add_argument("--size", type=_window_size, metavar="WxH",
+                        help="the headless viewer's size in points (default 1600x1000)")
     replay.set_defaults(func=_cmd_replay)
 
     cycle = sub.add_parser("cycle", help="one cycle of the loop: an episode of one dig of the default trench")
@@ -611,6 +682,9 @@ def build_parser() -> argparse.ArgumentParser:
     campaign.add_argument("--ray", nargs="?", const="local", metavar="ADDRESS",
                           help="run on Ray: alone for a local instance, or 'auto' / HOST:PORT for a running cluster "
                                "(pip install 'excavsim[ray]')")
+    campaign.add_argument("--live", nargs="?", const="", metavar="ADDRESS",
+                          help="stream the grid's first episode to a Rerun viewer as it runs (spawned, or the one at "
+                               "ADDRESS, as trench --live); records every episode")
     campaign.set_defaults(func=_cmd_campaign)
 
     validate = sub.add_parser("validate", help="check a configuration file and report every problem")

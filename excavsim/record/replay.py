@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import os
 import pathlib
+import re
 import shutil
 import subprocess
 import sys
@@ -55,3 +56,208 @@ def replay(path: str | os.PathLike, *, dry_run: bool = False, say: Callable[[str
     if status != 0:
         raise ExcavsimError(f"the Rerun viewer exited with status {status}: {shown}")
     return cmd
+
+
+VULKAN_PACKAGE = "mesa-vulkan-drivers"  # Debian/Ubuntu: Vulkan software rendering (llvmpipe) for the headless viewer
+VIEWER_START_S = 60.0  # the longest the headless viewer may take to answer [s]
+SETTLE_TRIES = 6  # screenshots taken at one time until two in a row are the same (the data has arrived)
+
+
+def _free_port() -> int:
+    """A TCP port nobody listens on now (the viewer binds it a moment later)."""
+    import socket
+
+    with socket.socket() as s:
+        s.bind(("127.0.0.1", 0))
+        return s.getsockname()[1]
+
+
+def _no_vulkan(output: str) -> bool:
+    """Whether the viewer's output says it found no graphics adapter (it panics then, e.g. "Failed to get
+    render context" after falling back to GL, or "No graphics adapter was found")."""
+    low = output.lower()
+    return any(w in low for w in ("render context", "graphics adapter", "no suitable adapter", "wgpu adapter"))
+
+
+def _viewer_trouble(output: str) -> str:
+    """The lines of the viewer's output that say what went wrong: its panic, else its last lines."""
+    lines = [re.sub(r"\x1b\[[0-9;]*m", "", ln).rstrip() for ln in output.splitlines()]
+    lines = [ln for ln in lines if ln.strip()]
+    for i, ln in enumerate(lines):
+        if "panicked" in ln:
+            return "\n".join(lines[i:i + 2])
+    return "\n".join(lines[-4:])
+
+
+class HeadlessViewer:
+    """The stock Rerun viewer, headless (``rerun --headless``), on a free local port, driven through
+    :class:`rerun.experimental.ViewerClient`; a context manager that ends the viewer it started.
+
+    Needs Vulkan: a GPU driver or Mesa's software rasterizer (Debian/Ubuntu: ``apt-get install
+    mesa-vulkan-drivers``).
+
+    Args:
+        size: the viewer's window size (width, height) [logical points].
+        timeout_s: how long the viewer may take to start and answer.
+
+    Raises:
+        ExcavsimError: the viewer cannot run (no ``rerun`` executable, no Vulkan adapter, no answer).
+    """
+
+    def __init__(self, size: tuple[int, int] = (1600, 1000), *, timeout_s: float = VIEWER_START_S):
+        import tempfile
+
+        self.size, self.timeout_s = size, timeout_s
+        self.port = _free_port()
+        self.url = f"rerun+http://127.0.0.1:{self.port}/proxy"
+        self.command = [*rerun_command("x")[:-1], "--headless", "--window-size", f"{size[0]}x{size[1]}",
+                        "--port", str(self.port), "--hide-welcome-screen", "--memory-limit", "2GB"]
+        self._log = tempfile.TemporaryFile()
+        self.proc: subprocess.Popen | None = None
+        self.client = None
+
+    def __enter__(self) -> HeadlessViewer:
+        import time
+
+        import rerun.experimental as rrx
+
+        try:
+            self.proc = subprocess.Popen(self.command, stdin=subprocess.DEVNULL, stdout=self._log,
+                                         stderr=subprocess.STDOUT)
+        except OSError as exc:
+            raise ExcavsimError(f"cannot start the Rerun viewer ({exc.strerror}): {' '.join(self.command)}; "
+                                "reinstall excavsim (rerun-sdk installs the `rerun` command)") from None
+        deadline = time.monotonic() + self.timeout_s
+        try:
+            while True:
+                if self.proc.poll() is not None:
+                    raise self._failure(f"the headless Rerun viewer exited with status {self.proc.returncode}")
+                try:
+                    client = rrx.ViewerClient.connect(self.url)
+                    client.get_state()
+                    self.client = client
+                    return self
+                except Exception:  # not listening yet  # noqa: BLE001
+                    if time.monotonic() > deadline:
+                        raise self._failure(f"the headless Rerun viewer did not answer in {self.timeout_s:g} s")
+                    time.sleep(0.3)
+        except BaseException:
+            self.close()
+            raise
+
+    def __exit__(self, *exc) -> None:
+        self.close()
+
+    def output(self) -> str:
+        """What the viewer printed so far."""
+        self._log.seek(0)
+        return self._log.read().decode(errors="replace")
+
+    def _failure(self, what: str) -> ExcavsimError:
+        out = self.output()
+        tail = _viewer_trouble(out)
+        hint = (f" It found no Vulkan graphics adapter: install a Vulkan driver; without a GPU, Mesa's software "
+                f"rasterizer does (Debian/Ubuntu: `apt-get install {VULKAN_PACKAGE}`)." if _no_vulkan(out) else "")
+        return ExcavsimError(f"{what}.{hint}\nviewer command: {' '.join(self.command)}"
+                             + (f"\nviewer output:\n{tail}" if tail else ""))
+
+    def close(self) -> None:
+        """End the viewer (if this object started it)."""
+        if self.proc is not None and self.proc.poll() is None:
+            self.proc.terminate()
+            try:
+                self.proc.wait(10)
+            except subprocess.TimeoutExpired:
+                self.proc.kill()
+                self.proc.wait(10)
+        self._log.close()
+
+    def open(self, path: str | os.PathLike, *, timeout_s: float = 60.0):
+        """Open a recording and wait until it has loaded; returns its :class:`rerun.experimental.Recording`."""
+        import time
+
+        self.client.open(str(pathlib.Path(path).resolve()))
+        deadline = time.monotonic() + timeout_s
+        while True:
+            state = self.client.get_state()
+            if state.recordings and not state.loading:
+                return next(r for r in state.recordings if r.store_id == state.active_recording)
+            if time.monotonic() > deadline:
+                raise self._failure(f"the viewer did not load {path} in {timeout_s:g} s")
+            time.sleep(0.3)
+
+    def screenshot(self, out: str | os.PathLike | None = None, *, sim_time: float | None = None,
+                   view_id: str | None = None) -> bytes:
+        """A PNG of the whole viewer, or of one view, at ``sim_time`` [s] (None: where the cursor is);
+        written to ``out`` when given, and returned.
+
+        The viewer fetches the chunks a time needs when the cursor gets there, so screenshots are
+        taken until two in a row are the same (at most :data:`SETTLE_TRIES`)."""
+        import time
+
+        if sim_time is not None:
+            self.client.set_time("sim_time", duration=float(sim_time), play_state="paused")
+        last = None
+        for _ in range(SETTLE_TRIES):
+            png = self.client.take_screenshot(view_id)
+            if png == last:
+                break
+            last = png
+            time.sleep(0.5)
+        if out is not None:
+            pathlib.Path(out).write_bytes(png)
+        return png
+
+
+def screenshots(path: str | os.PathLike, shots: list[tuple[float | None, str | os.PathLike]], *,
+                size: tuple[int, int] = (1600, 1000), say: Callable[[str], None] = print) -> list[pathlib.Path]:
+    """Render a recording in the headless viewer and write a screenshot at each simulated time.
+
+    Args:
+        path: an ``.rrd`` file.
+        shots: (time [s] on ``sim_time``, or None for the end of the recording; PNG path) pairs.
+        size: the viewer's size (width, height).
+        say: where messages go.
+
+    Returns:
+        The PNGs written.
+
+    Raises:
+        ExcavsimError: the viewer cannot run or load the file, or a time lies outside the recording.
+    """
+    start, end = sim_time_span(path)
+    for t, _ in shots:  # before the viewer starts
+        if t is not None and not start - 1e-9 <= t <= end + 1e-9:
+            raise ExcavsimError(f"--time {t:g}: the recording spans {start:g} to {end:g} s of simulated time")
+    written = []
+    with HeadlessViewer(size) as viewer:
+        viewer.open(path)
+        for t, out in shots:
+            t = end if t is None else t
+            out = pathlib.Path(out)
+            out.parent.mkdir(parents=True, exist_ok=True)
+            viewer.screenshot(out, sim_time=t)
+            say(f"screenshot at {t:g} s simulated: {out}")
+            written.append(out)
+    return written
+
+
+def sim_time_span(path: str | os.PathLike) -> tuple[float, float]:
+    """The first and last time [s] on a recording's ``sim_time`` timeline.
+
+    Raises:
+        ExcavsimError: the recording has no ``sim_time`` timeline (not an excavsim recording).
+    """
+    import pyarrow as pa
+    from rerun.chunk import RrdReader
+
+    lo, hi = float("inf"), float("-inf")
+    for chunk in RrdReader(path).stream().to_chunks():
+        if chunk.is_static or "sim_time" not in chunk.timeline_names:
+            continue
+        times = chunk.to_record_batch().column("sim_time").cast(pa.int64()).to_numpy(zero_copy_only=False)
+        if times.size:
+            lo, hi = min(lo, times.min() / 1e9), max(hi, times.max() / 1e9)
+    if lo > hi:
+        raise ExcavsimError(f"{path} has no sim_time timeline: not a recording of `excavsim trench --record`")
+    return float(lo), float(hi)
