@@ -12,8 +12,9 @@ import sys
 import time
 
 import pytest
+import yaml
 
-from test_campaign import TINY_BASE, TINY_YAML
+from test_campaign import TINY_BASE
 
 from excavsim import constants
 from excavsim.handoff.episode import EpisodeObserver
@@ -73,8 +74,13 @@ def descendants(pid: int) -> list[int]:
 def test_workers_exit_when_the_main_process_is_killed_or_terminated(tmp_path, sig):
     """SIGKILL (no cleanup possible: the workers see the main process's sentinel close) or SIGTERM (the
     main process ends its workers and exits 130) of the CLI alone, once its workers are into their
-    episodes (2 s of CPU each: past the imports, which take about 1 s): its forkserver and workers go."""
-    cmd = [sys.executable, "-m", "excavsim.cli", "campaign", str(TINY_YAML), "--out", str(tmp_path / "out"),
+    episodes (2 s of CPU each: past the imports, which take about 1 s): its forkserver and workers go.
+    The episodes must outlast that: tiny.yaml's run in about 1 s each now, so six of three digs with
+    the default scans (several seconds each) run here; the kill comes long before they end."""
+    spec = tmp_path / "slower.yaml"
+    spec.write_text(yaml.safe_dump({"name": "slower", "base": {**TINY_BASE, "dig_budget": 3, "sensing": {}},
+                                    "grid": {"seed": list(range(6))}}))
+    cmd = [sys.executable, "-m", "excavsim.cli", "campaign", str(spec), "--out", str(tmp_path / "out"),
            "--workers", "2"]
     proc = subprocess.Popen(cmd, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL, cwd=constants.REPO_ROOT,
                             start_new_session=True)
