@@ -32,6 +32,12 @@ test: $(STAMP_DEV)
 	$(VENV)/bin/lint-imports
 	$(PY) -m pytest -q
 
+# the README's pictures (docs/images/): the demo episode in the headless Rerun viewer (needs Vulkan: Debian's
+# mesa-vulkan-drivers without a GPU), the plan's figures and a campaign plot
+.PHONY: pictures
+pictures: $(STAMP_RUN)
+	$(PY) scripts/make_pictures.py --out docs/images
+
 bench: $(STAMP_RUN)
 	$(VENV)/bin/excavsim bench
 

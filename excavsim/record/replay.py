@@ -261,3 +261,20 @@ def sim_time_span(path: str | os.PathLike) -> tuple[float, float]:
     if lo > hi:
         raise ExcavsimError(f"{path} has no sim_time timeline: not a recording of `excavsim trench --record`")
     return float(lo), float(hi)
+
+
+def log_entries(path: str | os.PathLike) -> list[tuple[float, str]]:
+    """The ``/log`` lines of a recording: (sim_time [s], text), in time order (e.g. to find when each
+    dig ended, for screenshots)."""
+    import pyarrow as pa
+    from rerun.chunk import RrdReader
+
+    found = []
+    for chunk in RrdReader(path).stream().to_chunks():
+        if chunk.entity_path != "/log" or chunk.is_static or "sim_time" not in chunk.timeline_names:
+            continue
+        batch = chunk.to_record_batch()
+        times = batch.column("sim_time").cast(pa.int64()).to_pylist()
+        texts = batch.column("TextLog:text").to_pylist()
+        found += [(t / 1e9, text[0]) for t, text in zip(times, texts) if text]
+    return sorted(found, key=lambda e: e[0])
