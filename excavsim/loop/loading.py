@@ -1,0 +1,450 @@
+"""The 2-D loading simulation of 000_a3ca905d8c6d92bf.txt §7.2.1 (Figs. 108-112) and its figures (Figs. 28-35).
+
+A pile in a two-dimensional world (:mod:`excavsim.world.pile2d`), a machine (:mod:`excavsim.robot.loaders`),
+and the loading planner (:mod:`excavsim.planning.loading`), wired as the excavation cycle of Fig. 107:
+the planner sees the terrain exactly (in simulation "a trivial task"), chooses a dig, the swept area is
+removed, the pile settles to its angle of repose, and again, until no dig of minimal utility is left
+(the pile is gone, or what is left is out of reach) or ``max_digs`` are spent.
+
+* :func:`simulate`: one run (Figs. 108, 109, 111), a row per dig;
+* :func:`study`: Fig. 112: ``runs`` random piles per force limit, each run until ``remove_units`` are
+  removed, both machines with the same capacity and force limit; the efficiency is the average
+  removed per dig over the capacity;
+* figures: :func:`figure_sequence` (the digs in the section, dark where soil was removed, the
+  skeleton at the start, the end of the approach and the lift-out), :func:`figure_constraints` (each
+  constraint's largest d1 over (alpha, k) per machine, the composite and the utility: Figs. 28-35),
+  :func:`figure_study` (Fig. 112).
+
+Configuration: ``configs/loading.yaml`` (:class:`LoadingConfig`); areas there are units of soil
+(``units_m2``, 0.01 m^2: assumed), forces kN per metre of width.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import math
+import pathlib
+
+import numpy as np
+from pydantic import Field
+
+from excavsim import constants
+from excavsim.config import StrictModel, load_config
+from excavsim.errors import ExcavsimError
+from excavsim.planning import loading as lp
+from excavsim.robot.loaders import FrontLoader, FrontShovel
+from excavsim.world.pile2d import Pile2D, random_pile, trapezoid_pile
+
+CONFIG_PATH = constants.CONFIGS_DIR / "loading.yaml"
+MACHINES = ("loader", "shovel")
+
+# What §7.2.1 reports (its text), for the side-by-side tables.
+THESIS = {
+    "loader": {"capacity": 48.0, "digs": 13, "per_dig": 46.4, "efficiency": 0.95},
+    "shovel": {"capacity": 27.0, "per_dig": 26.7, "efficiency": 0.95},
+    "loader_force": {"capacity": 48.0, "per_dig": 32.3, "efficiency": 0.67},
+}
+
+
+# ---------------------------------------------------------------------------------------------- configuration
+class LoaderSpec(StrictModel):
+    l1: float = Field(le=0.0)
+    l2: float
+    l3: float = Field(gt=0.0, le=20.0)
+    l4: float = Field(gt=0.0, le=10.0)
+    mu_deg: float = Field(ge=-90.0, le=90.0)
+    d1_range: list[float] = Field(min_length=2, max_length=2)
+    theta2_range_deg: list[float] = Field(min_length=2, max_length=2)
+    theta3_range_deg: list[float] = Field(min_length=2, max_length=2)
+    wheel_front: float = Field(ge=0.0, le=10.0)
+    floor: float = Field(gt=0.0, le=5.0)
+    capacity_units: float = Field(gt=0.0, le=1e5)
+
+
+class ShovelSpec(StrictModel):
+    shoulder_height: float = Field(gt=0.0, le=20.0)
+    l1: float = Field(gt=0.0, le=20.0)
+    l2: float = Field(gt=0.0, le=20.0)
+    l3: float = Field(gt=0.0, le=10.0)
+    mu_deg: float = Field(ge=-90.0, le=90.0)
+    theta1_range_deg: list[float] = Field(min_length=2, max_length=2)
+    theta2_range_deg: list[float] = Field(min_length=2, max_length=2)
+    theta3_range_deg: list[float] = Field(min_length=2, max_length=2)
+    track_front: float = Field(ge=0.0, le=10.0)
+    floor: float = Field(gt=0.0, le=5.0)
+    capacity_units: float = Field(gt=0.0, le=1e5)
+
+
+class Machines(StrictModel):
+    loader: LoaderSpec
+    shovel: ShovelSpec
+
+
+class PileSpec(StrictModel):
+    height: float = Field(gt=0.0, le=20.0)
+    top: float = Field(ge=0.0, le=50.0)
+    foot: float = Field(ge=0.0, le=50.0)
+    width: float = Field(gt=0.0, le=200.0)
+    dx: float = Field(gt=0.0, le=1.0)
+    repose_deg: float = Field(gt=0.0, lt=90.0)
+
+
+class SoilSpec(StrictModel):
+    unit_weight_kn_m3: float = Field(gt=0.0, le=100.0)
+    friction_deg: float = Field(ge=0.0, lt=90.0)
+    cohesion_kpa: float = Field(ge=0.0, le=1e4)
+
+
+class PlannerSpec(StrictModel):
+    parameterization: str = Field(pattern="^(k_alpha|k_alpha_r)$")
+    k_max: float = Field(ge=0.0, le=50.0)
+    k_step: float = Field(gt=0.0, le=5.0)
+    alpha_deg: list[float] = Field(min_length=3, max_length=3)
+    d1_max: float = Field(gt=0.0, le=50.0)
+    d1_step: float = Field(gt=0.0, le=5.0)
+    radii: list[float] = Field(min_length=1)
+    min_fraction: float = Field(ge=0.0, le=1.0)
+    exit_heading_deg: float = Field(gt=0.0, le=90.0)
+    max_digs: int = Field(ge=1, le=10_000)
+
+
+class StudySpec(StrictModel):
+    runs: int = Field(ge=1, le=1000)
+    remove_units: float = Field(gt=0.0, le=1e6)
+    pile_units: float = Field(gt=0.0, le=1e6)
+    pile_width: float = Field(gt=0.0, le=500.0)
+    capacity_units: float = Field(gt=0.0, le=1e5)
+    force_limits_kn_m: list[float] = Field(min_length=1)
+    k_step: float = Field(gt=0.0, le=5.0)
+    alpha_step_deg: float = Field(gt=0.0, le=90.0)
+    d1_step: float = Field(gt=0.0, le=5.0)
+    max_digs: int = Field(ge=1, le=100_000)
+
+
+class LoadingConfig(StrictModel):
+    """``configs/loading.yaml``: see the file's comments."""
+
+    units_m2: float = Field(gt=0.0, le=100.0)
+    machines: Machines
+    pile: PileSpec
+    soil: SoilSpec
+    planner: PlannerSpec
+    fig111_force_limit_kn_m: float = Field(gt=0.0, le=1e5)
+    study: StudySpec
+
+
+def load_loading_config(path: str | pathlib.Path | None = None) -> LoadingConfig:
+    """The loading configuration (default ``configs/loading.yaml``), validated."""
+    return load_config(CONFIG_PATH if path is None else path, LoadingConfig)
+
+
+def make_machine(cfg: LoadingConfig, name: str) -> FrontLoader | FrontShovel:
+    """The machine ``name`` (``loader`` or ``shovel``) of the configuration."""
+    r = math.radians
+    if name == "loader":
+        m = cfg.machines.loader
+        return FrontLoader(m.l1, m.l2, m.l3, m.l4, r(m.mu_deg),
+                           np.array([m.d1_range[0], r(m.theta2_range_deg[0]), r(m.theta3_range_deg[0])]),
+                           np.array([m.d1_range[1], r(m.theta2_range_deg[1]), r(m.theta3_range_deg[1])]),
+                           m.wheel_front, m.floor)
+    if name == "shovel":
+        m = cfg.machines.shovel
+        return FrontShovel(m.shoulder_height, m.l1, m.l2, m.l3, r(m.mu_deg),
+                           np.radians([m.theta1_range_deg[0], m.theta2_range_deg[0], m.theta3_range_deg[0]]),
+                           np.radians([m.theta1_range_deg[1], m.theta2_range_deg[1], m.theta3_range_deg[1]]),
+                           m.track_front, m.floor)
+    raise ExcavsimError(f"unknown machine {name!r} (allowed: {', '.join(MACHINES)})")
+
+
+def make_rules(cfg: LoadingConfig, capacity_units: float, force_limit_kn_m: float | None = None, *,
+               coarse: bool = False) -> lp.LoadingRules:
+    """The planner's rules: the configured grid (the study's coarser one with ``coarse``), a capacity and a limit."""
+    p, s = cfg.planner, cfg.study
+    a0, a1, da = p.alpha_deg
+    return lp.LoadingRules(
+        k_max=p.k_max, k_step=s.k_step if coarse else p.k_step, alpha_min=math.radians(a0),
+        alpha_max=math.radians(a1), alpha_step=math.radians(s.alpha_step_deg if coarse else da), d1_max=p.d1_max,
+        d1_step=s.d1_step if coarse else p.d1_step, radii=tuple(p.radii), parameterization=p.parameterization,
+        capacity=capacity_units * cfg.units_m2, min_fraction=p.min_fraction,
+        exit_heading=math.radians(p.exit_heading_deg),
+        force_limit=None if force_limit_kn_m is None else 1000.0 * force_limit_kn_m,
+        unit_weight=1000.0 * cfg.soil.unit_weight_kn_m3, friction_deg=cfg.soil.friction_deg,
+        cohesion=1000.0 * cfg.soil.cohesion_kpa)
+
+
+def make_pile(cfg: LoadingConfig) -> Pile2D:
+    """The pile of the single simulations (``pile`` in the configuration)."""
+    p = cfg.pile
+    return trapezoid_pile(p.height, p.top, p.foot, p.width, p.dx, p.repose_deg)
+
+
+# ---------------------------------------------------------------------------------------------- the simulation
+@dataclasses.dataclass
+class Dig:
+    """One dig of a run: the plan's action, the area it swept (planned) and removed [m^2], its force [N/m]."""
+
+    action: lp.LoadingAction
+    planned_m2: float
+    removed_m2: float
+    force_n_m: float
+    base_x: float
+    before: np.ndarray
+    after_cut: np.ndarray
+    after_settle: np.ndarray
+
+
+@dataclasses.dataclass
+class Run:
+    """A run: its digs, why it ended, the pile's area at the start and the end [m^2]."""
+
+    machine: str
+    capacity_m2: float
+    digs: list[Dig]
+    reason: str
+    start_m2: float
+    end_m2: float
+    xs: np.ndarray
+
+    @property
+    def removed_m2(self) -> float:
+        return float(sum(d.removed_m2 for d in self.digs))
+
+    def per_dig(self) -> float:
+        return self.removed_m2 / len(self.digs) if self.digs else 0.0
+
+    def efficiency(self) -> float:
+        """Average removed per dig over the capacity (§7.2.1)."""
+        return self.per_dig() / self.capacity_m2
+
+
+def terrain_of(pile: Pile2D) -> lp.Terrain:
+    """What the planner sees of the pile: the exact profile (§7.2: in simulation, perfect sensing)."""
+    return lp.Terrain(pile.xs.copy(), pile.heights.copy(), pile.dx)
+
+
+def simulate(machine, rules: lp.LoadingRules, pile: Pile2D, *, name: str = "", max_digs: int = 100,
+             remove_m2: float | None = None, progress=None) -> Run:
+    """Plan, remove the swept area, settle, repeat (see the module docstring); ``pile`` is changed in place.
+
+    ``remove_m2`` ends the run once that much is removed (the study); otherwise it runs until no dig of
+    minimal utility is left or ``max_digs`` are spent.
+    """
+    start = pile.area()
+    digs: list[Dig] = []
+    reason = f"{max_digs} digs spent"
+    for _ in range(max_digs):
+        if remove_m2 is not None and sum(d.removed_m2 for d in digs) >= remove_m2 - 1e-9:
+            reason = f"{remove_m2 / 0.01:.0f} units removed"
+            break
+        result = lp.plan(machine, terrain_of(pile), rules)
+        if result.action is None:
+            reason = "pile gone" if pile.area() < rules.min_fraction * rules.capacity else result.reason
+            break
+        before = pile.heights.copy()
+        px, pz = lp.path_points(result.action, rules.exit_heading, pile.xs)
+        removed = pile.carve(px, pz)
+        cut = pile.heights.copy()
+        pile.settle()
+        digs.append(Dig(result.action, result.volume, removed, result.force, result.base_x, before, cut,
+                        pile.heights.copy()))
+        if progress:
+            progress(f"  dig {len(digs):3d}: k {result.action.k:.2f} m, alpha {math.degrees(result.action.alpha):5.1f} "
+                     f"deg, d1 {result.action.d1:.2f} m, r {result.action.r:.2f} m: removed {removed:.3f} m^2")
+    return Run(name, rules.capacity, digs, reason, start, pile.area(), pile.xs.copy())
+
+
+def run_machine(cfg: LoadingConfig, name: str, *, force: bool = False, progress=None) -> Run:
+    """Fig. 108 (loader) or 109 (shovel); with ``force`` Fig. 111's force constraint."""
+    machine = make_machine(cfg, name)
+    spec = cfg.machines.loader if name == "loader" else cfg.machines.shovel
+    rules = make_rules(cfg, spec.capacity_units, cfg.fig111_force_limit_kn_m if force else None)
+    return simulate(machine, rules, make_pile(cfg), name=name, max_digs=cfg.planner.max_digs, progress=progress)
+
+
+def study_run(cfg: LoadingConfig, name: str, force_kn_m: float, seed: int) -> tuple[int, float]:
+    """One run of Fig. 112: the digs and the soil removed [m^2]."""
+    s = cfg.study
+    pile = random_pile(seed, s.pile_units * cfg.units_m2, foot=cfg.pile.foot, width=s.pile_width, dx=cfg.pile.dx,
+                       repose_deg=cfg.pile.repose_deg)
+    rules = make_rules(cfg, s.capacity_units, force_kn_m, coarse=True)
+    run = simulate(make_machine(cfg, name), rules, pile, name=name, max_digs=s.max_digs,
+                   remove_m2=s.remove_units * cfg.units_m2)
+    return len(run.digs), run.removed_m2
+
+
+def _study_job(args):
+    path, name, force_kn_m, seed = args
+    return study_run(load_loading_config(path), name, force_kn_m, seed)
+
+
+def study(cfg_path: str | pathlib.Path | None = None, *, runs: int | None = None, workers: int = 1,
+          seed: int = 0) -> dict:
+    """Fig. 112: per machine and force limit, the efficiency over ``runs`` random piles (seeds seed, seed + 1, ...).
+
+    Returns ``{"force_limits": [...], "runs": n, machine: {"efficiency": [...], "std": [...], "digs": [...]}}``.
+    Deterministic for a seed: each run's pile comes from its seed alone, and the planner has no randomness.
+    """
+    cfg = load_loading_config(cfg_path)
+    n = cfg.study.runs if runs is None else int(runs)
+    if n < 1:
+        raise ExcavsimError(f"the study needs at least one run; given {runs!r}")
+    jobs = [(None if cfg_path is None else str(cfg_path), m, f, seed + i)
+            for m in MACHINES for f in cfg.study.force_limits_kn_m for i in range(n)]
+    if workers > 1:
+        import multiprocessing
+        with multiprocessing.get_context("spawn").Pool(workers) as pool:
+            results = pool.map(_study_job, jobs, chunksize=1)
+    else:
+        results = [_study_job(j) for j in jobs]
+    cap = cfg.study.capacity_units * cfg.units_m2
+    out = {"force_limits": list(cfg.study.force_limits_kn_m), "runs": n}
+    it = iter(results)
+    for m in MACHINES:
+        eff, std, digs = [], [], []
+        for _ in cfg.study.force_limits_kn_m:
+            rs = [next(it) for _ in range(n)]
+            e = np.array([removed / d / cap if d else 0.0 for d, removed in rs])
+            eff.append(float(e.mean()))
+            std.append(float(e.std()))
+            digs.append(float(np.mean([d for d, _ in rs])))
+        out[m] = {"efficiency": eff, "std": std, "digs": digs}
+    return out
+
+
+# ---------------------------------------------------------------------------------------------- reports
+def format_run(run: Run, units_m2: float, exit_heading: float) -> str:
+    """A run's digs as a table, in units of soil."""
+    lines = [f"{'dig':>4} {'k m':>5} {'h m':>5} {'alpha':>6} {'d1 m':>5} {'r m':>5} {'d2 m':>5} {'planned':>8} "
+             f"{'removed':>8} {'force kN/m':>10}"]
+    for i, d in enumerate(run.digs, 1):
+        a = d.action
+        lines.append(f"{i:4d} {a.k:5.2f} {a.h:5.2f} {math.degrees(a.alpha):6.1f} {a.d1:5.2f} {a.r:5.2f} "
+                     f"{a.d2(exit_heading):5.2f} {d.planned_m2 / units_m2:8.1f} {d.removed_m2 / units_m2:8.1f} "
+                     f"{d.force_n_m / 1000:10.2f}")
+    lines.append(f"{len(run.digs)} digs, {run.removed_m2 / units_m2:.1f} of {run.start_m2 / units_m2:.1f} units "
+                 f"removed ({run.end_m2 / units_m2:.1f} left: {run.reason}); {run.per_dig() / units_m2:.1f} units "
+                 f"per dig, efficiency {100 * run.efficiency():.0f} %")
+    return "\n".join(lines)
+
+
+def format_comparison(rows: list[tuple[str, Run, dict]], units_m2: float) -> str:
+    """The runs beside §7.2.1's numbers."""
+    head = (f"{'run':<22} {'capacity':>8} {'digs':>5} {'thesis':>6} {'per dig':>8} {'thesis':>6} "
+            f"{'efficiency':>10} {'thesis':>6}")
+    lines = [head]
+    for label, run, th in rows:
+        lines.append(f"{label:<22} {run.capacity_m2 / units_m2:8.0f} {len(run.digs):5d} "
+                     f"{str(th.get('digs', '-')):>6} {run.per_dig() / units_m2:8.1f} {th['per_dig']:6.1f} "
+                     f"{100 * run.efficiency():9.0f}% {100 * th['efficiency']:5.0f}%")
+    return "\n".join(lines)
+
+
+def format_study(res: dict) -> str:
+    """Fig. 112 as a table: efficiency (mean and standard deviation over the runs) per force limit."""
+    lines = [f"Fig. 112: efficiency over {res['runs']} random piles per force limit (identical capacity and force)",
+             f"{'force kN/m':>10} {'loader':>14} {'digs':>6} {'shovel':>14} {'digs':>6}"]
+    for i, f in enumerate(res["force_limits"]):
+        lo, sh = res["loader"], res["shovel"]
+        lines.append(f"{f:10.1f} {100 * lo['efficiency'][i]:7.1f} ± {100 * lo['std'][i]:4.1f} {lo['digs'][i]:6.1f} "
+                     f"{100 * sh['efficiency'][i]:7.1f} ± {100 * sh['std'][i]:4.1f} {sh['digs'][i]:6.1f}")
+    return "\n".join(lines)
+
+
+# ---------------------------------------------------------------------------------------------- figures
+def _figure(w, h):
+    from matplotlib.backends.backend_agg import FigureCanvasAgg
+    from matplotlib.figure import Figure
+
+    fig = Figure(figsize=(w, h))
+    FigureCanvasAgg(fig)
+    return fig
+
+
+def _skeleton(machine, action: lp.LoadingAction, heights, xs, dx, rules, base_x):
+    """The machine's skeleton (3, m, 2) at the start, the end of the approach and the end of the lift-out."""
+    terrain = lp.Terrain(xs, heights, dx)
+    poses, phase = lp.action_poses(action, terrain, rules, machine.floor)
+    n_line = int(np.sum(phase == 0))
+    picks = poses[[0, n_line - 1, -1]]
+    if machine.moves_base:
+        q, _ = machine.inverse(picks)
+        return machine.points(q)
+    q, _ = machine.inverse(picks, base_x)
+    return machine.points(q, base_x)
+
+
+def figure_sequence(run: Run, machine, rules: lp.LoadingRules, dx: float, path: pathlib.Path, title: str) -> None:
+    """Figs. 108, 109, 111: one panel per dig: the section before it, the removed area dark, the skeleton thrice."""
+    n = max(len(run.digs), 1)
+    cols = min(n, 5)
+    rows = int(math.ceil(n / cols))
+    fig = _figure(3.2 * cols, 2.0 * rows + 0.6)
+    xs = run.xs
+    for i, d in enumerate(run.digs):
+        ax = fig.add_subplot(rows, cols, i + 1)
+        ax.fill_between(xs, 0, d.before, step="mid", color="#d8c39a", lw=0)
+        ax.fill_between(xs, d.after_cut, d.before, step="mid", color="#3b2a14", lw=0)
+        ax.plot(xs, d.after_settle, color="#7a5c2e", lw=0.8, drawstyle="steps-mid")
+        px, pz = lp.path_points(d.action, rules.exit_heading)
+        ax.plot(px, pz, color="k", lw=0.6, ls="--")
+        try:
+            sk = _skeleton(machine, d.action, d.before, xs, dx, rules, d.base_x)
+            for j, c in enumerate(("#1f77b4", "#2ca02c", "#d62728")):
+                ax.plot(sk[j, :, 0], sk[j, :, 1], "-o", color=c, ms=1.5, lw=1.0)
+        except (ValueError, IndexError):
+            pass
+        ax.axhline(0.0, color="k", lw=0.5)
+        ax.set_xlim(xs[0] - 5.0, xs[-1])
+        ax.set_ylim(-0.2, 6.0)
+        ax.set_aspect("equal")
+        ax.set_title(f"dig {i + 1}: {d.removed_m2 / 0.01:.1f} units", fontsize=7)
+        ax.tick_params(labelsize=5)
+    fig.suptitle(title, fontsize=9)
+    fig.tight_layout()
+    fig.savefig(path, dpi=110)
+
+
+def figure_constraints(plans: dict[str, lp.LoadingPlan], path: pathlib.Path) -> None:
+    """Figs. 28-35: per machine (rows), each constraint's largest d1 over (alpha, k) (white: none), the
+    composite (Fig. 34) and the utility, the swept area of the composite's dig (Fig. 35)."""
+    names = list(lp.LOADING_CONSTRAINTS) + ["composite", "utility"]
+    fig = _figure(2.4 * len(names), 2.4 * len(plans) + 0.5)
+    for row, (mname, p) in enumerate(plans.items()):
+        ext = [math.degrees(p.grid_alpha[0]), math.degrees(p.grid_alpha[-1]), p.grid_k[0], p.grid_k[-1]]
+        for col, c in enumerate(names):
+            ax = fig.add_subplot(len(plans), len(names), row * len(names) + col + 1)
+            if c == "composite":
+                data, label, cmap = p.d1[..., 0], "d1 [m]", "viridis"
+            elif c == "utility":
+                data, label, cmap = p.cell_volume[..., 0] / 0.01, "units", "gray"
+            else:
+                data, label, cmap = p.d1_max[c][..., 0], "d1 [m]", "viridis"
+            im = ax.imshow(data, origin="lower", aspect="auto", extent=ext, cmap=cmap)
+            fig.colorbar(im, ax=ax, fraction=0.05).ax.tick_params(labelsize=5)
+            ax.set_title(f"{mname}: {c}", fontsize=7)
+            ax.set_xlabel("alpha [deg]", fontsize=6)
+            ax.set_ylabel("k [m] from the foot", fontsize=6)
+            ax.tick_params(labelsize=5)
+            _ = label
+    fig.suptitle("the loading action space (Figs. 28-35): largest d1 each constraint allows, composite, utility",
+                 fontsize=9)
+    fig.tight_layout()
+    fig.savefig(path, dpi=110)
+
+
+def figure_study(res: dict, path: pathlib.Path) -> None:
+    """Fig. 112: efficiency against the force available, both machines."""
+    fig = _figure(5.0, 3.6)
+    ax = fig.add_subplot(1, 1, 1)
+    f = res["force_limits"]
+    for m, style in (("loader", "-o"), ("shovel", "-s")):
+        ax.errorbar(f, 100 * np.array(res[m]["efficiency"]), yerr=100 * np.array(res[m]["std"]), fmt=style,
+                    capsize=3, label=f"front {m}")
+    ax.set_xlabel("force available [kN per m of width]")
+    ax.set_ylabel("efficiency [%] (per dig / capacity)")
+    ax.set_title(f"Fig. 112: {res['runs']} random piles per force limit", fontsize=9)
+    ax.set_ylim(0, 105)
+    ax.grid(alpha=0.3)
+    ax.legend()
+    fig.tight_layout()
+    fig.savefig(path, dpi=110)
