@@ -24,12 +24,12 @@ from excavsim.config.scene import BucketSoilConfig, SceneConfig, SettleConfig, S
 from excavsim.config.sensing import (ElevationMapConfig, ForceSensorConfig, ScannerConfig, SensingConfig,
                                      load_sensing_config)
 from excavsim.config.semantic import check_goal
-from excavsim.config.soils import SoilParams, SoilsFile, get_soil, load_soils
+from excavsim.config.soils import DiMaioParams, SoilParams, SoilsFile, get_soil, load_soils
 from excavsim.errors import ConfigError
 
-__all__ = ["BucketSoilConfig", "ConfigError", "ElevationMapConfig", "ExecutorConfig", "ForceSensorConfig",
-           "JointServo", "JointServos", "PlannerConfig", "PlannerGrid", "RobotConfig", "ScannerConfig", "SceneConfig",
-           "SensingConfig", "SettleConfig", "SoilParams", "SoilTruthConfig", "SoilsFile", "StrictModel", "TrenchGoal",
-           "check_goal", "display_path", "get_soil", "load_config", "load_executor_config", "load_planner_config",
-           "load_robot_config", "load_scene_config", "load_sensing_config", "load_soils", "load_trench_goal",
-           "parse_config", "parse_yaml", "read_text_file"]
+__all__ = ["BucketSoilConfig", "ConfigError", "DiMaioParams", "ElevationMapConfig", "ExecutorConfig",
+           "ForceSensorConfig", "JointServo", "JointServos", "PlannerConfig", "PlannerGrid", "RobotConfig",
+           "ScannerConfig", "SceneConfig", "SensingConfig", "SettleConfig", "SoilParams", "SoilTruthConfig",
+           "SoilsFile", "StrictModel", "TrenchGoal", "check_goal", "display_path", "get_soil", "load_config",
+           "load_executor_config", "load_planner_config", "load_robot_config", "load_scene_config",
+           "load_sensing_config", "load_soils", "load_trench_goal", "parse_config", "parse_yaml", "read_text_file"]

@@ -4,6 +4,8 @@ from __future__ import annotations
 
 import pathlib
 
+from typing import Literal
+
 from pydantic import Field, model_validator
 
 from excavsim import constants
@@ -24,7 +26,18 @@ class SoilTruthConfig(StrictModel):
 
     The planner's nominal model is eq. 8 alone; the world adds these so that predictions are
     approximate, as they were on the real testbed (000_a3ca905d8c6d92bf.txt §5.1.3).
+
+    ``model`` picks the world's bucket-soil force model: ``wedge`` (the default, eq. 8 with the
+    terms below and bearing on the outer surface) or ``dimaio``, the bucket-ground model of
+    002_694c274da322d931.txt §5.1-5.2 (viscous friction, lagging stiffness with shear failure, the
+    load, Coulomb friction; :mod:`excavsim.world.dimaio`), with the parameters of the soil preset's
+    ``dimaio`` block. The speed, saw-tooth and heterogeneity terms act on the wedge only; rocks
+    and F/T noise act on both.
     """
+
+    model: Literal["wedge", "dimaio"] = Field(
+        default="wedge", description="the world's bucket-soil force model: wedge (eq. 8) or dimaio (DiMaio ch. 5)"
+    )
 
     speed_coefficient_s_per_m: float = Field(
         default=2.0, ge=0, le=100, description="cutting force grows as (1 + k v), v the cutting speed (Fig. 63)"

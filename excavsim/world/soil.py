@@ -37,6 +37,9 @@ Model (and where it simplifies):
   while the edge is out of the soil: the bucket holds up the faces it has just cut, and soil that
   slumped into the space the bucket occupies would have nowhere to go.
 * **Load**: the load's weight acts at the centroid of the bucket interior (its inertia is ignored).
+* **A second truth**: with ``truth.model: dimaio`` the forces are those of DiMaio's bucket-ground
+  model instead of the wedge, bearing and rocks (:mod:`excavsim.world.dimaio`); cutting, filling,
+  spilling, pouring and settlement are the same, so the volume account is too.
   Once the edge is out of the soil, the bucket holds its heaped capacity while the mouth tilt from
   vertical is below ``spill_start_deg``, nothing beyond ``dump_angle_deg``, linearly between; the
   excess pours over the lower lip and lands below it (or in the spoil account when that is outside
@@ -52,10 +55,11 @@ import mujoco
 import numpy as np
 from scipy import ndimage
 
+from excavsim import constants
 from excavsim.config import SceneConfig, SoilParams
 from excavsim.mechanics.bearing import bearing_factors
 from excavsim.mechanics.wedge import MIN_RAKE_RAD, WedgeTable
-from excavsim.world import kernels, soil_records
+from excavsim.world import dimaio, kernels, soil_records
 from excavsim.world.bucket import BucketGeometry
 from excavsim.world.settle import SettleResult, settle
 from excavsim.world.terrain import SoilGrid
@@ -227,6 +231,12 @@ class SoilModel:
         self._out_f8 = self._out.view(np.float64)  # the same bytes: a step's snapshot is a plain copy
         self._window = self._out["window"][0]
         self._vel6 = np.zeros(6)
+        self.dimaio: dimaio.DiMaioForces | None = None
+        if scene.truth.model == "dimaio":
+            waist = mujoco.MjData(model)
+            mujoco.mj_kinematics(model, waist)
+            jid = mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_JOINT, constants.WAIST_JOINT)
+            self.dimaio = dimaio.DiMaioForces(soil, scene, b.width, self.gravity, waist.xanchor[jid, :2].copy())
         self.spoil = 0.0
         self._since_settle = 0.0
         self._hfield = self.grid.hfield_view(model)
@@ -267,12 +277,25 @@ class SoilModel:
 
     def step(self, data: mujoco.MjData, dt: float) -> SoilContact:
         """Advance the soil by one control step of ``dt`` seconds and return its action on the bucket."""
-        b = self.bucket
         grid = self.grid
+        if self.dimaio is not None:
+            dm = self.dimaio
+            dimaio.dimaio_step(grid.heights, self._grid_record, (data.xpos, data.xmat, data.xipos, data.site_xmat),
+                               self._bucket_record, self._edge, dm.waist_xy, self.params, dm.params, dt, self._state,
+                               dm.state, self._out, dm.out)
+        else:
+            self._wedge_step(data, dt)
+        return self._after_step(data, dt)
+
+    def _wedge_step(self, data: mujoco.MjData, dt: float) -> None:
+        b, grid = self.bucket, self.grid
         mujoco.mj_objectVelocity(self.model, data, mujoco.mjtObj.mjOBJ_BODY, b.body_id, self._vel6, 0)
         kernels.soil_step(grid.heights, self.strength, self._grid_record, (data.xpos, data.xmat, data.xipos,
                           data.site_xmat), self._vel6, self._bucket_record, self._edge, self._surface, self._table,
                           self.rocks, self.params, dt, self._state, self._pressure, self._out)
+
+    def _after_step(self, data: mujoco.MjData, dt: float) -> SoilContact:
+        grid = self.grid
         out = self._out_f8.copy()  # this step's own snapshot
         cut_volume = float(out[_OUT["cut_volume_m3"]])
         spilled = cut_volume - float(out[_OUT["taken_volume_m3"]])
@@ -327,6 +350,9 @@ class SoilModel:
         # the load's weight in the wrench was computed before pouring
         dw = self._gamma_g * poured
         arm = rot @ b.load_centroid + org - data.xipos[b.body_id]
+        if self.dimaio is not None:  # DiMaio's load acts at the centre of the cutting surface
+            x_t = data.site_xmat[b.tip_site_id].reshape(3, 3)[:, 0]
+            arm = out[_OUT["edge_centre_m"]] - self.dimaio.half_surface_m * x_t - data.xipos[b.body_id]
         force, torque = out[_OUT["force_n"]], out[_OUT["torque_nm"]]
         out[_OUT["load_weight_z_n"]] += dw
         force[2] += dw

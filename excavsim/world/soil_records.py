@@ -239,3 +239,87 @@ def float64_slots(dtype: np.dtype) -> dict[str, int | slice]:
         start, size = offset // 8, int(np.prod(field.shape, dtype=int))
         slots[name] = start if field.shape == () else slice(start, start + size)
     return slots
+
+
+DIMAIO_PARAMS = np.dtype([
+    ("b_t0", _F8),
+    ("b_n0", _F8),
+    ("b_a0", _F8),
+    ("k", _F8),
+    ("k_a", _F8),
+    ("t_rt", _F8),
+    ("t_rn", _F8),
+    ("t_ra", _F8),
+    ("shear_s", _F8),
+    ("eps", _F8),
+    ("mu", _F8),
+    ("rho_g", _F8),
+    ("s_bucket", _F8),
+    ("width", _F8),
+    ("v_eps", _F8),
+], align=True)
+"""The constants of DiMaio's bucket-ground model (:mod:`excavsim.world.dimaio`; 002_694c274da322d931.txt §5.2).
+
+Fields:
+    b_t0, b_n0: viscous friction per metre of penetration along and normal to the cutting surface,
+        eq. 5.43 [N s/m^2].
+    b_a0: rotational viscous friction per metre of penetration, eq. 5.42 [N s].
+    k, k_a: translational and angular soil stiffness, eq. 5.44 [N/m], [N m/rad].
+    t_rt, t_rn: relaxation time constants of the stiffness centre along and normal to the cutting
+        surface, eq. 5.46 [s]; t_ra: that of the orientation centre (assumed) [s].
+    shear_s: the soil characteristic S of the shear threshold ``S w d_p``, eq. 5.45 [Pa].
+    eps: the load's accumulation (churning) force per cubic metre of load, eq. 5.47 [N/m^3].
+    mu: the soil-bucket Coulomb friction coefficient, eq. 5.49 [-].
+    rho_g: the soil's unit weight, rho g of eq. 5.47 [N/m^3].
+    s_bucket: length of the flat cutting surface; the load acts at its centre [m].
+    width: bucket width w [m].
+    v_eps: tangential speed below which the Coulomb direction v_t/|v_t| is regularized (assumed) [m/s].
+"""
+
+DIMAIO_STATE = np.dtype([
+    ("offset_rz", _F8, (2,)),
+    ("alpha_rel", _F8),
+    ("prev_t_rz", _F8, (2,)),
+    ("has_prev_t", np.bool_),
+], align=True)
+"""What DiMaio's model carries from one step to the next (in the arm plane, coordinates (r, z)).
+
+Fields:
+    offset_rz: the stiffness centre relative to the cutting edge, ``(r_c - r, z_c - z)`` [m].
+    alpha_rel: the bucket's angle from the orientation centre, ``alpha - alpha_c`` [rad].
+    prev_t_rz: the cutting surface's tangent at the last step, whose turn gives the angular rate.
+    has_prev_t: False until the first step.
+"""
+
+DIMAIO_OUT = np.dtype([
+    ("viscous_tn", _F8, (2,)),
+    ("stiffness_tn", _F8, (2,)),
+    ("coulomb_t", _F8),
+    ("load_rz", _F8, (2,)),
+    ("tip_force_rz", _F8, (2,)),
+    ("force_rz", _F8, (2,)),
+    ("force_tn", _F8, (2,)),
+    ("torque_pure", _F8),
+    ("torque_tip", _F8),
+    ("threshold_n", _F8),
+    ("sheared", _F8),
+    ("sp_m", _F8),
+    ("dp_m", _F8),
+    ("v_t", _F8),
+    ("v_n", _F8),
+], align=True)
+"""One step of DiMaio's model, in the arm plane (forces on the bucket; "tn": along the cutting
+surface's tangent t and normal n, "rz": radial and vertical).
+
+Fields:
+    viscous_tn: eqs. 5.41-5.43 [N]; stiffness_tn: eq. 5.44 after eq. 5.45 [N];
+    coulomb_t: eq. 5.49, tangential [N]; load_rz: eq. 5.47, accumulation and weight [N].
+    tip_force_rz: viscous + stiffness + Coulomb, which act at the cutting edge [N].
+    force_rz, force_tn: the total, load included [N].
+    torque_pure: the orientation torques of eqs. 5.42 and 5.44 [N m], about the across axis (a
+        positive torque turns r towards z); torque_tip: the total moment about the cutting edge,
+        the load's arm of eq. 5.47 included [N m].
+    threshold_n: the shear threshold ``S w d_p`` of eq. 5.45 [N]; sheared: 1.0 if the soil sheared.
+    sp_m, dp_m: the penetration and the distance from the edge to the surface along the normal [m].
+    v_t, v_n: the edge's velocity along t and n [m/s].
+"""
