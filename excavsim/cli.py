@@ -584,6 +584,56 @@ def _cmd_experiment(args: argparse.Namespace) -> int:
     return 0
 
 
+def _cmd_load(args: argparse.Namespace) -> int:
+    import pathlib
+
+    from excavsim.loop import loading as ld
+
+    cfg = ld.load_loading_config(args.config)
+    out = pathlib.Path(args.out)
+    out.mkdir(parents=True, exist_ok=True)
+    u = cfg.units_m2
+    if args.study:
+        print(f"excavsim load --study: Fig. 112, {args.runs or cfg.study.runs} runs per force limit and machine, "
+              f"each removing {cfg.study.remove_units:.0f} units from a random pile")
+        res = ld.study(args.config, runs=args.runs, workers=args.workers, seed=args.seed)
+        table = ld.format_study(res)
+        (out / "fig112.txt").write_text(table + "\n")
+        ld.figure_study(res, out / "fig112.png")
+        print(table)
+        print(f"wrote {out / 'fig112.png'}, {out / 'fig112.txt'}")
+        return 0
+    names = [args.machine] if args.machine else list(ld.MACHINES)
+    rows, paths = [], []
+    plans = {}
+    for name in ld.MACHINES:
+        spec = getattr(cfg.machines, name)
+        plans[name] = ld.lp.plan(ld.make_machine(cfg, name), ld.terrain_of(ld.make_pile(cfg)),
+                                 ld.make_rules(cfg, spec.capacity_units))
+    ld.figure_constraints(plans, out / "constraints.png")
+    paths.append(out / "constraints.png")
+    runs = [(n, False) for n in names] + ([("loader", True)] if "loader" in names else [])
+    for name, force in runs:
+        fig, key = {("loader", False): ("fig108", "loader"), ("shovel", False): ("fig109", "shovel"),
+                    ("loader", True): ("fig111", "loader_force")}[(name, force)]
+        label = f"{fig} front {name}" + (f", force <= {cfg.fig111_force_limit_kn_m:g} kN/m" if force else "")
+        print(f"{label}:")
+        run = ld.run_machine(cfg, name, force=force)
+        spec = getattr(cfg.machines, name)
+        rules = ld.make_rules(cfg, spec.capacity_units, cfg.fig111_force_limit_kn_m if force else None)
+        print(ld.format_run(run, u, rules.exit_heading))
+        ld.figure_sequence(run, ld.make_machine(cfg, name), rules, cfg.pile.dx, out / f"{fig}.png", label)
+        (out / f"{fig}.txt").write_text(ld.format_run(run, u, rules.exit_heading) + "\n")
+        paths += [out / f"{fig}.png", out / f"{fig}.txt"]
+        rows.append((label, run, ld.THESIS[key]))
+    table = ld.format_comparison(rows, u)
+    (out / "comparison.txt").write_text(table + "\n")
+    print("\nbeside the thesis (§7.2.1; 1 unit of soil = %g m^2 of the section):" % u)
+    print(table)
+    print("wrote " + ", ".join(str(p) for p in paths + [out / "comparison.txt"]))
+    return 0
+
+
 def _world_options(parser: argparse.ArgumentParser) -> None:
     """The options of every command that builds a Simulation: configurations and the episode seed."""
     parser.add_argument("--robot-config", metavar="YAML", help="servo configuration (default configs/robot.yaml)")
@@ -754,6 +804,21 @@ def build_parser() -> argparse.ArgumentParser:
     learn.add_argument("--forgetting", type=_float_in(0, 1, low_open=True), default=1.0, metavar="F",
                        help="forgetting factor of eq. 22 for a global regression in the comparison (default 1)")
     learn.set_defaults(func=_cmd_learn)
+
+    load = sub.add_parser("load", help="loading from a pile in a 2-D world (§7.2.1, Figs. 108-112): front loader "
+                                       "and front shovel, the action space's constraints (Figs. 28-35)")
+    load.add_argument("--machine", choices=["loader", "shovel"],
+                      help="one machine (default both; the loader also with the force constraint, Fig. 111)")
+    load.add_argument("--study", action="store_true",
+                      help="Fig. 112: efficiency against the force limit, random piles, both machines")
+    load.add_argument("--runs", type=_int_in(1, 1000), metavar="N", help="runs per force limit in --study "
+                      "(default configs/loading.yaml's, 20)")
+    load.add_argument("--workers", type=_int_in(1, 64), default=1, metavar="N", help="processes for --study")
+    load.add_argument("--seed", type=_seed, default=0, metavar="N", help="the first random pile's seed (--study)")
+    load.add_argument("--config", metavar="YAML", help="loading configuration (default configs/loading.yaml)")
+    load.add_argument("--out", metavar="DIR", default="runs/load", type=_out_dir,
+                      help="output directory (default runs/load)")
+    load.set_defaults(func=_cmd_load)
     return parser
 
 

@@ -329,11 +329,11 @@ def format_run(run: Run, units_m2: float, exit_heading: float) -> str:
 
 def format_comparison(rows: list[tuple[str, Run, dict]], units_m2: float) -> str:
     """The runs beside §7.2.1's numbers."""
-    head = (f"{'run':<22} {'capacity':>8} {'digs':>5} {'thesis':>6} {'per dig':>8} {'thesis':>6} "
+    head = (f"{'run':<36} {'capacity':>8} {'digs':>5} {'thesis':>6} {'per dig':>8} {'thesis':>6} "
             f"{'efficiency':>10} {'thesis':>6}")
     lines = [head]
     for label, run, th in rows:
-        lines.append(f"{label:<22} {run.capacity_m2 / units_m2:8.0f} {len(run.digs):5d} "
+        lines.append(f"{label:<36} {run.capacity_m2 / units_m2:8.0f} {len(run.digs):5d} "
                      f"{str(th.get('digs', '-')):>6} {run.per_dig() / units_m2:8.1f} {th['per_dig']:6.1f} "
                      f"{100 * run.efficiency():9.0f}% {100 * th['efficiency']:5.0f}%")
     return "\n".join(lines)
