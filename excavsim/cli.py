@@ -403,6 +403,24 @@ def _cmd_learn(args: argparse.Namespace) -> int:
     return 0
 
 
+def _cmd_calibrate(args: argparse.Namespace) -> int:
+    from excavsim.loop import calibrate as cal
+
+    if args.table_5_3:
+        print(f"excavsim calibrate --table-5-3: DiMaio's model identified from its own forces (Table 5.3, Fig. 5.40); "
+              f"results in {args.out}")
+        cal.table_5_3(args.out, noise_n=args.noise)
+        return 0
+    if args.record is None:
+        raise ExcavsimError("calibrate needs a RECORD (a force data set .npz, .parquet or .csv) or --table-5-3")
+    if args.record_digs:
+        print(f"excavsim calibrate: recording {args.record_digs} digs on the {args.truth} truth into {args.record}")
+        cal.record_digs(args.record, truth=args.truth, soil=args.soil, digs=args.record_digs, seed=args.seed,
+                        quiet=args.quiet, say=print)
+    cal.calibrate(args.record, args.model, args.out, soil=args.soil)
+    return 0
+
+
 def _validate_file(kind: str, path: str) -> str:
     """Load the ``kind`` file at ``path`` with every check its use would make; returns what it is.
 
@@ -804,6 +822,30 @@ def build_parser() -> argparse.ArgumentParser:
     learn.add_argument("--forgetting", type=_float_in(0, 1, low_open=True), default=1.0, metavar="F",
                        help="forgetting factor of eq. 22 for a global regression in the comparison (default 1)")
     learn.set_defaults(func=_cmd_learn)
+
+    calib = sub.add_parser("calibrate", help="fit a soil (wedge or DiMaio) to a force record; Table 5.3's "
+                                             "identification experiment")
+    calib.add_argument("record", nargs="?", metavar="RECORD",
+                       help="force data set of digs (.npz, .parquet, .csv; `learn --dataset` or --record-digs "
+                            "writes one); .rrd recordings are not read yet")
+    calib.add_argument("--model", choices=["wedge", "dimaio"], default="wedge",
+                       help="the model whose soil parameters are fitted (default wedge)")
+    calib.add_argument("--out", metavar="DIR", default="runs/calibrate", type=_out_dir,
+                       help="output directory (default runs/calibrate)")
+    calib.add_argument("--soil", metavar="NAME", help="preset the fit starts from and the YAML completes "
+                                                      "(default: the record's)")
+    calib.add_argument("--record-digs", type=_int_in(1, 1000), metavar="N",
+                       help="first dig N random feasible digs in simulation and save their record as RECORD")
+    calib.add_argument("--truth", choices=["wedge", "dimaio"], default="wedge",
+                       help="the world's force model for --record-digs (default wedge)")
+    calib.add_argument("--quiet", action="store_true",
+                       help="with --record-digs: the wedge's speed, saw-tooth and heterogeneity terms off")
+    calib.add_argument("--seed", type=_seed, default=0, metavar="N", help="seed of --record-digs")
+    calib.add_argument("--table-5-3", action="store_true",
+                       help="reproduce Table 5.3 and Fig. 5.40 (DiMaio's model identified from its own forces)")
+    calib.add_argument("--noise", type=_float_in(0, 1e4), default=5.0, metavar="N",
+                       help="F/T noise of --table-5-3 per axis [N] (default 5, the scene's)")
+    calib.set_defaults(func=_cmd_calibrate)
 
     load = sub.add_parser("load", help="loading from a pile in a 2-D world (§7.2.1, Figs. 108-112): front loader "
                                        "and front shovel, the action space's constraints (Figs. 28-35)")

@@ -106,3 +106,12 @@ def test_calibrate_refuses_a_recording_it_cannot_read(tmp_path):
 
     with pytest.raises(ExcavsimError, match="not supported yet"):
         cal.calibrate(tmp_path / "x.rrd", "wedge", tmp_path)
+
+
+def test_the_calibrate_command(tmp_path, capsys):
+    from excavsim.cli import main
+
+    assert main(["calibrate", "--table-5-3", "--out", str(tmp_path)]) == 0
+    assert "output error, 5 N noise" in capsys.readouterr().out
+    assert main(["calibrate", "--out", str(tmp_path)]) == 2  # no record
+    assert main(["calibrate", str(tmp_path / "rec.rrd"), "--out", str(tmp_path)]) == 2
