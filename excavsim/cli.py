@@ -602,6 +602,29 @@ def _cmd_experiment(args: argparse.Namespace) -> int:
     return 0
 
 
+def _cmd_tune(args: argparse.Namespace) -> int:
+    import math
+    import pathlib
+
+    from excavsim.loop import truck
+
+    cfg = truck.load_truck_config(args.config)
+    print(f"excavsim tune: {args.trials} truck-loading trials, target r = {cfg.site.r_d} m, theta = "
+          f"{math.degrees(cfg.site.theta_d):.1f} deg (001_0de172b0d6b3614b.txt §6.2)")
+
+    def show(t: truck.Trial) -> None:
+        print(f"  {t.index + 1:3d} {t.source:16s} cost {truck.trial_cost(t, cfg):8.2f}  time {t.time_s:5.2f} s  "
+              f"r {t.pile.r:.3f} m  theta {math.degrees(t.pile.theta):5.1f} deg  {t.outcome}  ({t.wall_s:.2f} s wall)")
+
+    trials = truck.tune(args.trials, cfg, seed=args.seed, progress=show)
+    csv_path, png = truck.write_results(trials, cfg, pathlib.Path(args.out))
+    k = min(cfg.initial_trials, len(trials))
+    costs = [truck.trial_cost(t, cfg) for t in trials]
+    print(f"first {k}: mean cost {sum(costs[:k]) / k:.2f}; last {k}: mean cost {sum(costs[-k:]) / k:.2f}")
+    print(f"wrote {csv_path} and {png}")
+    return 0
+
+
 def _cmd_load(args: argparse.Namespace) -> int:
     import pathlib
 
@@ -861,6 +884,14 @@ def build_parser() -> argparse.ArgumentParser:
     load.add_argument("--out", metavar="DIR", default="runs/load", type=_out_dir,
                       help="output directory (default runs/load)")
     load.set_defaults(func=_cmd_load)
+    tune = sub.add_parser("tune", help="truck loading by the mass-excavation script, self-tuned online by "
+                          "memory-based learning (001_0de172b0d6b3614b.txt §6.2): the learning curve of Fig. 12")
+    tune.add_argument("--trials", type=_int_in(1, 10000), default=40, metavar="N", help="trials (default 40)")
+    tune.add_argument("--seed", type=_seed, default=0, metavar="N", help="the world's seed (default 0)")
+    tune.add_argument("--config", metavar="YAML", help="truck configuration (default configs/truck.yaml)")
+    tune.add_argument("--out", metavar="DIR", default="runs/tune", type=_out_dir,
+                      help="output directory (default runs/tune)")
+    tune.set_defaults(func=_cmd_tune)
     return parser
 
 
