@@ -268,7 +268,10 @@ def mass_script(p: MassParams) -> Script:
     back = all_of(started("swing to dig face"), joint_below(SWING, p.swing_back))
     swing = (Step("swing wait", always(), go(p.swing_dig)),
              Step("swing to truck", joint_above(BOOM, p.boom_trigger), go(p.swing_dump)),
-             Step("swing to dig face", passing(BUCKET, p.bucket_carry, p.bucket_open, p.return_fraction),
+             # only once the bucket is opening: the bucket starts the script curled beyond its dig angle
+             # only when the dig ends curled, and a learned fraction must not send the swing back unloaded
+             Step("swing to dig face", all_of(started("open bucket"),
+                                              passing(BUCKET, p.bucket_carry, p.bucket_open, p.return_fraction)),
                   go(p.swing_dig)),
              Step("stop to dig", joint_below(SWING, p.swing_dig + p.stop_tol), go(p.swing_dig), ends=always()))
     boom = (Step("raise boom", always(), go(p.boom_carry)),
