@@ -282,3 +282,12 @@ def test_progress_lines_count_and_tolerate_numbers_that_were_not_finite():
                                                  "ETA 1 min 15 s"
     err = {"id": "b", "status": "error", "error": "ExcavsimError: diverged\ntraceback", "wall_s": 1.0}
     assert cmp._progress_line(8, 8, err, 0.0) == "[8/8] b: ERROR ExcavsimError: diverged"
+
+
+def test_workers_share_the_cores_out_as_numba_threads():
+    from excavsim.loop.campaign import threads_per_worker
+
+    assert threads_per_worker(2, 8, cores=2) == 1  # two busy workers on two cores: one thread each
+    assert threads_per_worker(1, 8, cores=2) == 2  # one worker may use both
+    assert threads_per_worker(4, 1, cores=8) == 8  # only one episode: only one worker runs
+    assert threads_per_worker(16, 64, cores=2) == 1  # never fewer than one

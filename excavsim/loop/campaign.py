@@ -161,10 +161,26 @@ def _exit_with_main() -> None:
     threading.Thread(target=watch, name="exit-with-main", daemon=True).start()
 
 
-def _worker_main(conn) -> None:
-    """A local worker: run the episodes the main process sends, one at a time, until it sends None."""
+def threads_per_worker(workers: int, tasks: int, cores: int | None = None) -> int:
+    """numba threads for each of ``workers`` local workers running ``tasks`` episodes: the cores this
+    process may use (its affinity, so ``taskset`` counts) shared out among the workers that will run."""
+    if cores is None:
+        cores = len(os.sched_getaffinity(0)) if hasattr(os, "sched_getaffinity") else (os.cpu_count() or 1)
+    return max(1, cores // max(1, min(workers, tasks)))
+
+
+def _worker_main(conn, threads: int = 0) -> None:
+    """A local worker: run the episodes the main process sends, one at a time, until it sends None.
+
+    ``threads`` (> 0) caps numba's threads (the ray caster runs in parallel): workers that together
+    fill the machine would otherwise each start a thread per core and fight over them.
+    """
     signal.signal(signal.SIGINT, signal.SIG_IGN)  # the main process decides; it ends its workers itself
     _exit_with_main()
+    if threads > 0:
+        import numba
+
+        numba.set_num_threads(min(threads, numba.config.NUMBA_NUM_THREADS))
     while True:
         try:
             task = conn.recv()
@@ -178,9 +194,10 @@ def _worker_main(conn) -> None:
 class _Worker:
     """One local worker process and the episode it runs (None: idle)."""
 
-    def __init__(self, ctx):
+    def __init__(self, ctx, threads: int = 0):
         self.conn, child = ctx.Pipe()
-        self.proc = ctx.Process(target=_worker_main, args=(child,), daemon=True, name="excavsim-campaign-worker")
+        self.proc = ctx.Process(target=_worker_main, args=(child, threads), daemon=True,
+                                name="excavsim-campaign-worker")
         self.proc.start()
         child.close()
         self.task: dict[str, Any] | None = None
@@ -224,6 +241,7 @@ def _local_results(tasks: list[dict], workers: int, say: Callable[[str], None]) 
     ctx = multiprocessing.get_context(method)
     todo = deque((t, 1) for t in tasks)
     pool: list[_Worker] = []
+    threads = threads_per_worker(workers, len(tasks))
     try:
         while todo or any(w.task is not None for w in pool):
             for w in [w for w in pool if w.task is None and not w.proc.is_alive()]:  # died while idle
@@ -233,7 +251,7 @@ def _local_results(tasks: list[dict], workers: int, say: Callable[[str], None]) 
                 if todo and w.task is None:
                     w.run(*todo.popleft())
             while todo and len(pool) < workers:
-                pool.append(_Worker(ctx))
+                pool.append(_Worker(ctx, threads))
                 pool[-1].run(*todo.popleft())
             busy = [w for w in pool if w.task is not None]
             ready = set(wait([w.conn for w in busy] + [w.proc.sentinel for w in busy]))
