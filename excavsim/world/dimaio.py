@@ -61,8 +61,8 @@ import numpy as np
 from excavsim.config import SceneConfig, SoilParams
 from excavsim.errors import ConfigError
 from excavsim.world import soil_records
-from excavsim.world.grid_kernels import bilinear, cut_swept
-from excavsim.world.kernels import PROBE_CELLS
+from excavsim.world.grid_kernels import cut_swept
+from excavsim.world.kernels import edge_depths, edge_ends, remember_edge
 
 G_M_S2 = 9.81  # gravity of the planar simulator (the world's is MuJoCo's)
 
@@ -217,35 +217,11 @@ def dimaio_step(heights, grid, mj_arrays, bucket, edge, waist_xy, params, dparam
     ax /= na
     ay /= na
     rake = np.arctan2(-x_t[2], z_t[2])
-    cx = cy = cz = 0.0
-    dsum = 0.0
-    for k in range(nw):
-        px = org[0] + rot[0, 0] * edge[k, 0] + rot[0, 1] * edge[k, 1] + rot[0, 2] * edge[k, 2]
-        py = org[1] + rot[1, 0] * edge[k, 0] + rot[1, 1] * edge[k, 1] + rot[1, 2] * edge[k, 2]
-        pz = org[2] + rot[2, 0] * edge[k, 0] + rot[2, 1] * edge[k, 1] + rot[2, 2] * edge[k, 2]
-        cx += px
-        cy += py
-        cz += pz
-        s = bilinear(h, x0, y0, cell, px + ax * PROBE_CELLS * cell, py + ay * PROBE_CELLS * cell) + g.z0_m
-        d = s - pz
-        if d > 0.0 and np.isfinite(d):
-            dsum += d
-    cx /= nw
-    cy /= nw
-    cz /= nw
+    cx, cy, cz, dsum, _ = edge_depths(h, x0, y0, cell, g.z0_m, org, rot, edge, ax, ay, np.empty((nw, 3)))
     depth = dsum / nw
-    ends = np.empty((2, 3))
-    for e in range(2):
-        for i in range(3):
-            ends[e, i] = (org[i] + rot[i, 0] * ends_body[e, 0] + rot[i, 1] * ends_body[e, 1]
-                          + rot[i, 2] * ends_body[e, 2])
+    ends = edge_ends(org, rot, ends_body)
     if not st.has_prev:
-        for i in range(3):
-            st.prev_edge_ends_m[0, i] = ends[0, i]
-            st.prev_edge_ends_m[1, i] = ends[1, i]
-        st.prev_edge_centre_m[0] = cx
-        st.prev_edge_centre_m[1] = cy
-        st.prev_edge_centre_m[2] = cz
+        remember_edge(st, ends, cx, cy, cz)
         st.has_prev = True
     prev_c = st.prev_edge_centre_m
     # the arm plane: r horizontal from the waist axis through the edge, z up

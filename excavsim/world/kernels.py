@@ -44,7 +44,43 @@ def _set3(v, x, y, z):
 
 
 @numba.njit(cache=True, inline="always")
-def _remember_edge(st, ends, cx, cy, cz):
+def edge_depths(h, x0, y0, cell, z0, org, rot, edge, ax, ay, ew):
+    """The cutting edge's samples ``edge`` (n_w, 3, body frame) in the world, written to ``ew``, their
+    centre, and the sum and the sum of squares of their positive depths below the surface probed
+    ``PROBE_CELLS`` cells ahead along the unit horizontal ``(ax, ay)``: (cx, cy, cz, dsum, d2sum)."""
+    nw = edge.shape[0]
+    cx = cy = cz = 0.0
+    dsum = 0.0
+    d2sum = 0.0
+    for k in range(nw):
+        for i in range(3):
+            ew[k, i] = (org[i] + rot[i, 0] * edge[k, 0] + rot[i, 1] * edge[k, 1]
+                        + rot[i, 2] * edge[k, 2])
+        px, py, pz = ew[k, 0], ew[k, 1], ew[k, 2]
+        cx += px
+        cy += py
+        cz += pz
+        s = bilinear(h, x0, y0, cell, px + ax * PROBE_CELLS * cell, py + ay * PROBE_CELLS * cell) + z0
+        d = s - pz
+        if d > 0.0 and np.isfinite(d):
+            dsum += d
+            d2sum += d * d
+    return cx / nw, cy / nw, cz / nw, dsum, d2sum
+
+
+@numba.njit(cache=True, inline="always")
+def edge_ends(org, rot, ends_body):
+    """The cutting edge's two end points ``ends_body`` (2, 3, body frame) in the world (2, 3)."""
+    ends = np.empty((2, 3))
+    for e in range(2):
+        for i in range(3):
+            ends[e, i] = (org[i] + rot[i, 0] * ends_body[e, 0] + rot[i, 1] * ends_body[e, 1]
+                          + rot[i, 2] * ends_body[e, 2])
+    return ends
+
+
+@numba.njit(cache=True, inline="always")
+def remember_edge(st, ends, cx, cy, cz):
     prev = st.prev_edge_ends_m
     for i in range(3):
         prev[0, i] = ends[0, i]
@@ -121,34 +157,12 @@ def soil_step(heights, strength, grid, mj_arrays, bucket_vel6, bucket, edge, sur
     rake = np.arctan2(-x_t[2], z_t[2])
 
     # edge samples in the world, and the depth below the surface just ahead of each
-    cx = cy = cz = 0.0
-    dsum = 0.0
-    d2sum = 0.0
     ew = np.empty((nw, 3))
-    for k in range(nw):
-        for i in range(3):
-            ew[k, i] = (org[i] + rot[i, 0] * edge[k, 0] + rot[i, 1] * edge[k, 1]
-                        + rot[i, 2] * edge[k, 2])
-        px, py, pz = ew[k, 0], ew[k, 1], ew[k, 2]
-        cx += px
-        cy += py
-        cz += pz
-        s = bilinear(h, x0, y0, cell, px + ax * PROBE_CELLS * cell, py + ay * PROBE_CELLS * cell) + z0
-        d = s - pz
-        if d > 0.0 and np.isfinite(d):
-            dsum += d
-            d2sum += d * d
-    cx /= nw
-    cy /= nw
-    cz /= nw
+    cx, cy, cz, dsum, d2sum = edge_depths(h, x0, y0, cell, z0, org, rot, edge, ax, ay, ew)
     depth = dsum / nw
-    ends = np.empty((2, 3))
-    for e in range(2):
-        for i in range(3):
-            ends[e, i] = (org[i] + rot[i, 0] * ends_body[e, 0] + rot[i, 1] * ends_body[e, 1]
-                          + rot[i, 2] * ends_body[e, 2])
+    ends = edge_ends(org, rot, ends_body)
     if not st.has_prev:
-        _remember_edge(st, ends, cx, cy, cz)
+        remember_edge(st, ends, cx, cy, cz)
         st.has_prev = True
     prev_c = st.prev_edge_centre_m
     travel = -((cx - prev_c[0]) * ux + (cy - prev_c[1]) * uy + (cz - prev_c[2]) * uz)
@@ -198,7 +212,7 @@ def soil_step(heights, strength, grid, mj_arrays, bucket_vel6, bucket, edge, sur
     cut = removed * cell * cell
     take = min(cut, max(p.capacity_m3 - st.load_m3, 0.0))
     st.load_m3 += take
-    _remember_edge(st, ends, cx, cy, cz)
+    remember_edge(st, ends, cx, cy, cz)
 
     # bearing and friction on the outer surface
     n = surface.shape[0]
