@@ -625,6 +625,17 @@ def _cmd_tune(args: argparse.Namespace) -> int:
     return 0
 
 
+def _cmd_playback(args: argparse.Namespace) -> int:
+    import pathlib
+
+    from excavsim.loop import playback
+
+    print("excavsim playback: demonstrate a dig, replay it in a stiffer and a softer soil with fixed high, fixed low "
+          "and variable impedance (002_694c274da322d931.txt §3.3, ch. 6)")
+    playback.run_playback(pathlib.Path(args.out), seed=args.seed, sweep=not args.no_sweep)
+    return 0
+
+
 def _cmd_load(args: argparse.Namespace) -> int:
     import pathlib
 
@@ -892,6 +903,13 @@ def build_parser() -> argparse.ArgumentParser:
     tune.add_argument("--out", metavar="DIR", default="runs/tune", type=_out_dir,
                       help="output directory (default runs/tune)")
     tune.set_defaults(func=_cmd_tune)
+    pb = sub.add_parser("playback", help="programming digs by demonstration: replay a demonstrated dig in a stiffer "
+                        "and a softer soil with fixed and variable impedance (DiMaio ch. 3, 6)")
+    pb.add_argument("--seed", type=_seed, default=0, metavar="N", help="the worlds' seed (default 0)")
+    pb.add_argument("--no-sweep", action="store_true", help="skip the velocity-weighting sweep (Figs. 6.46-6.48)")
+    pb.add_argument("--out", metavar="DIR", default="runs/playback", type=_out_dir,
+                    help="output directory (default runs/playback)")
+    pb.set_defaults(func=_cmd_playback)
     return parser
 
 
