@@ -111,6 +111,30 @@ def test_a_dig_past_the_ground_fails_shaping_and_an_unreachable_one_reachability
     assert not verdicts["reachability"][0]
 
 
+def test_shovel_base_moves_to_reach_soil_beyond_what_it_drives_over(cfg, machines):
+    """§4.2: the shovel's base is placed between digs. A thin layer (under the tracks' clearance) from 1 m
+    to 6 m, then a heap: from the thin layer's foot nothing of the heap is in reach; the planner drives the
+    tracks up to the heap (never onto soil above the clearance) and digs a full bucket."""
+    rules = L.make_rules(cfg, 27, coarse=True)
+    shovel = machines["shovel"]
+    pile = trapezoid_pile(1.5, 0.5, 6.0, 14.0, 0.1, 35.0)
+    pile.heights[(pile.xs > 1.0) & (pile.xs < 6.0)] = 0.1
+    terrain = L.terrain_of(pile)
+    cands = lp.base_candidates(shovel, terrain, rules)
+    assert len(cands) == len(rules.base_backoffs)
+    for base_x, foot in cands:
+        under = (terrain.xs > base_x - 0.05) & (terrain.xs < base_x + shovel.track_front)
+        assert terrain.heights[under].max() <= rules.wheel_clearance
+        assert foot >= base_x + shovel.track_front - 1e-9
+    first = terrain.foot(rules.ground)
+    old = lp._plan_at(shovel, terrain, rules, first, first - shovel.track_front)
+    assert old.volume < 0.5 * rules.capacity  # the old placement, tracks at the first soil, reaches little
+    p = lp.plan(shovel, terrain, rules)
+    assert p.base_x > 4.0 - shovel.track_front and p.volume > 0.9 * rules.capacity
+    q, ok = shovel.inverse(lp.action_poses(p.action, terrain, rules, shovel.floor)[0], p.base_x)
+    assert ok.all()
+
+
 @pytest.mark.parametrize("name", L.MACHINES)
 def test_planned_volume_is_the_area_the_world_removes(cfg, machines, plans, name):
     p = plans[name]
@@ -160,6 +184,7 @@ def test_study_is_deterministic_for_a_seed(cfg):
     a = L.study_run(cfg, "shovel", 6.0, seed=3)
     b = L.study_run(cfg, "shovel", 6.0, seed=3)
     assert a == b
+    assert a[1] >= cfg.study.remove_units * cfg.units_m2 - 1e-9 and a[2].endswith("units removed")
     p1 = random_pile(3, 10.0, foot=1.0, width=14.0, dx=0.1, repose_deg=35.0)
     p2 = random_pile(3, 10.0, foot=1.0, width=14.0, dx=0.1, repose_deg=35.0)
     p3 = random_pile(4, 10.0, foot=1.0, width=14.0, dx=0.1, repose_deg=35.0)

@@ -105,6 +105,7 @@ class PlannerSpec(StrictModel):
     radii: list[float] = Field(min_length=1)
     min_fraction: float = Field(ge=0.0, le=1.0)
     exit_heading_deg: float = Field(gt=0.0, le=90.0)
+    base_backoffs: list[float] = Field(min_length=1, max_length=20)
     max_digs: int = Field(ge=1, le=10_000)
 
 
@@ -166,7 +167,7 @@ def make_rules(cfg: LoadingConfig, capacity_units: float, force_limit_kn_m: floa
         alpha_max=math.radians(a1), alpha_step=math.radians(s.alpha_step_deg if coarse else da), d1_max=p.d1_max,
         d1_step=s.d1_step if coarse else p.d1_step, radii=tuple(p.radii), parameterization=p.parameterization,
         capacity=capacity_units * cfg.units_m2, min_fraction=p.min_fraction,
-        exit_heading=math.radians(p.exit_heading_deg),
+        exit_heading=math.radians(p.exit_heading_deg), base_backoffs=tuple(p.base_backoffs),
         force_limit=None if force_limit_kn_m is None else 1000.0 * force_limit_kn_m,
         unit_weight=1000.0 * cfg.soil.unit_weight_kn_m3, friction_deg=cfg.soil.friction_deg,
         cohesion=1000.0 * cfg.soil.cohesion_kpa)
@@ -261,15 +262,15 @@ def run_machine(cfg: LoadingConfig, name: str, *, force: bool = False, progress=
     return simulate(machine, rules, make_pile(cfg), name=name, max_digs=cfg.planner.max_digs, progress=progress)
 
 
-def study_run(cfg: LoadingConfig, name: str, force_kn_m: float, seed: int) -> tuple[int, float]:
-    """One run of Fig. 112: the digs and the soil removed [m^2]."""
+def study_run(cfg: LoadingConfig, name: str, force_kn_m: float, seed: int) -> tuple[int, float, str]:
+    """One run of Fig. 112: the digs, the soil removed [m^2] and why the run ended."""
     s = cfg.study
     pile = random_pile(seed, s.pile_units * cfg.units_m2, foot=cfg.pile.foot, width=s.pile_width, dx=cfg.pile.dx,
                        repose_deg=cfg.pile.repose_deg)
     rules = make_rules(cfg, s.capacity_units, force_kn_m, coarse=True)
     run = simulate(make_machine(cfg, name), rules, pile, name=name, max_digs=s.max_digs,
                    remove_m2=s.remove_units * cfg.units_m2)
-    return len(run.digs), run.removed_m2
+    return len(run.digs), run.removed_m2, run.reason
 
 
 def _study_job(args):
@@ -281,7 +282,9 @@ def study(cfg_path: str | pathlib.Path | None = None, *, runs: int | None = None
           seed: int = 0) -> dict:
     """Fig. 112: per machine and force limit, the efficiency over ``runs`` random piles (seeds seed, seed + 1, ...).
 
-    Returns ``{"force_limits": [...], "runs": n, machine: {"efficiency": [...], "std": [...], "digs": [...]}}``.
+    Returns ``{"force_limits": [...], "runs": n, machine: {"efficiency": [...], "std": [...], "digs": [...]},
+    "short": [(machine, force, seed, removed units, reason), ...]}``: ``short`` lists the runs that ended
+    before ``remove_units`` were removed, and why.
     Deterministic for a seed: each run's pile comes from its seed alone, and the planner has no randomness.
     """
     cfg = load_loading_config(cfg_path)
@@ -297,16 +300,19 @@ def study(cfg_path: str | pathlib.Path | None = None, *, runs: int | None = None
     else:
         results = [_study_job(j) for j in jobs]
     cap = cfg.study.capacity_units * cfg.units_m2
-    out = {"force_limits": list(cfg.study.force_limits_kn_m), "runs": n}
-    it = iter(results)
+    out = {"force_limits": list(cfg.study.force_limits_kn_m), "runs": n, "short": []}
+    target = cfg.study.remove_units * cfg.units_m2
+    it = iter(zip(jobs, results))
     for m in MACHINES:
         eff, std, digs = [], [], []
         for _ in cfg.study.force_limits_kn_m:
             rs = [next(it) for _ in range(n)]
-            e = np.array([removed / d / cap if d else 0.0 for d, removed in rs])
+            e = np.array([removed / d / cap if d else 0.0 for _, (d, removed, _) in rs])
             eff.append(float(e.mean()))
             std.append(float(e.std()))
-            digs.append(float(np.mean([d for d, _ in rs])))
+            digs.append(float(np.mean([d for _, (d, _, _) in rs])))
+            out["short"] += [(m, f, sd, removed / cfg.units_m2, why) for (_, _, f, sd), (_, removed, why) in rs
+                             if removed < target - 1e-9]
         out[m] = {"efficiency": eff, "std": std, "digs": digs}
     return out
 
@@ -347,6 +353,9 @@ def format_study(res: dict) -> str:
         lo, sh = res["loader"], res["shovel"]
         lines.append(f"{f:10.1f} {100 * lo['efficiency'][i]:7.1f} ± {100 * lo['std'][i]:4.1f} {lo['digs'][i]:6.1f} "
                      f"{100 * sh['efficiency'][i]:7.1f} ± {100 * sh['std'][i]:4.1f} {sh['digs'][i]:6.1f}")
+    short = res.get("short", [])
+    lines.append(f"runs that ended before their target: {len(short)}")
+    lines += [f"  {m} at {f:g} kN/m, seed {sd}: {units:.0f} units removed ({why})" for m, f, sd, units, why in short]
     return "\n".join(lines)
 
 

@@ -85,6 +85,7 @@ class LoadingRules:
     ground: float = 0.05
     wheel_clearance: float = 0.15
     exit_heading: float = math.radians(60.0)
+    base_backoffs: tuple[float, ...] = (0.0, 0.75, 1.5)
     force_limit: float | None = None
     unit_weight: float = 17_000.0
     friction_deg: float = 35.0
@@ -108,6 +109,9 @@ class LoadingRules:
             raise ExcavsimError(f"loading rules: force_limit must be > 0 N/m or None; given {self.force_limit!r}")
         if not (0.0 < self.exit_heading <= math.pi / 2):
             raise ExcavsimError(f"loading rules: exit_heading must lie in (0, 90] degrees; given {self.exit_heading!r}")
+        if not self.base_backoffs or any(not (math.isfinite(b) and b >= 0) for b in self.base_backoffs):
+            raise ExcavsimError(f"loading rules: base_backoffs must be a non-empty list of lengths >= 0 m; "
+                                f"given {self.base_backoffs!r}")
         if self.arc_samples < 2 or self.tolerance < 0 or self.cohesion < 0 or not (0 <= self.friction_deg < 90):
             raise ExcavsimError("loading rules: need arc_samples >= 2, tolerance >= 0, cohesion >= 0, "
                                 "0 <= friction < 90 deg")
@@ -362,14 +366,39 @@ def force(f, limit: float | None) -> np.ndarray:
 
 
 def base_position(machine: FrontLoader | FrontShovel, terrain: Terrain, ground: float = 1e-3) -> float:
-    """Where a shovel's pivot stands for the next dig (§4.2: placed between digs): its tracks' front at the
-    pile's foot (assumed). The loader's base is its prismatic joint: NaN."""
+    """The shovel's nearest base (the first of :func:`base_candidates` with no back-off); NaN for the loader."""
+    c = base_candidates(machine, terrain, LoadingRules(ground=ground, base_backoffs=(0.0,)))
+    return c[0][0] if c else math.nan
+
+
+def base_candidates(machine: FrontLoader | FrontShovel, terrain: Terrain, rules: LoadingRules
+                    ) -> list[tuple[float, float]]:
+    """Where a shovel's pivot may stand for the next dig (§4.2: the base is placed between digs), with the foot
+    its entries k are measured from: ``[(base_x, foot), ...]`` (the loader: ``[(NaN, the pile's foot)]``).
+
+    The tracks drive over soil no higher than ``wheel_clearance`` (as the loader's wheels), from the open
+    ground on the near side: their front goes at most to the first column higher than that (the
+    *drive limit*; the pile's foot when no column is), and stands there or ``base_backoffs`` [m] behind it
+    (a shovel digs poorly right at its tracks). Each candidate's entries start at the first column above
+    ``ground`` ahead of its tracks' front. Assumed: the thesis says only that the base is positioned between
+    digs; the planner takes the candidate with the largest dig (the nearest on ties).
+    """
+    foot = terrain.foot(rules.ground)
+    if not machine.moves_base and math.isfinite(foot):
+        high = np.nonzero(terrain.heights > rules.wheel_clearance)[0]
+        limit = float(terrain.xs[high[0]] - 0.5 * terrain.dx) if high.size else foot
+        soil = terrain.heights > rules.ground
+        out = []
+        for back in rules.base_backoffs:
+            front = limit - back
+            ahead = np.nonzero(soil & (terrain.xs + 0.5 * terrain.dx > front + 1e-9))[0]
+            if ahead.size:
+                ref = max(float(terrain.xs[ahead[0]] - 0.5 * terrain.dx), front)
+                out.append((front - machine.track_front, ref))
+        return out
     if machine.moves_base:
-        return math.nan
-    foot = terrain.foot(ground)
-    if not math.isfinite(foot):
-        return math.nan
-    return foot - machine.track_front
+        return [(math.nan, foot)]
+    return []
 
 
 # ---------------------------------------------------------------------------------------------- the search
@@ -419,11 +448,23 @@ def evaluate(machine: FrontLoader | FrontShovel, terrain: Terrain, rules: Loadin
 
 
 def plan(machine: FrontLoader | FrontShovel, terrain: Terrain, rules: LoadingRules) -> LoadingPlan:
-    """Choose one loading dig on ``terrain`` (see the module docstring)."""
+    """Choose one loading dig on ``terrain`` (see the module docstring); for the shovel also where its base
+    stands (:func:`base_candidates`): the candidate whose best dig is the largest."""
+    t0 = time.perf_counter()
+    best = None
+    for base_x, foot in base_candidates(machine, terrain, rules) or [(math.nan, math.inf)]:
+        p = _plan_at(machine, terrain, rules, foot, base_x)
+        if best is None or (p.action is not None and (best.action is None or p.volume > best.volume + 1e-12)):
+            best = p
+    best.seconds = time.perf_counter() - t0
+    return best
+
+
+def _plan_at(machine: FrontLoader | FrontShovel, terrain: Terrain, rules: LoadingRules, foot: float,
+             base_x: float) -> LoadingPlan:
+    """The best dig with entries measured from ``foot`` and (the shovel) the pivot at ``base_x``."""
     t0 = time.perf_counter()
     gk, ga, gr, gd = rules.grid()
-    foot = terrain.foot(rules.ground)
-    base_x = base_position(machine, terrain, rules.ground)
     shape = (gk.size, ga.size, gr.size)
     nan_cells = np.full(shape, np.nan)
     if not math.isfinite(foot):
