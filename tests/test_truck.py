@@ -136,3 +136,50 @@ def test_the_measured_pile_is_the_true_peak_within_a_cell():
     cell = before_map.cell
     assert math.hypot(pile.x - true.x, pile.y - true.y) <= cell * math.sqrt(2) + 1e-9
     assert math.hypot(true.x - x, true.y - y) <= 2 * cell
+
+
+def test_the_pile_position_moves_below_the_cell_size():
+    """The weighted centre of the deposit's peak region follows a pile moved by a fraction of a cell
+    (the highest cell alone would move in whole 5 cm steps)."""
+    from excavsim.loop.truck import deposit_peak
+    cell = 0.05
+    x = np.arange(0.5, 2.5, cell) + cell / 2
+    y = np.arange(0.0, 1.5, cell) + cell / 2
+    xx, yy = np.meshgrid(x, y)
+    before = np.zeros_like(xx)
+    for dx in (0.0, 0.01, 0.02, 0.035):
+        cx, cy = 1.40 + dx, 0.97 - dx / 2  # off the cell centres
+        after = 0.05 * np.maximum(1.0 - np.hypot(xx - cx, yy - cy) / 0.18, 0.0)  # a cone of soil
+        p = deposit_peak(x, y, before, after, 0.0)
+        assert math.hypot(p.x - cx, p.y - cy) < 0.2 * cell
+
+
+def test_a_failed_trial_costs_high_is_never_a_start_and_steers_the_simplex_away():
+    """§5.4.1: a failed trial (e.g. soil left in the bucket) is stored with a very high cost; the model
+    learns where failures are and the simplex does not go there, and a failed trial is no starting point."""
+    rng = np.random.default_rng(5)
+    x = rng.uniform(0.0, 1.0, (30, 2))
+    r_d, th_d = 1.7, math.radians(35.0)
+    # time falls with x0, the placement is perfect everywhere, but x0 > 0.6 fails
+    t, failed = 3.0 - x[:, 0], (x[:, 0] > 0.6).astype(float)
+    mem = Memory(2)
+    for xi, ti, fi in zip(x, t, failed):
+        mem.add(xi, ti, r_d, th_d, fi)
+    obj = Objective(r_d, th_d, w1=5.0, w2=1696.0, margin=0.0, failure_cost=500.0)
+    assert obj.cost(3.0, r_d, th_d, 1.0) == pytest.approx(15.0 + 500.0)
+    starts = starting_points(mem, obj)
+    assert not any(failed[i] for i in starts)  # not even the lowest time, which failed
+    sel = select_action(mem, obj, lower=np.zeros(2), upper=np.ones(2))
+    assert sel.x[0] < 0.65 and sel.prediction.y[3] < 0.5
+
+
+def test_the_prediction_error_grows_away_from_the_data():
+    """The standard error comes from the leave-one-out residuals and grows with the query's leverage."""
+    rng = np.random.default_rng(2)
+    x = rng.uniform(0.0, 1.0, (40, 2))
+    y = 1.0 + x[:, 0] + rng.normal(0.0, 0.1, 40)
+    m = LWR(x, y[:, None])
+    assert m.loo_mse[0] == pytest.approx(0.01, rel=0.6)
+    inside, outside = m.predict(np.array([0.5, 0.5])), m.predict(np.array([1.6, 1.6]))
+    assert inside.stderr[0] == pytest.approx(0.1, rel=0.6)
+    assert outside.stderr[0] > inside.stderr[0] and outside.support < inside.support

@@ -12,10 +12,15 @@
   thesis does not say how the three outputs are combined).
 * Confidence (§5.4, where the thesis names it without a formula; **assumed**): a prediction carries
   its *support*, the sum of the kernel weights at the query (how many data points' worth of
-  evidence it rests on), and a standard error from the weighted residuals and the query's
-  leverage. :func:`select_action` does not trust a prediction with support below ``min_support``:
-  it adds ``support_penalty`` per missing unit to the predicted cost, and it keeps the simplex within
-  ``margin`` of the data's normalized box.
+  evidence it rests on), and a standard error per output: the root mean squared leave-one-out
+  residual at the chosen width, grown by the query's leverage in the weighted fit (the sandwich
+  ``(Z^T Z)^+ X^T W^4 X (Z^T Z)^+``). :func:`select_action` minimizes the cost's expectation under those
+  errors, adds ``support_penalty`` per missing unit of support below ``min_support`` and per
+  ``trust_radius`` beyond ``trust_radius`` from the nearest remembered trial, and keeps the simplex
+  within ``margin`` of the data's normalized box.
+* Failures (§5.4.1: a data point "stored with a very high cost"): the memory's fourth output is 1 for
+  a failed trial; the model predicts it like the others and the cost adds ``failure_cost`` times the
+  prediction (clipped to [0, 1]); a failed trial is never a starting point.
 * :func:`select_action`: the downhill simplex (scipy's Nelder-Mead) on the cost predicted through
   the model, from 4 starts: the remembered trials with the lowest cost, lowest time, lowest radial
   error and lowest tangential error, kept distinct (the next best by the same criterion when one is
@@ -67,7 +72,7 @@ class LWR:
     """
 
     def __init__(self, x: np.ndarray, y: np.ndarray, *, width: float | None = None,
-                 widths: tuple[float, ...] = WIDTHS, rcond: float = 1e-8):
+                 widths: tuple[float, ...] = WIDTHS, rcond: float = 1e-8, width_outputs: int | None = None):
         self.x = np.atleast_2d(np.asarray(x, dtype=float))
         y = np.asarray(y, dtype=float)
         self.y = y.reshape(len(y), -1)
@@ -76,8 +81,12 @@ class LWR:
         span = self.x.max(axis=0) - self.lo
         self.span = np.where(span > 0, span, 1.0)
         self.xn = self.normalize(self.x)
+        self.width_outputs = self.y.shape[1] if width_outputs is None else width_outputs
         self.loo_errors = {w: self.loo_error(w) for w in widths} if width is None else {}
         self.width = width if width is not None else min(self.loo_errors, key=self.loo_errors.get)
+        # the prediction error of each output: the mean squared leave-one-out residual at the chosen width
+        self.loo_mse = np.mean(self.loo_residuals(self.width) ** 2, axis=0) if len(self.x) > 1 \
+            else np.full(self.y.shape[1], np.inf)
 
     def normalize(self, x: np.ndarray) -> np.ndarray:
         """Inputs mapped to [0, 1] by the memory's range."""
@@ -96,46 +105,53 @@ class LWR:
         return svd_solve(z, v, self.rcond), w, z, v
 
     def predict_normalized(self, qn: np.ndarray, width: float | None = None) -> Prediction:
-        """The prediction at a normalized query."""
+        """The prediction at a normalized query, with its standard error and support (see the module docstring)."""
         width = self.width if width is None else width
         beta, w, z, v = self._fit(qn, width)
         qa = np.append(qn, 1.0)
         yhat = qa @ beta
-        res = v - z @ beta
-        s2 = np.sum(res ** 2, axis=0) / max(float(np.sum(w ** 2)), 1e-300)  # weighted mean squared residual
-        u, s, vt = np.linalg.svd(z, full_matrices=False)
-        keep = s > self.rcond * (s[0] if s.size else 0.0)
-        proj = (vt[keep] @ qa) / s[keep]
-        leverage = float(proj @ proj)  # qa^T (Z^T Z)^+ qa
-        return Prediction(yhat, np.sqrt(s2 * (1.0 + leverage)), float(w.sum()))
+        # var(beta) of the weighted fit (sandwich): (Z^T Z)^+ X^T W^4 X (Z^T Z)^+ per unit noise variance
+        xa = np.hstack([self.xn, np.ones((len(self.xn), 1))])
+        zz = np.linalg.pinv(z.T @ z, rcond=self.rcond)
+        meat = (xa * (w ** 4)[:, None]).T @ xa
+        leverage = float(qa @ zz @ meat @ zz @ qa)
+        return Prediction(yhat, np.sqrt(self.loo_mse * (1.0 + leverage)), float(w.sum()))
 
     def predict(self, q: np.ndarray) -> Prediction:
         """The prediction at a query in the original units."""
         return self.predict_normalized(self.normalize(q))
 
-    def loo_error(self, width: float) -> float:
-        """Leave-one-out squared error at ``width``, summed over the outputs scaled by their spread."""
+    def loo_residuals(self, width: float) -> np.ndarray:
+        """(n, k) leave-one-out residuals at ``width``: each point predicted from all the others."""
         n = len(self.x)
-        scale = self.y.std(axis=0)
-        scale = np.where(scale > 0, scale, 1.0)
-        err = 0.0
+        res = np.zeros_like(self.y)
         for i in range(n):
             idx = np.r_[0:i, i + 1:n]
             beta, *_ = self._fit(self.xn[i], width, idx)
-            err += float(np.sum(((np.append(self.xn[i], 1.0) @ beta - self.y[i]) / scale) ** 2))
-        return err
+            res[i] = np.append(self.xn[i], 1.0) @ beta - self.y[i]
+        return res
+
+    def loo_error(self, width: float) -> float:
+        """Leave-one-out squared error at ``width``, summed over the first ``width_outputs`` outputs scaled
+        by their spread."""
+        k = self.width_outputs
+        scale = self.y[:, :k].std(axis=0)
+        scale = np.where(scale > 0, scale, 1.0)
+        return float(np.sum((self.loo_residuals(width)[:, :k] / scale) ** 2))
 
 
 class Memory:
-    """The trials so far: inputs (n, m) and outcomes (n, 3) = time [s], r [m], theta [rad]."""
+    """The trials so far: inputs (n, m) and outcomes (n, 4) = time [s], r [m], theta [rad], failed [0/1]
+    (a trial that did not do its task, e.g. left soil in the bucket: §5.4.1's data point "stored with a
+    very high cost")."""
 
     def __init__(self, m: int):
         self.x = np.zeros((0, m))
-        self.y = np.zeros((0, 3))
+        self.y = np.zeros((0, 4))
 
-    def add(self, x: np.ndarray, t: float, r: float, theta: float) -> None:
+    def add(self, x: np.ndarray, t: float, r: float, theta: float, failed: float = 0.0) -> None:
         self.x = np.vstack([self.x, np.asarray(x, dtype=float)])
-        self.y = np.vstack([self.y, [t, r, theta]])
+        self.y = np.vstack([self.y, [t, r, theta, failed]])
 
     def __len__(self) -> int:
         return len(self.x)
@@ -144,7 +160,8 @@ class Memory:
 @dataclasses.dataclass(frozen=True)
 class Objective:
     """What to minimize: the cost of §6.2 about the target (r_d [m], theta_d [rad]) with weights w1, w2,
-    and how far to trust the model (see the module docstring)."""
+    plus ``failure_cost`` for a failed trial (§5.4.1), and how far to trust the model (see the module
+    docstring)."""
 
     r_d: float
     theta_d: float
@@ -153,19 +170,46 @@ class Objective:
     min_support: float = 0.5
     support_penalty: float = 200.0
     margin: float = 0.1
+    failure_cost: float = 500.0
+    trust_radius: float = 0.0
+    uncertainty: bool = True
 
-    def cost(self, t, r, theta):
-        return placement_cost(t, r, theta, self.r_d, self.theta_d, self.w1, self.w2)
+    def cost(self, t, r, theta, failed=0.0):
+        return placement_cost(t, r, theta, self.r_d, self.theta_d, self.w1, self.w2) \
+            + self.failure_cost * np.asarray(failed, dtype=float)
+
+    def expected_cost(self, p: Prediction) -> float:
+        """The cost's expectation under the prediction's errors (each output's standard error, taken as
+        independent): the quadratic placement terms gain ``w2 (se_r^2 + r_d^2 se_theta^2)``, so that an
+        uncertain prediction of a perfect placement is not worth a certain one (§5.3.3's reliability;
+        assumed form). The predicted failure is clipped to [0, 1]."""
+        t, r, th, *rest = p.y
+        failed = float(np.clip(rest[0], 0.0, 1.0)) if rest else 0.0
+        c = float(self.cost(t, r, th, failed))
+        if self.uncertainty:
+            se = np.where(np.isfinite(p.stderr), p.stderr, 0.0)
+            c += self.w2 * (se[1] ** 2 + self.r_d ** 2 * se[2] ** 2)
+        return c
+
+
+def trial_costs(memory: Memory, obj: Objective) -> np.ndarray:
+    """The measured cost of each remembered trial (failures included)."""
+    y = memory.y
+    return obj.cost(y[:, 0], y[:, 1], y[:, 2], y[:, 3] if y.shape[1] > 3 else 0.0)
 
 
 def starting_points(memory: Memory, obj: Objective, k: int = 4) -> list[int]:
     """Indices of the remembered trials with the lowest cost, time, radial error and tangential error,
-    kept distinct (§6.2)."""
-    t, r, th = memory.y.T
-    keys = (obj.cost(t, r, th), t, np.abs(obj.r_d - r), obj.r_d * np.abs(obj.theta_d - th))
+    kept distinct (§6.2); a failed trial is never a start."""
+    t, r, th = memory.y[:, :3].T
+    failed = memory.y[:, 3] > 0.5 if memory.y.shape[1] > 3 else np.zeros(len(t), bool)
+    keys = (trial_costs(memory, obj), t, np.abs(obj.r_d - r), obj.r_d * np.abs(obj.theta_d - th))
     chosen: list[int] = []
+    ok = ~failed if not failed.all() else np.ones(len(t), bool)
     for key in keys[:k]:
         for i in np.argsort(key, kind="stable"):
+            if not ok[i]:
+                continue
             if int(i) not in chosen and not any(np.allclose(memory.x[i], memory.x[j]) for j in chosen):
                 chosen.append(int(i))
                 break
@@ -187,8 +231,14 @@ def select_action(memory: Memory, obj: Objective, *, lower: np.ndarray | None = 
                   upper: np.ndarray | None = None, maxiter: int = 600) -> Selection:
     """The next action: Nelder-Mead on the predicted cost from the 4 starting points (§6.2).
 
-    ``lower``/``upper`` (original units) bound the search besides the data's box plus ``margin``."""
-    model = LWR(memory.x, memory.y)
+    ``lower``/``upper`` (original units) bound the search besides the data's box plus ``margin``.
+    The cost minimized is the expected cost under the prediction's errors (:meth:`Objective.expected_cost`)
+    plus the penalties that keep the search where the model has data (§5.4.1: the action that best
+    minimizes the cost "within some acceptable bounds on the confidence of the prediction"):
+    ``support_penalty`` per unit of kernel support below ``min_support``, and, when ``trust_radius`` > 0,
+    ``support_penalty`` per ``trust_radius`` that the query lies beyond ``trust_radius`` from the nearest
+    remembered trial (normalized units)."""
+    model = LWR(memory.x, memory.y, width_outputs=3)
     lo_n = np.full(memory.x.shape[1], -obj.margin)
     hi_n = np.full(memory.x.shape[1], 1.0 + obj.margin)
     if lower is not None:
@@ -198,10 +248,17 @@ def select_action(memory: Memory, obj: Objective, *, lower: np.ndarray | None = 
     const = model.x.max(axis=0) == model.x.min(axis=0)
     lo_n[const], hi_n[const] = 0.0, 0.0
 
+    def penalty(qn: np.ndarray, p: Prediction) -> float:
+        pen = obj.support_penalty * max(obj.min_support - p.support, 0.0)
+        if obj.trust_radius > 0:
+            d_nn = float(np.sqrt(np.min(np.sum((model.xn - qn) ** 2, axis=1))))
+            pen += obj.support_penalty * max(d_nn / obj.trust_radius - 1.0, 0.0)
+        return pen
+
     def predicted(qn: np.ndarray) -> float:
-        p = model.predict_normalized(np.clip(qn, lo_n, hi_n))
-        c = float(obj.cost(*p.y))
-        return c + obj.support_penalty * max(obj.min_support - p.support, 0.0)
+        qn = np.clip(qn, lo_n, hi_n)
+        p = model.predict_normalized(qn)
+        return obj.expected_cost(p) + penalty(qn, p)
 
     starts = starting_points(memory, obj)
     best = None

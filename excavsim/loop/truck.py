@@ -7,8 +7,10 @@ mass-excavation script (:mod:`excavsim.execution.mass_script`) swings, dumps on 
 target (the truck moved away, §6.2) and swings back to the dig face; the soil settles and the box is
 scanned again. The outcomes are the script's execution time (from the end of digging until the
 swing is back at the dig face, §6.2) and the pile's position, measured by the mind from the two
-elevation maps (:func:`pile_position`, Fig. 11): the highest point of the deposit, in polar
-coordinates about the swing axis.
+elevation maps (:func:`pile_position`, Fig. 11): the highest point of the deposit locates the pile,
+and the weighted centre of its peak region (below the map's cell size) is its position, in polar
+coordinates about the swing axis. A trial that leaves more than ``1 - min_dumped_fraction`` of the
+load in the bucket, or whose script does not end, is a failure (§5.4.1) and costs ``failure_cost`` more.
 
 :func:`tune` runs N trials online: the first ``initial_trials`` from the computed parameters plus
 small noise, then each from :func:`~excavsim.learning.lwr_tuning.select_action` on the memory so far,
@@ -61,11 +63,14 @@ class TruckConfig:
     min_support: float
     support_penalty: float
     margin: float
+    failure_cost: float
+    min_dumped_fraction: float
+    trust_radius: float
 
     @property
     def objective(self) -> Objective:
         return Objective(self.site.r_d, self.site.theta_d, self.w1, self.w2, self.min_support, self.support_penalty,
-                         self.margin)
+                         self.margin, self.failure_cost, self.trust_radius)
 
 
 def load_truck_config(path: str | Path | None = None) -> TruckConfig:
@@ -82,7 +87,8 @@ def load_truck_config(path: str | Path | None = None) -> TruckConfig:
                            float(d["latency_s"]), math.radians(d["open_pitch_deg"]), float(d["cost"]["w1_per_s"]),
                            float(d["cost"]["w2_per_m2"]), int(ln["initial_trials"]),
                            math.radians(ln["initial_noise_deg"]), tuple(ln["widths_log2"]),
-                           float(ln["min_support"]), float(ln["support_penalty"]), float(ln["margin"]))
+                           float(ln["min_support"]), float(ln["support_penalty"]), float(ln["margin"]),
+                           float(ln["failure_cost"]), float(ln["min_dumped_fraction"]), float(ln["trust_radius"]))
     except (OSError, KeyError, TypeError, ValueError, IndexError) as exc:
         raise ExcavsimError(f"{path}: not a truck configuration: {exc!r}") from exc
 
@@ -112,17 +118,31 @@ class Pile:
         return math.atan2(self.y, self.x)
 
 
-def deposit_peak(x: np.ndarray, y: np.ndarray, before: np.ndarray, after: np.ndarray, min_theta: float) -> Pile:
-    """The highest point of the deposit ``after - before`` on a grid (rows along y), smoothed over
-    3 x 3 cells (assumed: one cell's noise does not make the peak), among the cells whose polar angle
-    is above ``min_theta`` [rad] (the dump side, away from the dig face)."""
+def deposit_peak(x: np.ndarray, y: np.ndarray, before: np.ndarray, after: np.ndarray, min_theta: float, *,
+                 peak_fraction: float = 0.5, radius_m: float = 0.2) -> Pile:
+    """The pile's position from the deposit ``after - before`` on a grid (rows along y), below the cell size.
+
+    The highest cell of the deposit smoothed over 3 x 3 cells (assumed: one cell's noise does not make
+    the peak), among the cells whose polar angle is above ``min_theta`` [rad] (the dump side, away from
+    the dig face), locates the peak (§6.2: "the highest point of the pile"); the position returned is
+    the centre of the peak region, the cells within ``radius_m`` of that peak whose smoothed deposit is
+    at least ``peak_fraction`` of the peak's, each weighted by its deposit above that level (§5.2's
+    "center of mass" of the pile on a terrain grid, restricted to the peak so that spilled soil does not
+    pull it; assumed). A cell-quantized peak would move in whole cells; the weighted centre moves
+    continuously with the pile. ``z`` is the peak cell's height after the dump."""
     d = np.asarray(after, dtype=float) - np.asarray(before, dtype=float)
     pad = np.pad(d, 1, mode="edge")
     smooth = sum(pad[i:i + d.shape[0], j:j + d.shape[1]] for i in range(3) for j in range(3)) / 9.0
     xx, yy = np.meshgrid(x, y)
-    smooth = np.where(np.arctan2(yy, xx) > min_theta, smooth, -np.inf)
-    i, j = np.unravel_index(int(np.argmax(smooth)), smooth.shape)
-    return Pile(float(xx[i, j]), float(yy[i, j]), float(after[i, j]))
+    side = np.arctan2(yy, xx) > min_theta
+    masked = np.where(side, smooth, -np.inf)
+    i, j = np.unravel_index(int(np.argmax(masked)), masked.shape)
+    level = peak_fraction * smooth[i, j]
+    near = side & (np.hypot(xx - xx[i, j], yy - yy[i, j]) <= radius_m)
+    w = np.where(near, np.clip(smooth - level, 0.0, None), 0.0)
+    if smooth[i, j] <= 0.0 or w.sum() <= 0.0:
+        return Pile(float(xx[i, j]), float(yy[i, j]), float(after[i, j]))
+    return Pile(float(np.sum(w * xx) / w.sum()), float(np.sum(w * yy) / w.sum()), float(after[i, j]))
 
 
 def pile_position(before: ElevationMap, after: ElevationMap, min_theta: float) -> Pile:
@@ -167,6 +187,15 @@ class Trial:
     source: str
     predicted_cost: float = math.nan
     width: float = math.nan
+    min_dumped_fraction: float = 0.9
+    r_d: float = math.nan      # the target the trial was run for (set by tune)
+    theta_d: float = math.nan
+
+    @property
+    def failed(self) -> bool:
+        """§5.4.1: a trial that did not do its task (the script did not end, or it left more than
+        ``1 - min_dumped_fraction`` of the load in the bucket) is a failure, stored with a high cost."""
+        return self.outcome != "end" or self.dumped_m3 < self.min_dumped_fraction * self.loaded_m3
 
 
 def dig(sim: Simulation, cfg: TruckConfig, arm) -> np.ndarray:
@@ -210,7 +239,7 @@ def run_trial(params: MassParams, cfg: TruckConfig, *, seed: int = 0, index: int
     true = true_pile(sim, before_true, min_theta)
     dumped = loaded - sim.truth.volumes.bucket
     return Trial(index, params, run.duration, pile, true, run.outcome, dumped, loaded, time.perf_counter() - wall,
-                 source)
+                 source, min_dumped_fraction=cfg.min_dumped_fraction)
 
 
 def tuned_bounds(base: MassParams) -> tuple[np.ndarray, np.ndarray]:
@@ -223,36 +252,65 @@ def tuned_bounds(base: MassParams) -> tuple[np.ndarray, np.ndarray]:
     return lo, hi
 
 
+def retargeted(cfg: TruckConfig, r_m: float, theta: float) -> TruckConfig:
+    """``cfg`` with the dump target moved to (r_m [m], theta [rad])."""
+    return dataclasses.replace(cfg, site=dataclasses.replace(cfg.site, r_d=r_m, theta_d=theta))
+
+
 def tune(trials: int, cfg: TruckConfig | None = None, *, seed: int = 0,
-         progress: Callable[[Trial], None] | None = None) -> list[Trial]:
-    """Run ``trials`` trials online (see the module docstring); returns them in order."""
+         progress: Callable[[Trial], None] | None = None, learn: bool = True,
+         retarget: tuple[int, float, float] | None = None) -> list[Trial]:
+    """Run ``trials`` trials online (see the module docstring); returns them in order.
+
+    ``learn=False`` is the untuned baseline: every trial from the computed parameters plus the same small
+    noise. ``retarget=(k, r_m, theta_rad)`` moves the dump target before trial ``k`` (0-based): the
+    parameters are computed again for the new target and the memory is kept (it maps actions to
+    outcomes, whatever the target); only the objective changes."""
     cfg = cfg or load_truck_config()
     base = nominal_params(cfg, seed=seed)
     lo, hi = tuned_bounds(base)
     rng = np.random.default_rng((seed, 12))
     memory = Memory(len(TUNED))
-    obj = cfg.objective
     out: list[Trial] = []
     scale = np.array([cfg.initial_noise] * 6 + [cfg.initial_noise / math.radians(100.0)])  # fraction: /100
     for k in range(trials):
+        if retarget is not None and k == retarget[0]:
+            cfg = retargeted(cfg, retarget[1], retarget[2])
+            base = nominal_params(cfg, seed=seed)
+            lo, hi = tuned_bounds(base)
         pred, width = math.nan, math.nan
-        if k < cfg.initial_trials or len(memory) < 2:
+        if not learn or k < cfg.initial_trials or len(memory) < 2:
             x = np.clip(base.tuned() + rng.normal(0.0, 1.0, len(TUNED)) * scale, lo, hi)
             source = "computed + noise"
         else:
-            sel = select_action(memory, obj, lower=lo, upper=hi)
+            sel = select_action(memory, cfg.objective, lower=lo, upper=hi)
             x, pred, width, source = sel.x, sel.predicted_cost, sel.width, "learned"
         trial = run_trial(base.with_tuned(x), cfg, seed=seed, index=k, source=source)
         trial.predicted_cost, trial.width = pred, width
-        memory.add(x, trial.time_s, trial.pile.r, trial.pile.theta)
+        trial.r_d, trial.theta_d = cfg.site.r_d, cfg.site.theta_d
+        memory.add(x, trial.time_s, trial.pile.r, trial.pile.theta, float(trial.failed))
         out.append(trial)
         if progress is not None:
             progress(trial)
     return out
 
 
+def trial_objective(trial: Trial, cfg: TruckConfig) -> Objective:
+    """The objective the trial was run for (its own target when the target moved during the run)."""
+    if math.isnan(trial.r_d):
+        return cfg.objective
+    return retargeted(cfg, trial.r_d, trial.theta_d).objective
+
+
 def trial_cost(trial: Trial, cfg: TruckConfig) -> float:
-    return float(cfg.objective.cost(trial.time_s, trial.pile.r, trial.pile.theta))
+    """The measured cost of a trial, a failure's included (§5.4.1)."""
+    return float(trial_objective(trial, cfg).cost(trial.time_s, trial.pile.r, trial.pile.theta, float(trial.failed)))
+
+
+def placement_error2(trial: Trial, cfg: TruckConfig) -> float:
+    """The squared placement error ``(r_d - r)^2 + r_d^2 (theta_d - theta)^2`` [m^2] of a trial."""
+    o = trial_objective(trial, cfg)
+    return (o.r_d - trial.pile.r) ** 2 + o.r_d ** 2 * (o.theta_d - trial.pile.theta) ** 2
 
 
 def write_results(trials: list[Trial], cfg: TruckConfig, out: Path) -> tuple[Path, Path]:
@@ -265,10 +323,12 @@ def write_results(trials: list[Trial], cfg: TruckConfig, out: Path) -> tuple[Pat
     obj = cfg.objective
     rows = []
     for t in trials:
-        err2 = (obj.r_d - t.pile.r) ** 2 + obj.r_d ** 2 * (obj.theta_d - t.pile.theta) ** 2
+        err2 = placement_error2(t, cfg)
         row = {"trial": t.index + 1, "source": t.source, "cost": trial_cost(t, cfg), "time_s": t.time_s,
                "r_m": t.pile.r, "theta_deg": math.degrees(t.pile.theta), "sq_error_m2": err2,
                "true_r_m": t.true.r, "true_theta_deg": math.degrees(t.true.theta), "outcome": t.outcome,
+               "failed": int(t.failed), "target_r_m": trial_objective(t, cfg).r_d,
+               "target_theta_deg": math.degrees(trial_objective(t, cfg).theta_d),
                "loaded_l": 1e3 * t.loaded_m3, "dumped_l": 1e3 * t.dumped_m3, "predicted_cost": t.predicted_cost,
                "kernel_width": t.width, "wall_s": t.wall_s}
         row.update({f"{n}{'' if n == 'return_fraction' else '_deg'}": v
