@@ -111,6 +111,21 @@ def test_a_dig_past_the_ground_fails_shaping_and_an_unreachable_one_reachability
     assert not verdicts["reachability"][0]
 
 
+def test_entries_on_the_ground_in_front_of_the_foot_skim_a_thin_layer(cfg, machines):
+    """§4.1's h runs from 0: k < 0 enters on the bare ground; from the foot column's edge (k = 0, h > 0) a
+    level path leaves the layer below its entry height."""
+    import dataclasses
+    rules = L.make_rules(cfg, 48, coarse=True)
+    assert rules.k_min < 0 and 0.0 in rules.grid()[0]
+    h = np.zeros(140)
+    h[20:50] = 0.08  # 8 cm over 3 m from x = 2 m: 24 units
+    terrain = lp.Terrain((np.arange(140) + 0.5) * 0.1, h, 0.1)
+    p = lp.plan(machines["loader"], terrain, rules)
+    assert p.action.k < 0 and p.action.h == 0.0 and p.volume >= 0.9 * 0.24
+    q = lp.plan(machines["loader"], terrain, dataclasses.replace(rules, k_min=0.0))
+    assert q.volume < 0.6 * 0.24
+
+
 def test_shovel_base_moves_to_reach_soil_beyond_what_it_drives_over(cfg, machines):
     """§4.2: the shovel's base is placed between digs. A thin layer (under the tracks' clearance) from 1 m
     to 6 m, then a heap: from the thin layer's foot nothing of the heap is in reach; the planner drives the

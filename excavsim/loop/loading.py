@@ -98,6 +98,7 @@ class SoilSpec(StrictModel):
 class PlannerSpec(StrictModel):
     parameterization: str = Field(pattern="^(k_alpha|k_alpha_r)$")
     k_max: float = Field(ge=0.0, le=50.0)
+    k_min: float = Field(ge=-10.0, le=0.0)
     k_step: float = Field(gt=0.0, le=5.0)
     alpha_deg: list[float] = Field(min_length=3, max_length=3)
     d1_max: float = Field(gt=0.0, le=50.0)
@@ -163,7 +164,7 @@ def make_rules(cfg: LoadingConfig, capacity_units: float, force_limit_kn_m: floa
     p, s = cfg.planner, cfg.study
     a0, a1, da = p.alpha_deg
     return lp.LoadingRules(
-        k_max=p.k_max, k_step=s.k_step if coarse else p.k_step, alpha_min=math.radians(a0),
+        k_max=p.k_max, k_min=p.k_min, k_step=s.k_step if coarse else p.k_step, alpha_min=math.radians(a0),
         alpha_max=math.radians(a1), alpha_step=math.radians(s.alpha_step_deg if coarse else da), d1_max=p.d1_max,
         d1_step=s.d1_step if coarse else p.d1_step, radii=tuple(p.radii), parameterization=p.parameterization,
         capacity=capacity_units * cfg.units_m2, min_fraction=p.min_fraction,

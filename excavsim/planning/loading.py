@@ -1,8 +1,10 @@
 """The loading action and its constraints (000_a3ca905d8c6d92bf.txt §3.5, §4.1-4.2, §7.2.1), for a 2-D pile.
 
 **The action** (§3.5, Fig. 26): the bucket tip enters the pile's surface at horizontal distance ``k`` from
-its near foot, moves in a straight line for ``d1`` at the approach angle ``alpha`` (below horizontal,
-positive down, as the trenching action's), then follows an arc of radius ``r`` curving upwards, of length
+its near foot (``k < 0``, down to ``k_min``: on the bare ground in front of it, so that h = 0, the bucket set
+on the ground and driven in, is among the entries; assumed), moves in a straight line for ``d1`` at the
+approach angle ``alpha`` (below horizontal, positive down, as the trenching action's), then follows an arc
+of radius ``r`` curving upwards, of length
 ``d2 = r (exit_heading + alpha)``, until it moves upwards at ``exit_heading`` (60 degrees from horizontal:
 a bucket rolled back as far as a loader's goes; assumed, the thesis draws the arc without saying where it
 ends); it then lifts out vertically through the surface.
@@ -68,6 +70,7 @@ class LoadingRules:
     """The loading action's grid and constraints (lengths [m], angles [rad], areas [m^2], forces [N/m])."""
 
     k_max: float = 4.0
+    k_min: float = 0.0
     k_step: float = 0.1
     alpha_min: float = math.radians(-30.0)
     alpha_max: float = math.radians(40.0)
@@ -97,9 +100,10 @@ class LoadingRules:
             v = getattr(self, name)
             if not (isinstance(v, (int, float)) and math.isfinite(v) and v > 0):
                 raise ExcavsimError(f"loading rules: {name} must be a finite number > 0; given {v!r}")
-        if not (self.k_max >= 0 and self.alpha_min <= self.alpha_max
+        if not (self.k_max >= 0 and -10.0 <= self.k_min <= 0 and self.alpha_min <= self.alpha_max
                 and -math.pi / 2 < self.alpha_min and self.alpha_max < math.pi / 2):
-            raise ExcavsimError("loading rules: need k_max >= 0 and -90 deg < alpha_min <= alpha_max < 90 deg")
+            raise ExcavsimError("loading rules: need k_max >= 0, -10 m <= k_min <= 0 and "
+                                "-90 deg < alpha_min <= alpha_max < 90 deg")
         if not self.radii or any(not (math.isfinite(r) and r > 0) for r in self.radii):
             raise ExcavsimError(f"loading rules: radii must be a non-empty list of lengths > 0 m; given {self.radii!r}")
         if self.parameterization not in PARAMETERIZATIONS:
@@ -117,8 +121,10 @@ class LoadingRules:
                                 "0 <= friction < 90 deg")
 
     def grid(self) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
-        """The k, alpha, r (one NaN for ``k_alpha``: r is dependent) and d1 values of the grid."""
-        k = _steps(0.0, self.k_max, self.k_step)
+        """The k (from ``k_min``, ahead of the foot, to ``k_max``; 0 exactly on the grid), alpha, r (one NaN for
+        ``k_alpha``: r is dependent) and d1 values of the grid."""
+        n_ahead = int(math.floor(-self.k_min / self.k_step + 1e-9))
+        k = np.concatenate([-self.k_step * np.arange(n_ahead, 0, -1), _steps(0.0, self.k_max, self.k_step)])
         a = _steps(self.alpha_min, self.alpha_max, self.alpha_step)
         r = np.array(self.radii, dtype=float) if self.parameterization == "k_alpha_r" else np.array([np.nan])
         d1 = _steps(self.d1_step, self.d1_max, self.d1_step)
