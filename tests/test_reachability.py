@@ -69,7 +69,8 @@ def test_cache_key_changes_with_the_model_and_the_spec(arm):
     spec = TableSpec()
     other_arm = dataclasses.replace(arm, upper=arm.upper + np.array([0.0, 0.0, 0.01]))
     assert ReachabilityTable.cache_key(arm, spec) != ReachabilityTable.cache_key(other_arm, spec)
-    assert ReachabilityTable.cache_key(arm, spec) != ReachabilityTable.cache_key(arm, dataclasses.replace(spec, dz_m=0.02))
+    finer = dataclasses.replace(spec, dz_m=0.02)
+    assert ReachabilityTable.cache_key(arm, spec) != ReachabilityTable.cache_key(arm, finer)
 
 
 def test_a_damaged_cache_file_is_rebuilt(arm, tmp_path):

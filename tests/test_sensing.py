@@ -66,7 +66,8 @@ def test_cast_matches_mj_multiray_on_rough_terrain(sim, rng):
         geomid[floor] = -1
         ref = np.where((dist >= 0) & ~floor, dist + offset, np.inf)
         soil_id = sim.model.geom("soil").id
-        ref_kind = np.where(geomid < 0, raycast.HIT_NONE, np.where(geomid == soil_id, raycast.HIT_SOIL, raycast.HIT_BOX))
+        ref_kind = np.where(geomid < 0, raycast.HIT_NONE,
+                            np.where(geomid == soil_id, raycast.HIT_SOIL, raycast.HIT_BOX))
         np.testing.assert_array_equal(kind, ref_kind)
         hit = np.isfinite(ref)
         assert hit.sum() > 400 and (kind == raycast.HIT_SOIL).sum() > 300
