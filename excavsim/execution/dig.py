@@ -282,17 +282,27 @@ class DigExecutor:
             if flags & _F_LATE:
                 for late in engine.timeouts[len(engine.timeouts) - int(out[2]):]:
                     self._warn_late(rec, script, late, q, target)
-            if engine.stop is None and steps >= max_steps:
-                engine.stop = Stop(obs.time, "timeout", step=engine.current(ARM_SUB).name)
-            if engine.stop is not None:
+            nxt = self._next_tick(engine, rec, obs, target, steps >= max_steps)
+            if nxt is None:
                 break
-            try:
-                obs = sim.track(target)
-            except ExcavsimError as exc:  # a physical failure of the simulation: report, do not raise
-                self._failed(rec, exc)
-                break
+            obs = nxt
             steps += 1
         return engine, obs
+
+    def _next_tick(self, engine, rec: ExecutionRecord, obs: Observation, target: np.ndarray,
+                   out_of_steps: bool) -> Observation | None:
+        """The end of a control tick, shared by both loops: stop on the step limit or the script's
+        stop, else drive one step towards ``target``; None when the dig ends here (a physical failure
+        of the simulation is reported in ``rec``, not raised)."""
+        if engine.stop is None and out_of_steps:
+            engine.stop = Stop(obs.time, "timeout", step=engine.current(ARM_SUB).name)
+        if engine.stop is not None:
+            return None
+        try:
+            return self.sim.track(target)
+        except ExcavsimError as exc:
+            self._failed(rec, exc)
+            return None
 
     def _loop_reference(self, plan: DigPlan, script: Script, rec: ExecutionRecord, target: np.ndarray,
                         obs: Observation, weighed: list[float], max_steps: float,
@@ -333,15 +343,10 @@ class DigExecutor:
             engine.end_tick(sense)
             for late in engine.timeouts[timed_out_before:]:
                 self._warn_late(rec, script, late, obs.q, target)
-            if engine.stop is None and steps >= max_steps:
-                engine.stop = Stop(obs.time, "timeout", step=engine.current(ARM_SUB).name)
-            if engine.stop is not None:
+            nxt = self._next_tick(engine, rec, obs, target, steps >= max_steps)
+            if nxt is None:
                 break
-            try:
-                obs = sim.track(target)
-            except ExcavsimError as exc:  # a physical failure of the simulation: report, do not raise
-                self._failed(rec, exc)
-                break
+            obs = nxt
             steps += 1
         return engine, obs
 
