@@ -14,6 +14,7 @@ import pytest
 
 from excavsim import constants
 from excavsim.config import get_soil, load_planner_config, load_trench_goal
+from excavsim.errors import ExcavsimError
 from excavsim.handoff.forces import DigContext, trajectory_progress
 from excavsim.handoff.goal import SurfaceProfile
 from excavsim.handoff.maps import ElevationMap
@@ -271,6 +272,73 @@ class _Boulders(GlobalRegression):
 
     def predict(self, samples):
         return np.full(np.shape(samples["v"]) + (2,), 1e5)
+
+
+class _Scaled(GlobalRegression):
+    """A learned model that predicts the nominal wedge's tip forces times ``scale``: a much harder soil."""
+
+    def __init__(self, wedge, scale: float):
+        super().__init__("mechanics")
+        self.wedge, self.scale = wedge, float(scale)
+        self.k = np.zeros(1)  # "fitted"
+
+    def predict(self, samples):
+        return self.scale * self.wedge.predict(samples)
+
+
+def test_a_learned_model_that_forbids_every_dig_within_the_limits_plans_the_one_least_over_them():
+    from excavsim.learning.predictors import WedgeModel
+    from excavsim.loop.digs import OVER_LIMIT_MARGINS, PlannedDigs
+    from excavsim.loop.rig import make_rig
+    from excavsim.world.simulation import Simulation
+
+    rig = make_rig(Simulation(seed=0))
+    emap = _flat_map()
+    nominal = rig.planner.predictor
+    # 75 x the wedge's forces on the flat map: nothing within the limits, nor within 1.1 x them
+    learned = LearnedForcePredictor(_Scaled(WedgeModel(SAND, rig.width, fit_params=False), 75.0),
+                                    density_kg_m3=SAND.density_kg_m3, epsilon_rad=math.radians(10.0), nominal=nominal)
+    learned.bind(Terrain.from_map(emap, rig.arm, 0.0, rig.width))
+    rig.planner.predictor = learned
+    assert rig.planner.plan(emap).action is None
+    assert rig.planner.plan(emap, torque_margin=OVER_LIMIT_MARGINS[0]).action is None
+    within = rig.planner.plan(emap, torque_margin=OVER_LIMIT_MARGINS[1])
+    assert within.action is not None
+    choice = PlannedDigs().choose(rig, emap)
+    assert choice.dig is not None and choice.dig.kind == "planned" and choice.dig.action == within.action
+    assert "predicts least over them" in choice.note and "x 1.25" in choice.note
+    # the learned model answered (not the nominal one), and its torques run over the limits, by at most 1.25
+    ratio = np.abs(within.torques).max(axis=0) / rig.planner.limits
+    assert 1.0 < ratio.max() <= 1.25 + 1e-9
+    with pytest.raises(ExcavsimError, match="torque_margin"):
+        rig.planner.plan(emap, torque_margin=0.0)
+
+
+def test_the_peak_margin_counts_a_stalled_digs_ratio_as_a_lower_bound():
+    from excavsim.learning.adapter import censored_quantile
+
+    rng = np.random.default_rng(3)
+    x = rng.lognormal(0.1, 0.3, 41)
+    for q in (0.2, 0.5, 0.8):  # without censoring: the empirical quantile
+        assert censored_quantile(x, np.zeros(41, bool), q) == np.quantile(x, q, method="inverted_cdf")
+    # by hand: 1, 2 (censored), 3, 4: S = 3/4 after 1, 3/4 * 1/2 after 3 (2 values at risk), 0 after 4
+    v, c = np.array([1.0, 2.0, 3.0, 4.0]), np.array([False, True, False, False])
+    assert censored_quantile(v, c, 0.25) == 1.0 and censored_quantile(v, c, 0.5) == 3.0
+    assert censored_quantile(v, c, 0.62) == 3.0 and censored_quantile(v, c, 0.63) == 4.0
+    assert censored_quantile(np.array([1.0, 2.0]), np.array([False, True]), 0.8) == math.inf
+    with pytest.raises(ExcavsimError):
+        censored_quantile(v, c[:3], 0.5)
+    # the predictor: a completed dig at 1.1 and a stall at 1.3 bound the 0.8 quantile from below only
+    p = LearnedForcePredictor(GlobalRegression("mechanics"), density_kg_m3=SAND.density_kg_m3,
+                              epsilon_rad=math.radians(10.0), nominal=WedgePredictor(SAND, WIDTH))
+    p.add_peak_ratio(1.1)
+    assert p.peak_margin == pytest.approx(1.1)
+    p.add_peak_ratio(1.3, stalled=True)
+    assert p.nominal_peak_censored == [False, True] and p.peak_ratios == []  # not fitted: the nominal's ratios
+    assert p.peak_margin == p.peak_max  # counted as exact it would be 1.26, below the stall
+    p.add_peak_ratio(1.5)
+    p.add_peak_ratio(1.2)
+    assert p.peak_margin == pytest.approx(1.5)
 
 
 def test_a_learned_model_that_forbids_every_dig_hands_the_choice_to_the_nominal_model():

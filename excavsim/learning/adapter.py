@@ -21,6 +21,7 @@ across-trench elevations equal to it.
 from __future__ import annotations
 
 import contextlib
+import math
 from collections.abc import Iterator
 
 import numpy as np
@@ -30,6 +31,34 @@ from excavsim.handoff.forces import DigContext, ForcePredictor
 from excavsim.learning.encoding import Terrain, encode, infer_progress
 from excavsim.learning.predictors import ForceModel
 from excavsim.mechanics.wedge import G_M_S2, tip_to_plane
+
+
+def censored_quantile(values: np.ndarray, censored: np.ndarray, q: float) -> float:
+    """The ``q`` quantile of a sample some of whose values are right-censored (only known to be at
+    least the value given), from the Kaplan-Meier estimate of its distribution.
+
+    The estimate steps down only at exact values: ``S(t) = prod_{exact t_i <= t} (1 - d_i / n_i)``
+    with ``n_i`` the values not below ``t_i`` (a censored value tied with an exact one counts as
+    still at risk). The quantile is the smallest exact value where ``1 - S >= q``; ``inf`` when the
+    censored values leave the estimate above ``1 - q`` (the sample does not bound that quantile).
+    Without censored values it is the lower empirical quantile (``numpy.quantile`` with
+    ``method="inverted_cdf"``).
+    """
+    values = np.asarray(values, dtype=float)
+    censored = np.asarray(censored, dtype=bool)
+    if values.shape != censored.shape or values.ndim != 1:
+        raise ExcavsimError(f"censored_quantile: values {values.shape} and censored {censored.shape} must be "
+                            "one-dimensional and of one length")
+    if not 0.0 < q < 1.0:
+        raise ExcavsimError(f"censored_quantile: q = {q} must lie in (0, 1)")
+    survival = 1.0
+    for t in np.unique(values[~censored]):
+        at_risk = int(np.count_nonzero(values >= t))
+        events = int(np.count_nonzero((values == t) & ~censored))
+        survival *= 1.0 - events / at_risk
+        if 1.0 - survival >= q - 1e-12:
+            return float(t)
+    return math.inf
 
 
 class LearnedForcePredictor:
@@ -56,19 +85,39 @@ class LearnedForcePredictor:
         self.active = True  # False: the nominal predictor answers (e.g. until the model has seen enough digs)
         self.peak_ratios: list[float] = []  # per dig: observed over the model's predicted peak |F|, out of sample
         self.nominal_peak_ratios: list[float] = []  # the same for the digs planned while the nominal answered
+        # per ratio: True when its dig stalled, so that the observed peak is a lower bound (right-censored)
+        self.peak_censored: list[bool] = []
+        self.nominal_peak_censored: list[bool] = []
         self.peak_quantile = peak_quantile
         self.peak_max = float(peak_max)
         self._from_surface: tuple[object, Terrain] | None = None
+
+    def add_peak_ratio(self, ratio: float, *, stalled: bool = False) -> None:
+        """Remember one dig's observed over predicted peak |F|, for the model that planned it (the
+        learned one once active, else the nominal one). ``stalled``: the executor stopped the dig at a
+        torque limit, so the force would have risen further and the ratio is only a lower bound."""
+        learned = self.active and self.model.fitted
+        (self.peak_ratios if learned else self.nominal_peak_ratios).append(float(ratio))
+        (self.peak_censored if learned else self.nominal_peak_censored).append(bool(stalled))
 
     @property
     def peak_margin(self) -> float:
         """The factor (>= 1, at most ``peak_max``) by which observed peak forces exceeded the model's
         predicted ones: the ``peak_quantile`` of the per-dig ratios of the model that answers (the
-        learned one, or the nominal one before it is active; 1 before any ratio)."""
-        ratios = self.peak_ratios if (self.active and self.model.fitted) else self.nominal_peak_ratios
+        learned one, or the nominal one before it is active; 1 before any ratio).
+
+        A stalled dig's ratio is right-censored (the true peak was higher than the one measured when
+        the executor stopped), so the quantile is the Kaplan-Meier one (:func:`censored_quantile`):
+        counting a stall's ratio as exact would put the margin below the peaks that stall."""
+        learned = self.active and self.model.fitted
+        ratios = self.peak_ratios if learned else self.nominal_peak_ratios
+        censored = self.peak_censored if learned else self.nominal_peak_censored
         if self.peak_quantile is None or not ratios:
             return 1.0
-        return float(np.clip(np.quantile(ratios, self.peak_quantile), 1.0, self.peak_max))
+        flags = list(censored) + [False] * (len(ratios) - len(censored))  # ratios added without a flag: exact
+        q = censored_quantile(np.asarray(ratios, dtype=float), np.asarray(flags[:len(ratios)], dtype=bool),
+                              self.peak_quantile)
+        return float(np.clip(q, 1.0, self.peak_max))
 
     @contextlib.contextmanager
     def nominal_answers(self) -> Iterator[None]:

@@ -81,6 +81,11 @@ def relaxed_margins(margin: float, steps: int = 3) -> list[float]:
     return [1.0 + (margin - 1.0) * 0.5 ** i for i in range(steps)] + [1.0]
 
 
+# the torque margins (below 1: the limits times 1.1, 1.25, 1.5) within which the planner looks for the
+# dig a learned model predicts least over the limits, when it leaves none within them
+OVER_LIMIT_MARGINS = (1 / 1.1, 1 / 1.25, 1 / 1.5)
+
+
 class PlannedDigs(DigSource):
     """The planner's dig, or the boundary-following fallback (§7.2) when none reaches the minimum utility.
 
@@ -102,6 +107,14 @@ class PlannedDigs(DigSource):
         choice = self._choose(rig, emap)
         predictor = rig.planner.predictor
         if choice.dig is None and getattr(predictor, "active", False) and hasattr(predictor, "nominal_answers"):
+            # A learned model fitted to the digs of a hard soil can predict every dig of minimum
+            # utility over the torque limits. It is more often right than the nominal model, which
+            # under-predicts that soil: first the dig it predicts least over the limits.
+            over = self._choose(rig, emap, margins=OVER_LIMIT_MARGINS, boundary_digs=False)
+            if over.dig is not None:
+                line = (f"  planner: the learned force model leaves no dig within the torque limits ({choice.reason}); "
+                        f"planned the dig it predicts least over them")
+                return dataclasses.replace(over, note="\n".join(n for n in (line, over.note) if n))
             # A learned model fitted to a few digs can extrapolate forces that forbid every dig,
             # boundary digs included, where the nominal model still finds one: the prior answers.
             with predictor.nominal_answers():
@@ -111,25 +124,37 @@ class PlannedDigs(DigSource):
                 return dataclasses.replace(prior, note="\n".join(n for n in (line, prior.note) if n))
         return choice
 
-    def _choose(self, rig: Rig, emap: ElevationMap) -> Choice:
+    def _choose(self, rig: Rig, emap: ElevationMap, margins: Sequence[float] | None = None,
+                boundary_digs: bool = True) -> Choice:
+        """The plan within the first of ``margins`` that leaves a dig (default: the learned margin
+        relaxed towards 1, :func:`relaxed_margins`), else (with ``boundary_digs``) a boundary dig."""
         planner, exp = rig.planner, self.experience
         surface = self._surface if self._surface is not None else planner.surface(emap)
         exclude = exp.excluded(planner.grid_k, planner.grid_alpha, planner.grid_d1, surface) if exp else None
         # the memory's margin (measured over predicted wrist peaks) or the learned predictor's own
         # peak margin (observed over predicted peak forces), whichever is larger
         margin = max(exp.torque_margin() if exp else 1.0, float(getattr(planner.predictor, "peak_margin", 1.0)))
+        if margins is None:
+            margins = relaxed_margins(margin)
         seconds = 0.0
-        for m in relaxed_margins(margin):
+        for m in margins:
             plan = planner.plan(emap, exclude=exclude, torque_margin=m)
             seconds += plan.seconds
             if plan.action is not None:
                 break
         if plan.action is not None:
             peaks = np.abs(plan.torques).max(axis=0)
-            note = (f"  planner: the torque margin {margin:.2f} leaves no dig of minimum utility; "
-                    f"planned within {m:.2f}" if m < margin else "")
+            if m < 1.0:
+                note = f"  planner: planned within the torque limits x {1 / m:.2f}"
+            elif m < margin:
+                note = (f"  planner: the torque margin {margin:.2f} leaves no dig of minimum utility; "
+                        f"planned within {m:.2f}")
+            else:
+                note = ""
             return Choice(Dig("planned", plan.poses, plan.phases, plan.volume_m3, plan.action, seconds,
                               predicted_peak_nm=peaks), plan=plan, note=note)
+        if not boundary_digs:
+            return Choice(None, f"no dig of minimum utility ({plan.reason})", plan)
         skip = (lambda d: exp.failed_before("fallback: " + d.label, surface)) if exp else None
         boundary, why = fallback.choose(planner, emap, skip=skip)
         if boundary is None:

@@ -103,8 +103,7 @@ class OnlineLearning(DigSamples):
         if planned_with is not None:
             peak = float(np.max(magnitude(planned_with.predict(rows.samples))))
             if peak >= self.peak_floor_n:
-                ratios = self.predictor.peak_ratios if self.predictor.active else self.predictor.nominal_peak_ratios
-                ratios.append(float(np.max(observed)) / peak)
+                self.predictor.add_peak_ratio(float(np.max(observed)) / peak, stalled=record.outcome == "stalled")
         self.model.update(rows.samples, rows.forces)
         self.data = ForceDataset.concat([self.data, rows])
         self.predictor.active = self.predictor.active or self.data.n_digs >= self.min_digs

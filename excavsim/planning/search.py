@@ -231,9 +231,11 @@ class TrenchPlanner:
                 (what failed before: :class:`~excavsim.planning.experience.DigExperience`); they stay
                 in ``feasible`` and the masks, and are counted in ``counts["excluded"]``.
             torque_margin: the force constraint keeps every predicted joint torque within the limits
-                divided by this factor (>= 1): a margin for what the force model under-predicts,
+                divided by this factor (> 0): a margin (>= 1) for what the force model under-predicts,
                 learned from the digs' measured torques
-                (:meth:`~excavsim.planning.experience.DigExperience.torque_margin`).
+                (:meth:`~excavsim.planning.experience.DigExperience.torque_margin`); below 1 the
+                constraint admits predicted torques that far over the limits (the loop's last
+                resort when a learned model leaves no dig: the dig it predicts least over them).
             kernel: True or False to use the compiled kernel or the vectorized reference for this
                 plan, where the kernel applies (:meth:`uses_kernel`); None: the planner's ``kernel``.
         """
@@ -245,8 +247,8 @@ class TrenchPlanner:
         shape = self.grid_shape
         vmax = cfg.volume_limit_m3(self.capacity)
         counts = {"cells": n}
-        if not (math.isfinite(torque_margin) and torque_margin >= 1.0):
-            raise ExcavsimError(f"torque_margin must be a finite factor >= 1; given {torque_margin!r}")
+        if not (math.isfinite(torque_margin) and torque_margin > 0.0):
+            raise ExcavsimError(f"torque_margin must be a finite factor > 0; given {torque_margin!r}")
         if self.uses_kernel(prune=prune, classify_limits=classify_limits, kernel=kernel):
             feas = self.feasibility(surface, vmax, limits=self.limits / torque_margin)
             out = compiled.evaluate_grid(feas, self.grid_k, self.grid_alpha, self.grid_d1)
