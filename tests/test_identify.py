@@ -66,46 +66,41 @@ def test_table_5_3_command_writes_the_table_and_fig_5_40(tmp_path):
     assert "T_rn" in (tmp_path / "table_5_3.txt").read_text()
 
 
-@pytest.fixture(scope="module")
-def records(tmp_path_factory):
-    d = tmp_path_factory.mktemp("records")
-    return {truth: cal.record_digs(d / f"{truth}.npz", truth=truth, digs=2, seed=0, quiet=True) and d / f"{truth}.npz"
-            for truth in ("wedge", "dimaio")}
+def test_simulate_with_shear_is_the_worlds_planar_model(generated):
+    """With a shear strength the identifier's simulation fails the soil as the world's planar step does
+    (eq. 5.45: the stiffness relieved where |f_kn| >= S w d_p), sample for sample."""
+    t = TRUE
+    s_shear = 2.0e4
+    p = soil_records.filled(soil_records.DIMAIO_PARAMS, b_t0=t["b_t0"], b_n0=t["b_n0"], b_a0=0.0, k=t["k"], k_a=0.0,
+                            t_rt=t["T_rt"], t_rn=t["T_rn"], t_ra=0.5, shear_s=s_shear, eps=t["eps"], mu=t["mu"],
+                            rho_g=t["rho"] * identify.G_M_S2, s_bucket=1.0, width=1.0, v_eps=cal.V_EPS)
+    sim = dimaio.simulate_planar(p, dimaio.trajectory_fig_5_34())
+    assert 5 < sim["sheared"].sum() < len(sim["sheared"]) / 2  # it does shear, now and then
+    got = identify.simulate(dict(TRUE, S=s_shear), record(sim, sim["force_tn"]), v_eps=cal.V_EPS, shear=(1.0, 1.0))
+    np.testing.assert_allclose(got, sim["force_tn"], rtol=1e-9, atol=1e-6)
+    unsheared = identify.simulate(TRUE, record(sim, sim["force_tn"]), v_eps=cal.V_EPS)
+    assert np.abs(unsheared - sim["force_tn"]).max() > 100.0  # the shear matters
 
 
-def test_calibrate_the_wedge_on_a_record_of_a_known_soil(records, tmp_path):
-    """A quiet wedge-truth record of the testbed sand (c 0, delta 30 deg, gamma 19.6 kN/m^3): the fit
-    finds delta within 3 deg, gamma within 30 % and c below 1 kPa (measured on 3 digs: delta 31.1,
-    gamma 25.1 kN/m^3, c 0); phi is poorly determined by the blade force (measured 20 deg)."""
-    fits = cal.calibrate(records["wedge"], "wedge", tmp_path, say=lambda s: None)
-    p = fits["wedge"].params
-    assert abs(p["delta_deg"] - 30.0) < 3.0
-    assert p["gamma_n_m3"] == pytest.approx(2000 * 9.81, rel=0.3)
-    assert p["c_pa"] < 1000.0
-    assert fits["wedge"].r2 > 0.8
-    assert (tmp_path / "wedge_wedge.yaml").exists() and (tmp_path / "wedge_wedge.png").exists()
-    from excavsim.config import SoilsFile, load_config
-
-    load_config(tmp_path / "wedge_wedge.yaml", SoilsFile)
-
-
-def test_calibrate_on_a_dimaio_record_and_cross_model(records, tmp_path):
-    """On the DiMaio truth's record the fitted DiMaio model explains the forces better than the
-    fitted wedge (measured R^2 0.80 against 0.18 on 3 digs); its preset loads."""
-    fits = cal.calibrate(records["dimaio"], "dimaio", tmp_path, say=lambda s: None)
-    assert fits["dimaio"].r2 > fits["wedge"].r2 + 0.2
-    assert fits["dimaio"].r2 > 0.5
-    from excavsim.config import SoilsFile, load_config
-
-    soils = load_config(tmp_path / "dimaio_dimaio.yaml", SoilsFile).soils
-    assert next(iter(soils.values())).dimaio is not None
-
-
-def test_calibrate_refuses_a_recording_it_cannot_read(tmp_path):
-    from excavsim.errors import ExcavsimError
-
-    with pytest.raises(ExcavsimError, match="not supported yet"):
-        cal.calibrate(tmp_path / "x.rrd", "wedge", tmp_path)
+def test_substeps_reproduce_the_controller_rate_model_from_a_coarser_record():
+    """A straight drag at constant depth simulated at 100 Hz, recorded at 10 Hz: the identifier stepped
+    10 times per record sample (the path, the axes, the load interpolated) gives the 100 Hz forces."""
+    t = TRUE
+    p = soil_records.filled(soil_records.DIMAIO_PARAMS, b_t0=t["b_t0"], b_n0=t["b_n0"], b_a0=0.0, k=t["k"], k_a=0.0,
+                            t_rt=t["T_rt"], t_rn=t["T_rn"], t_ra=0.5, shear_s=math.inf, eps=t["eps"], mu=t["mu"],
+                            rho_g=t["rho"] * identify.G_M_S2, s_bucket=1.0, width=1.0, v_eps=cal.V_EPS)
+    n = 301
+    a = math.radians(20.0)
+    traj = {"r": np.linspace(5.0, 4.4, n), "z": np.full(n, -0.1),
+            "t": np.tile([-math.cos(a), -math.sin(a)], (n, 1)), "n": np.tile([-math.sin(a), math.cos(a)], (n, 1)),
+            "dt": np.full(n, 0.01)}
+    fine = dimaio.simulate_planar(p, traj)
+    every = slice(0, n, 10)
+    coarse = identify.PlanarRecord(fine["r"][every], fine["z"][every], fine["t"][every], fine["n"][every],
+                                   fine["sp"][every], fine["load"][every], fine["force_tn"][every], 0.1)
+    got = identify.simulate(TRUE, coarse, v_eps=cal.V_EPS, substeps=10)
+    np.testing.assert_allclose(got[1:], fine["force_tn"][every][1:], rtol=1e-6, atol=1e-3)
+    assert np.abs(identify.simulate(TRUE, coarse, v_eps=cal.V_EPS)[1:] - fine["force_tn"][every][1:]).max() > 10.0
 
 
 def test_the_calibrate_command(tmp_path, capsys):

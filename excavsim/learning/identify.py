@@ -188,62 +188,118 @@ def recursive_least_squares(rec: PlanarRecord, *, forgetting: float = 0.999, p0:
     return hist, psi
 
 
-def simulate(params: dict[str, float], rec: PlanarRecord, *, v_eps: float = 0.02, g: float = G_M_S2) -> np.ndarray:
-    """The model's force along t and n (n, 2) [N] on the record's path, shearing neglected (eq. 5.57).
+def simulate(params: dict[str, float], rec: PlanarRecord, *, v_eps: float = 0.02, g: float = G_M_S2,
+             substeps: int = 1, shear: tuple[float, float] | None = None) -> np.ndarray:
+    """The model's force along t and n (n, 2) [N] on the record's path (eqs. 5.41-5.49).
 
-    This module's own implementation of eqs. 5.41-5.49 in the discrete form of the world's
+    This module's own implementation of the equations in the discrete form of the world's
     (backward-Euler lag, velocities as backward differences, the Coulomb direction regularized
     below ``v_eps``); the model restarts at each run of the record.
+
+    Args:
+        substeps: steps of the model per record sample: the path, the surface's axes, the
+            penetration and the load interpolated linearly in between (a record at the F/T rate of a
+            model stepped at the controller's; 1: at the samples themselves).
+        shear: ``(width [m], s_bucket [m])``: with a shear strength ``S`` in ``params`` (Pa), eq. 5.45's
+            failure: where ``|f_kn| >= S w d_p`` (``d_p = s_p / |n_z|``, at most ``s_bucket``) the
+            stiffness is relieved; None (or no ``S``): shearing neglected (eq. 5.57).
     """
-    b_t0, b_n0, mu, eps, rho, k = (params[x] for x in ("b_t0", "b_n0", "mu", "eps", "rho", "k"))
-    a_t = params["T_rt"] / (params["T_rt"] + rec.dt)
-    a_n = params["T_rn"] / (params["T_rn"] + rec.dt)
+    b_t0, b_n0, mu, eps, rho, k = (float(params[x]) for x in ("b_t0", "b_n0", "mu", "eps", "rho", "k"))
+    dt = rec.dt / max(int(substeps), 1)
+    ns = max(int(substeps), 1)
+    a_t = params["T_rt"] / (params["T_rt"] + dt)
+    a_n = params["T_rn"] / (params["T_rn"] + dt)
+    strength = float(params.get("S", math.inf)) if shear is not None else math.inf
+    width, s_b = shear if shear is not None else (0.0, math.inf)
     first = rec.first()
     out = np.zeros((len(rec), 2))
-    e = np.zeros(2)
+    r, z, sp_all, load = rec.r.tolist(), rec.z.tolist(), rec.sp.tolist(), rec.load.tolist()
+    tt, nn = rec.t.tolist(), rec.n.tolist()
+    er = ez = 0.0
+    pr = pz = 0.0
     for i in range(len(rec)):
-        dp = np.zeros(2) if first[i] else np.array([rec.r[i] - rec.r[i - 1], rec.z[i] - rec.z[i - 1]])
         if first[i]:
-            e[:] = 0.0
-        t, n, sp, vol = rec.t[i], rec.n[i], rec.sp[i], rec.load[i]
-        fl = np.array([eps * vol if sp > 0 else 0.0, -rho * g * vol])
-        if sp <= 0:
-            e[:] = 0.0
-            out[i] = fl @ t, fl @ n
-            continue
-        e -= dp
-        et, en = a_t * (e @ t), a_n * (e @ n)
-        e = et * t + en * n
-        vt, vn = (dp @ t) / rec.dt, (dp @ n) / rec.dt
-        f_n = -sp * b_n0 * vn + k * en + fl @ n
-        f_t = -sp * b_t0 * vt + k * et + fl @ t - mu * abs(f_n) * vt / max(abs(vt), v_eps)
+            er = ez = 0.0
+            pr, pz = r[i], z[i]
+        f_t = f_n = 0.0
+        for j in range(1 if first[i] else ns):
+            u = 1.0 if first[i] else (j + 1) / ns
+            w0 = 1.0 - u
+            cr = r[i] if first[i] else w0 * r[i - 1] + u * r[i]
+            cz = z[i] if first[i] else w0 * z[i - 1] + u * z[i]
+            if first[i]:
+                t0, t1, n0, n1, sp, vol = tt[i][0], tt[i][1], nn[i][0], nn[i][1], sp_all[i], load[i]
+            else:
+                t0 = w0 * tt[i - 1][0] + u * tt[i][0]
+                t1 = w0 * tt[i - 1][1] + u * tt[i][1]
+                tn = math.hypot(t0, t1)
+                t0, t1 = t0 / tn, t1 / tn
+                n0 = w0 * nn[i - 1][0] + u * nn[i][0]
+                n1 = w0 * nn[i - 1][1] + u * nn[i][1]
+                nl = math.hypot(n0, n1)
+                n0, n1 = n0 / nl, n1 / nl
+                sp = w0 * sp_all[i - 1] + u * sp_all[i]
+                vol = w0 * load[i - 1] + u * load[i]
+            dr, dz = cr - pr, cz - pz
+            pr, pz = cr, cz
+            flr = eps * vol if sp > 0 else 0.0
+            flz = -rho * g * vol
+            flt = flr * t0 + flz * t1
+            fln = flr * n0 + flz * n1
+            if sp <= 0:
+                er = ez = 0.0
+                f_t, f_n = flt, fln
+                continue
+            er -= dr
+            ez -= dz
+            et = a_t * (er * t0 + ez * t1)
+            en = a_n * (er * n0 + ez * n1)
+            er, ez = et * t0 + en * n0, et * t1 + en * n1
+            fkt, fkn = k * et, k * en
+            if strength < math.inf:
+                dp = min(sp / max(abs(n1), 1e-6), s_b)
+                if abs(fkn) >= strength * width * dp:  # eq. 5.45: shear failure relieves the stiffness
+                    er = ez = 0.0
+                    fkt = fkn = 0.0
+            vt = (dr * t0 + dz * t1) / dt
+            vn = (dr * n0 + dz * n1) / dt
+            f_n = -sp * b_n0 * vn + fkn + fln
+            f_t = -sp * b_t0 * vt + fkt + flt - mu * abs(f_n) * vt / max(abs(vt), v_eps)
         out[i] = f_t, f_n
     return out
 
 
 def output_error_fit(rec: PlanarRecord, start: dict[str, float], *, v_eps: float = 0.02, g: float = G_M_S2,
                      bounds: dict[str, tuple[float, float]] | None = None, fixed: dict[str, float] | None = None,
+                     substeps: int = 1, shear: tuple[float, float] | None = None, weights: np.ndarray | None = None,
                      ) -> tuple[dict[str, float], dict[str, float], float]:
     """Minimize eq. 5.55, the output error of :func:`simulate`, over the parameters from ``start``.
 
     Args:
-        bounds: per parameter (low, high); default non-negative, time constants at least 1e-3 s.
+        bounds: per parameter (low, high); default non-negative, time constants 1e-3 to 1e3 s, the
+            shear strength ``LAG_BOUNDS["S"]``.
         fixed: parameters held at the given values.
+        substeps, shear: as :func:`simulate`; with ``shear`` and an ``S`` in ``start`` the shear
+            strength is fitted too.
+        weights: (n,) per-sample weights of the residuals (default 1; 0 leaves a sample out).
 
     Returns:
         the parameters, their standard errors (from the Jacobian at the optimum and the residual
         variance; 0 for fixed ones) and the RMS residual [N].
     """
     fixed = dict(fixed or {})
-    free = [x for x in NAMES if x not in fixed]
-    bnd = {x: (0.0, np.inf) for x in NAMES}
+    names = NAMES + ("S",) if (shear is not None and "S" in start) else NAMES
+    free = [x for x in names if x not in fixed]
+    bnd = {x: (0.0, np.inf) for x in names}
     bnd["T_rt"] = bnd["T_rn"] = (1e-3, 1e3)
+    bnd["S"] = LAG_BOUNDS["S"]
     bnd.update(bounds or {})
     scale = np.array([max(abs(start[x]), 1e-3) for x in free])
     lo = np.array([bnd[x][0] for x in free]) / scale
     hi = np.array([bnd[x][1] for x in free]) / scale
     u0 = np.clip(np.array([start[x] for x in free]) / scale, lo + 1e-12, hi - 1e-12)
     y = rec.force_tn
+    wts = np.ones(len(rec)) if weights is None else np.asarray(weights, dtype=float)
 
     def params_of(u):
         p = dict(fixed)
@@ -251,17 +307,101 @@ def output_error_fit(rec: PlanarRecord, start: dict[str, float], *, v_eps: float
         return p
 
     def resid(u):
-        return (simulate(params_of(u), rec, v_eps=v_eps, g=g) - y).ravel()
+        return ((simulate(params_of(u), rec, v_eps=v_eps, g=g, substeps=substeps, shear=shear) - y)
+                * wts[:, None]).ravel()
 
     res = least_squares(resid, u0, bounds=(lo, hi), x_scale="jac", xtol=1e-12, ftol=1e-12, gtol=1e-12)
     p = params_of(res.x)
     dof = max(res.fun.size - len(free), 1)
     s2 = float(res.fun @ res.fun) / dof
+    # a parameter the residuals do not move at the optimum (its Jacobian column zero: a shear
+    # strength between two shear events, say) is undetermined there: its error is inf, the rest's
+    # come from the others' columns
+    jac = np.asarray(res.jac)
+    live = np.linalg.norm(jac, axis=0) > 1e-9 * max(float(np.linalg.norm(jac)), 1e-300)
+    se = np.full(len(free), math.inf)
     try:
-        cov = np.linalg.inv(res.jac.T @ res.jac) * s2
-        se = np.sqrt(np.maximum(np.diag(cov), 0.0)) * scale
+        cov = np.linalg.inv(jac[:, live].T @ jac[:, live]) * s2
+        se[live] = np.sqrt(np.maximum(np.diag(cov), 0.0)) * scale[live]
     except np.linalg.LinAlgError:
-        se = np.full(len(free), math.inf)
-    errors = {x: 0.0 for x in NAMES}
+        pass
+    errors = {x: 0.0 for x in names}
     errors.update(dict(zip(free, (float(s) for s in se))))
     return p, errors, math.sqrt(float(res.fun @ res.fun) / res.fun.size)
+
+
+_LAG = ("k", "T_rt", "T_rn", "S")  # what the stiffness force's path depends on
+# the range of each searched (and output-error fitted) parameter [N/m, s, s, Pa]; S at its top never shears
+LAG_BOUNDS = {"k": (1e2, 1e7), "T_rt": (1e-3, 1e3), "T_rn": (1e-3, 1e3), "S": (1e2, 1e9)}
+
+
+def _linear_part(rec: PlanarRecord, fk: np.ndarray, *, v_eps: float, g: float,
+                 weights: np.ndarray) -> tuple[np.ndarray, float]:
+    """Given the stiffness forces ``fk`` (n, 2) at the samples, the non-negative least-squares
+    ``(b_t0, b_n0, mu, eps, rho)`` and the weighted sum of squares left."""
+    from scipy.optimize import nnls
+
+    first = rec.first()
+    dp = np.zeros((len(rec), 2))
+    dp[1:, 0], dp[1:, 1] = np.diff(rec.r), np.diff(rec.z)
+    dp[first] = 0.0
+    v = dp / rec.dt
+    vt, vn = (v * rec.t).sum(1), (v * rec.n).sum(1)
+    ins = rec.sp > 0
+    vol = rec.load
+    a = np.zeros((len(rec), 2, 5))
+    a[:, 0, 0] = np.where(ins, -rec.sp * vt, 0.0)
+    a[:, 1, 1] = np.where(ins, -rec.sp * vn, 0.0)
+    a[:, 0, 2] = np.where(ins, -np.abs(rec.force_tn[:, 1]) * vt / np.maximum(np.abs(vt), v_eps), 0.0)
+    a[:, 0, 3] = np.where(ins, vol * rec.t[:, 0], 0.0)
+    a[:, 1, 3] = np.where(ins, vol * rec.n[:, 0], 0.0)
+    a[:, 0, 4] = -g * vol * rec.t[:, 1]
+    a[:, 1, 4] = -g * vol * rec.n[:, 1]
+    y = (rec.force_tn - fk) * weights[:, None]
+    a = a * weights[:, None, None]
+    scale = np.maximum(np.linalg.norm(a.reshape(-1, 5), axis=0), 1e-12)
+    theta, rnorm = nnls(a.reshape(-1, 5) / scale, y.ravel())
+    return theta / scale, float(rnorm) ** 2
+
+
+def projected_fit(rec: PlanarRecord, start: dict[str, float], *, v_eps: float = 0.02, g: float = G_M_S2,
+                  substeps: int = 1, shear: tuple[float, float] | None = None, weights: np.ndarray | None = None,
+                  factors: tuple[float, ...] = (1.0,)) -> dict[str, float]:
+    """A start for :func:`output_error_fit` that does not need one: the stiffness force's path
+    depends only on ``k, T_rt, T_rn`` and ``S`` (the shear test of eq. 5.45 reads the stiffness
+    force alone), and given it the model is linear in ``(b_t0, b_n0, mu, eps, rho)`` (eq. 5.57's
+    observation, with the Coulomb term reading the measured normal force as :func:`regression`
+    does). So the four are searched (Nelder-Mead in their logarithms, from ``start`` scaled by each
+    of ``factors``) with the five solved by non-negative least squares at every step (variable
+    projection).
+
+    Returns:
+        every parameter of ``start`` (``S`` only with ``shear``).
+    """
+    from scipy.optimize import minimize
+
+    wts = np.ones(len(rec)) if weights is None else np.asarray(weights, dtype=float)
+    lag = [x for x in _LAG if x in start and (x != "S" or shear is not None)]
+    zero = {x: 0.0 for x in _THETA}
+
+    def fk_of(u):
+        p = dict(zero, **{x: float(math.exp(v)) for x, v in zip(lag, u)})
+        p.setdefault("S", math.inf)
+        return simulate(p, rec, v_eps=v_eps, g=g, substeps=substeps, shear=shear)
+
+    def cost(u):
+        return _linear_part(rec, fk_of(u), v_eps=v_eps, g=g, weights=wts)[1]
+
+    lo = np.log([LAG_BOUNDS[x][0] for x in lag])
+    hi = np.log([LAG_BOUNDS[x][1] for x in lag])
+    u0 = np.log([max(float(start[x]), 1e-6) for x in lag])
+    best = None
+    for f in factors:
+        res = minimize(cost, np.clip(u0 + math.log(f), lo, hi), method="Nelder-Mead", bounds=list(zip(lo, hi)),
+                       options={"xatol": 1e-3, "fatol": 1e-6, "maxiter": 400})
+        if best is None or res.fun < best.fun:
+            best = res
+    theta, _ = _linear_part(rec, fk_of(best.x), v_eps=v_eps, g=g, weights=wts)
+    out = dict(zip(_THETA, (float(t) for t in theta)))
+    out.update({x: float(math.exp(v)) for x, v in zip(lag, best.x)})
+    return out

@@ -113,3 +113,148 @@ class WedgeModel(ForceModel):
         c, phi, delta, gamma = self.theta
         return (f"c {c / 1e3:.2f} kPa, phi {math.degrees(phi):.1f} deg, delta {math.degrees(delta):.1f} deg, "
                 f"gamma {gamma / 1e3:.2f} kN/m^3")
+
+
+# -- the wedge model of a dig record, for calibrating a soil (excavsim calibrate) ------------------
+
+PROBE_M = 0.05  # the depth the blade faces is read this far ahead of the tip [m]
+AHEAD_COLUMNS = ("l1", "l2", "l3", "l4", "l5")
+AHEAD_SPACING_M = 0.1  # of the l_i columns (learning.encoding.AHEAD_SPACING_M)
+_N_WEDGE_SAMPLES = 24  # points along the failure wedge at which the surcharge ahead is summed
+
+
+def load_profile(swept_m3: np.ndarray, dig: np.ndarray, measured_m3: dict[int, float] | None = None) -> np.ndarray:
+    """The soil in the bucket along each dig (n,) [m^3]: the swept volume ``v`` scaled, per dig, to
+    the volume the scans measured the dig to remove (the map before less the map after, around the
+    dig), where it is known; else the swept volume itself.
+
+    The swept volume is the tip's path over the mapped surface: it misses what the bucket's full
+    width and the touch-down cut (measured: 13-20 % less than the load), while the scans see the
+    soil that left the ground within about 2 % (3-4 digs of the testbed sand).
+    """
+    v = np.maximum(np.asarray(swept_m3, dtype=float), 0.0)
+    out = v.copy()
+    for k, vol in (measured_m3 or {}).items():
+        m = dig == k
+        top = float(v[m].max()) if m.any() else 0.0
+        if top > 0 and np.isfinite(vol) and vol > 0:
+            out[m] = v[m] * (vol / top)
+    return out
+
+
+class RecordWedge:
+    """The wedge model (eq. 8) of what the wrist sensor reads along a dig, the forward model of a
+    calibration (§5.2.3.1: the soil's ``c, phi, delta, gamma`` fitted to measured forces).
+
+    Per F/T sample (tip frame, soil on the bucket, as :mod:`excavsim.sensing.ft` reports it)::
+
+        F = F_b (-sin delta, -cos delta) + gamma V (sin rho, -cos rho)
+        F_b = (gamma d^2 N_gamma + c d N_c) w + gamma (V_a + s V) / D      (d > 0, else 0)
+
+    eq. 8 with eq. 7's surcharge written as its weight over eq. 5's denominator ``D`` (``q d (cot
+    rho + cot beta) w`` = the surcharge's weight), and the load ``V``'s weight. The inputs are the
+    mind's, from the record:
+
+    * ``d``: the depth of soil the blade faces, the scanned surface ``PROBE_M`` ahead of the tip
+      less the tip's height (interpolated in the ``l_i`` columns): the failure wedge starts at the
+      blade, not under the tip;
+    * ``V_a``: the soil above that level on the wedge ahead, ``w`` times the integral of
+      ``max(l(s) - d, 0)`` over the wedge's length ``d (cot rho + cot beta)`` (the ``l_i``
+      profile, held at ``l5`` beyond it: the wall of the last dig, a heap) -- eq. 7's displaced
+      soil lying on the wedge;
+    * ``V``: the load (:func:`load_profile`), a share ``s`` of which rides on the wedge as surcharge;
+    * ``rho``: the rake, held at ``MIN_RAKE_RAD`` below it (the blade slices along itself there).
+
+    Its simplifications: static (no speed term, no saw-tooth); the bearing of the bucket's bottom
+    at touch-down and the arm's inertia are left as residuals (they show in the first samples of a
+    dig); plane strain across the whole width.
+
+    Args:
+        width: bucket width [m].
+        surcharge_fraction: ``s`` [-].
+        probe_m: where the depth is read ahead of the tip [m].
+    """
+
+    def __init__(self, width: float, *, surcharge_fraction: float = 0.3, probe_m: float = PROBE_M):
+        self.width = float(width)
+        self.surcharge_fraction = float(surcharge_fraction)
+        self.probe_m = float(probe_m)
+
+    @staticmethod
+    def inputs(samples: Samples, load_m3: np.ndarray) -> np.ndarray:
+        """The model's inputs (n, 8): ``l1..l5`` [m], rake [rad], load [m^3], a spare column of zeros."""
+        cols = [np.asarray(samples[c], dtype=float) for c in AHEAD_COLUMNS]
+        cols += [np.asarray(samples["rake"], dtype=float), np.asarray(load_m3, dtype=float)]
+        return np.stack(cols + [np.zeros_like(cols[0])], axis=-1)
+
+    def depth(self, x: np.ndarray) -> np.ndarray:
+        """The depth the blade faces (n,) [m]."""
+        lp = np.maximum(x[:, :5], 0.0)
+        u = self.probe_m / AHEAD_SPACING_M
+        i = min(int(u), 3)
+        return lp[:, i] + (u - i) * (lp[:, i + 1] - lp[:, i])
+
+    def forces(self, theta: np.ndarray, x: np.ndarray) -> np.ndarray:
+        """Tip-frame forces (n, 2) [N] for ``theta`` = (c [Pa], phi, delta [rad], gamma [N/m^3])."""
+        c, phi, delta, gamma = (float(t) for t in theta)
+        lp = np.maximum(x[:, :5], 0.0)
+        rho, vol = x[:, 5], np.maximum(x[:, 6], 0.0)
+        d = self.depth(x)
+        rk = np.clip(rho, MIN_RAKE_RAD, math.pi - phi - delta - math.radians(1.0))
+        beta = critical_beta(rk, phi, delta)
+        n_gamma, n_c, _, _ = n_factors(rk, beta, phi, delta)
+        big_d = wedge_denominator(rk, beta, phi, delta)
+        length = d * (1.0 / np.tan(rk) + 1.0 / np.tan(beta))
+        s = (np.arange(_N_WEDGE_SAMPLES) + 0.5) / _N_WEDGE_SAMPLES * length[:, None]
+        j = np.clip((s / AHEAD_SPACING_M).astype(int), 0, len(AHEAD_COLUMNS) - 2)
+        frac = np.minimum(s / AHEAD_SPACING_M - j, 1.0)  # beyond l5 the surface is held at l5
+        rows = np.arange(len(x))[:, None]
+        prof = lp[rows, j] + frac * (lp[rows, j + 1] - lp[rows, j])
+        ahead = self.width * np.maximum(prof - d[:, None], 0.0).mean(axis=1) * length
+        surcharge = gamma * (ahead + self.surcharge_fraction * vol) / big_d
+        blade = (gamma * d**2 * n_gamma + c * d * n_c) * self.width + surcharge
+        blade = np.where(d > 0, blade, 0.0)
+        load = gamma * vol
+        return np.stack([-blade * math.sin(delta) + load * np.sin(rho),
+                         -blade * math.cos(delta) - load * np.cos(rho)], axis=-1)
+
+    def fit(self, x: np.ndarray, y: np.ndarray, start: np.ndarray, *, starts: int = 4, seed: int = 0,
+            loss: str = "linear") -> tuple[np.ndarray, np.ndarray, float]:
+        """``c, phi, delta, gamma`` by bounded nonlinear least squares (``WEDGE_BOUNDS``) from ``start``
+        and ``starts - 1`` random points; returns them, their standard errors (Jacobian at the optimum
+        and the residual variance) and the RMS residual [N]."""
+        lo, hi = (np.array(b) / _WEDGE_UNITS for b in WEDGE_BOUNDS)
+        rng = np.random.default_rng(seed)
+        firsts = [np.clip(np.asarray(start, dtype=float) / _WEDGE_UNITS, lo, hi)]
+        firsts += [rng.uniform(lo, hi) for _ in range(starts - 1)]
+
+        def residuals(u: np.ndarray) -> np.ndarray:
+            return (self.forces(u * _WEDGE_UNITS, x) - y).ravel()
+
+        best = None
+        for u0 in firsts:
+            res = least_squares(residuals, u0, bounds=(lo, hi), loss=loss, f_scale=50.0, x_scale="jac")
+            if best is None or res.cost < best.cost:
+                best = res
+        r = residuals(best.x)
+        s2 = float(r @ r) / max(r.size - 4, 1)
+        try:
+            se = np.sqrt(np.maximum(np.diag(np.linalg.pinv(best.jac.T @ best.jac)) * s2, 0.0)) * _WEDGE_UNITS
+        except np.linalg.LinAlgError:
+            se = np.full(4, math.inf)
+        return best.x * _WEDGE_UNITS, se, math.sqrt(float(r @ r) / r.size)
+
+
+def touchdown_samples(z: np.ndarray, dig: np.ndarray) -> np.ndarray:
+    """(n,) True for the samples at the start of each dig while the tip still rises off the
+    touch-down (§7.1.3): the bucket's bottom was pressed onto the soil to find it, a bearing load no
+    cutting model describes; a calibration leaves them out."""
+    z = np.asarray(z, dtype=float)
+    dig = np.asarray(dig)
+    out = np.zeros(z.size, dtype=bool)
+    for k in np.unique(dig):
+        idx = np.flatnonzero(dig == k)
+        rising = np.diff(z[idx]) > 0
+        n = int(np.argmin(rising)) if not rising.all() else rising.size
+        out[idx[:n]] = True
+    return out

@@ -6,15 +6,30 @@ Fig. 5.34 (1800 samples at 100 Hz, shearing off), identified by batch least squa
 least squares with forgetting and, with noise, the output-error fit of eq. 5.55
 (:mod:`excavsim.learning.identify`); writes the table and the RLS convergence plot.
 
-:func:`calibrate` (``excavsim calibrate``) fits a soil to a force record: a force data set of
-digs (``excavsim learn --dataset FILE``, or :func:`record_digs`: the executor's F/T trace in the
-tip frame with the tip pose from the encoders, the depth of the tip below the scanned surface and
-the swept volume, at the F/T rate). For ``--model wedge`` it fits ``c, phi, delta, gamma`` with
-bounds (:class:`~excavsim.learning.wedge_fit.WedgeModel`); for ``--model dimaio`` the eight
-identifiable parameters of Table 5.3 by the output-error fit. It prints them with standard errors,
-writes a soil preset YAML, re-evaluates the fitted model on the recorded digs (predicted against
-measured forces, PNG) and reports how well each model explains the record (both are fitted:
-cross-model).
+:func:`calibrate` (``excavsim calibrate``) fits a soil to a force record of digs (the executor's F/T
+trace in the tip frame with the tip pose from the encoders, the scanned surface ahead of the tip
+and the swept volume, at the F/T rate: ``excavsim calibrate --record-digs N``, ``excavsim learn
+--dataset FILE``, or a Rerun recording read by :mod:`excavsim.record.reading` and
+:func:`~excavsim.loop.calibrate_digs.dataset_from_recording`). What the fits model of the record
+(measured against the world's force components, the README's calibration section):
+
+* the load in the bucket is the swept volume scaled per dig to the soil the scans saw the dig
+  remove (:func:`~excavsim.learning.wedge_fit.load_profile`): the swept volume alone is 13-20 %
+  short of the load, which made gamma 14 % high;
+* the depth is the surface 5 cm ahead of the tip, and the soil above that level on the failure
+  wedge ahead (the wall of the last dig) is surcharge (:class:`~excavsim.learning.wedge_fit.RecordWedge`);
+* the first samples of a dig, the bucket rising off the touch-down with its bottom pressed on the
+  soil (bearing, not cutting), are left out of every fit and score;
+* DiMaio's model is stepped at the controller's rate between the F/T samples and its shear failure
+  (eq. 5.45) is modelled, with the strength ``S`` fitted: without it the model misses the record by
+  255 N RMS at the true parameters, with it by 68 N.
+
+For ``--model wedge`` it fits ``c, phi, delta, gamma`` with bounds; for ``--model dimaio`` the eight
+parameters of Table 5.3 and ``S``. It prints them with standard errors, writes a soil preset YAML,
+re-runs the recorded digs in MuJoCo with the fitted soil of each model
+(:func:`~excavsim.loop.calibrate_digs.rerun_digs`) and plots, per dig, measured, fitted and re-run
+forces; the report says how well each model (fitted to the same record: cross-model) and each
+re-run explains the record.
 """
 
 from __future__ import annotations
@@ -125,60 +140,77 @@ def _plot_fig_5_40(path: pathlib.Path, forces: np.ndarray, hist: dict[str, np.nd
 
 # -- calibrating a soil from a record ----------------------------------------------------------------
 
-def planar_record(data: ForceDataset) -> identify.PlanarRecord:
+RERUN_LAG_S = 1.5  # the re-run of a dig is aligned with the record within this lag [s]
+SEARCH_FACTORS = (1.0, 1.0 / 3.0, 3.0)  # DiMaio's search starts: the preset's stiffness, lags and shear times these
+SUBSTEPS = 10  # DiMaio's model is stepped at the controller's rate (100 Hz) between the 10 Hz F/T samples
+
+
+def _loads(data: ForceDataset) -> np.ndarray:
+    from excavsim.learning.wedge_fit import load_profile
+    from excavsim.loop.calibrate_digs import removed_volumes
+
+    return load_profile(data["v"], data["dig"], removed_volumes(data))
+
+
+def planar_record(data: ForceDataset, s_bucket: float, width: float) -> identify.PlanarRecord:
     """A force data set as the identifier's record: the tip pose's tangent ``x_t = (-cos p, -sin p)``
-    and normal ``z_t = (-sin p, cos p)`` in (r, z), the depth of the tip below the scanned surface
-    (``l1``) as the penetration, the swept volume as the load, one run per dig."""
+    and normal ``z_t = (-sin p, cos p)`` in (r, z); the depth the blade faces
+    (:meth:`~excavsim.learning.wedge_fit.RecordWedge.depth`, at most ``s_bucket``) as the penetration;
+    the load of :func:`~excavsim.learning.wedge_fit.load_profile`; one run per dig."""
+    from excavsim.learning.wedge_fit import RecordWedge
+
     p = data["rake"]
     t = np.stack([-np.cos(p), -np.sin(p)], axis=-1)
     n = np.stack([-np.sin(p), np.cos(p)], axis=-1)
     times = data["t"]
     same = np.diff(data["dig"]) == 0
     dt = float(np.median(np.diff(times)[same])) if same.any() else 0.1
-    return identify.PlanarRecord(data["x"], data["z"], t, n, np.maximum(data["l1"], 0.0), data["v"], data.forces, dt,
-                                 segment=data["dig"])
+    load = _loads(data)
+    sp = np.minimum(RecordWedge(width).depth(RecordWedge.inputs(data.samples, load)), s_bucket)
+    return identify.PlanarRecord(data["x"], data["z"], t, n, sp, load, data.forces, dt, segment=data["dig"])
 
 
 @dataclasses.dataclass
 class Fit:
-    """One model fitted to one record."""
+    """One model fitted to one record; scores over the samples the fit used."""
 
     model: str
     params: dict[str, float]
     errors: dict[str, float]
-    predicted: np.ndarray  # (n, 2) along the tip frame's x and z [N]
+    predicted: np.ndarray  # (n, 2) along the tip frame's x and z [N], every sample
     rms_n: float
     r2: float
 
 
-def _score(pred: np.ndarray, meas: np.ndarray) -> tuple[float, float]:
+def _score(pred: np.ndarray, meas: np.ndarray, keep: np.ndarray | None = None) -> tuple[float, float]:
+    if keep is not None:
+        pred, meas = pred[keep], meas[keep]
     res = pred - meas
     rms = math.sqrt(float((res ** 2).mean()))
     tot = float(((meas - meas.mean(0)) ** 2).sum())
     return rms, 1.0 - float((res ** 2).sum()) / max(tot, 1e-12)
 
 
-def fit_wedge(data: ForceDataset, soil, width: float, *, starts: int = 4, seed: int = 0) -> Fit:
-    """The wedge model's ``c, phi, delta, gamma`` fitted with bounds; standard errors from the Jacobian."""
-    from excavsim.learning.wedge_fit import WedgeModel, _WEDGE_UNITS
+def _used(data: ForceDataset) -> np.ndarray:
+    from excavsim.learning.wedge_fit import touchdown_samples
 
-    wm = WedgeModel(soil, width, fit_params=True, starts=starts, seed=seed).fit(data.samples, data.forces)
-    x = wm._inputs(data.samples)
-    pred = wm.forces(wm.theta, x)
-    rms, r2 = _score(pred, data.forces)
-    u = wm.theta / _WEDGE_UNITS
-    jac = np.zeros((pred.size, 4))
-    for j in range(4):
-        h = 1e-6 * max(abs(u[j]), 1e-3)
-        up = u.copy()
-        up[j] += h
-        jac[:, j] = ((wm.forces(up * _WEDGE_UNITS, x) - pred) / h).ravel()
-    s2 = float(((pred - data.forces) ** 2).sum()) / max(pred.size - 4, 1)
-    try:
-        se = np.sqrt(np.maximum(np.diag(np.linalg.pinv(jac.T @ jac)) * s2, 0.0)) * _WEDGE_UNITS
-    except np.linalg.LinAlgError:
-        se = np.full(4, math.inf)
-    c, phi, delta, gamma = wm.theta
+    return ~touchdown_samples(data["z"], data["dig"])
+
+
+def fit_wedge(data: ForceDataset, soil, width: float, *, starts: int = 4, seed: int = 0) -> Fit:
+    """The wedge model's ``c, phi, delta, gamma`` fitted with bounds to a record
+    (:class:`~excavsim.learning.wedge_fit.RecordWedge`, the touch-down samples left out), from
+    ``soil`` and random starts; standard errors from the Jacobian."""
+    from excavsim.learning.wedge_fit import RecordWedge
+
+    rw = RecordWedge(width)
+    x = rw.inputs(data.samples, _loads(data))
+    keep = _used(data)
+    start = np.array([soil.cohesion_pa, soil.phi, soil.delta, soil.density_kg_m3 * identify.G_M_S2])
+    theta, se, _ = rw.fit(x[keep], data.forces[keep], start, starts=starts, seed=seed)
+    pred = rw.forces(theta, x)
+    rms, r2 = _score(pred, data.forces, keep)
+    c, phi, delta, gamma = theta
     params = {"c_pa": float(c), "phi_deg": math.degrees(phi), "delta_deg": math.degrees(delta),
               "gamma_n_m3": float(gamma)}
     errors = {"c_pa": float(se[0]), "phi_deg": math.degrees(se[1]), "delta_deg": math.degrees(se[2]),
@@ -186,24 +218,52 @@ def fit_wedge(data: ForceDataset, soil, width: float, *, starts: int = 4, seed: 
     return Fit("wedge", params, errors, pred, rms, r2)
 
 
-def fit_dimaio(data: ForceDataset, start: dict[str, float]) -> Fit:
-    """DiMaio's eight identifiable parameters (Table 5.3) by the output-error fit (eq. 5.55), shearing
-    neglected, from ``start``; the record's runs are the digs."""
-    rec = planar_record(data)
-    params, errors, _ = identify.output_error_fit(rec, start, v_eps=V_EPS)
-    pred = identify.simulate(params, rec, v_eps=V_EPS)
-    rms, r2 = _score(pred, data.forces)
+def fit_dimaio(data: ForceDataset, start: dict[str, float], *, s_bucket: float, width: float,
+               factors: tuple[float, ...] = SEARCH_FACTORS) -> Fit:
+    """DiMaio's eight parameters of Table 5.3 and the shear strength ``S`` (eq. 5.45) fitted to a
+    record: a variable-projection search from ``start`` scaled by each of ``factors``
+    (:func:`~excavsim.learning.identify.projected_fit`), then the output-error fit (eq. 5.55), the
+    model stepped ``SUBSTEPS`` times per sample (the controller's rate); the record's runs are the
+    digs, the touch-down samples left out."""
+    rec = planar_record(data, s_bucket, width)
+    keep = _used(data).astype(float)
+    shear = (width, s_bucket)
+    first = identify.projected_fit(rec, start, v_eps=V_EPS, substeps=SUBSTEPS, shear=shear, weights=keep,
+                                   factors=factors)
+    params, errors, _ = identify.output_error_fit(rec, first, v_eps=V_EPS, substeps=SUBSTEPS, shear=shear,
+                                                  weights=keep)
+    pred = identify.simulate(params, rec, v_eps=V_EPS, substeps=SUBSTEPS, shear=shear)
+    rms, r2 = _score(pred, data.forces, keep > 0)
     return Fit("dimaio", params, errors, pred, rms, r2)
 
 
 def dimaio_start(soil) -> dict[str, float]:
-    """The preset's DiMaio values as the fit's start (Table 5.3's when it has none)."""
+    """The preset's DiMaio values as the fit's start (Table 5.3's, and no shear, when it has none)."""
     dm = soil.dimaio
     if dm is None:
-        return dict(TABLE_5_3)
+        return dict(TABLE_5_3, S=1e9)
     return {"b_t0": dm.viscous_tangential_n_s_m2, "b_n0": dm.viscous_normal_n_s_m2, "mu": dm.friction_coefficient,
             "eps": dm.accumulation_n_m3, "rho": soil.density_kg_m3, "k": dm.stiffness_n_m,
-            "T_rt": dm.relax_tangential_s, "T_rn": dm.relax_normal_s}
+            "T_rt": dm.relax_tangential_s, "T_rn": dm.relax_normal_s, "S": dm.shear_strength_pa}
+
+
+def fitted_soil(fit: Fit, soil):
+    """``soil`` (a :class:`~excavsim.config.SoilParams`) with the fit's parameters."""
+    from excavsim.config import SoilParams
+
+    body = soil.model_dump(exclude_none=True)
+    p = fit.params
+    if fit.model == "wedge":
+        body.update(density_kg_m3=p["gamma_n_m3"] / identify.G_M_S2, friction_angle_deg=p["phi_deg"],
+                    tool_friction_angle_deg=p["delta_deg"], cohesion_pa=p["c_pa"])
+    else:
+        dm = dict(body.get("dimaio") or {})
+        dm.update(viscous_tangential_n_s_m2=p["b_t0"], viscous_normal_n_s_m2=p["b_n0"], friction_coefficient=p["mu"],
+                  accumulation_n_m3=p["eps"], stiffness_n_m=p["k"], relax_tangential_s=p["T_rt"],
+                  relax_normal_s=p["T_rn"], shear_strength_pa=p.get("S", 1e9))
+        body["dimaio"] = dm
+        body["density_kg_m3"] = p["rho"]
+    return SoilParams.model_validate(body)
 
 
 def preset_yaml(fit: Fit, soil, name: str, source: str) -> str:
@@ -212,65 +272,131 @@ def preset_yaml(fit: Fit, soil, name: str, source: str) -> str:
 
     from excavsim.config import SoilsFile
 
-    body = soil.model_dump(exclude_none=True)
-    if fit.model == "wedge":
-        p = fit.params
-        body.update(density_kg_m3=round(p["gamma_n_m3"] / identify.G_M_S2, 3),
-                    friction_angle_deg=round(p["phi_deg"], 3), tool_friction_angle_deg=round(p["delta_deg"], 3),
-                    cohesion_pa=round(p["c_pa"], 3))
-    else:
-        p = fit.params
-        dm = dict(body.get("dimaio") or {})
-        dm.update(viscous_tangential_n_s_m2=p["b_t0"], viscous_normal_n_s_m2=p["b_n0"], friction_coefficient=p["mu"],
-                  accumulation_n_m3=p["eps"], stiffness_n_m=p["k"], relax_tangential_s=p["T_rt"],
-                  relax_normal_s=p["T_rn"])
-        dm.setdefault("shear_strength_pa", 1e9)
-        body["dimaio"] = {k: float(round(v, 6)) for k, v in dm.items()}
-        body["density_kg_m3"] = round(p["rho"], 3)
+    body = fitted_soil(fit, soil).model_dump(exclude_none=True)
+    for k in ("density_kg_m3", "friction_angle_deg", "tool_friction_angle_deg", "cohesion_pa"):
+        body[k] = round(float(body[k]), 3)
+    if body.get("dimaio"):
+        body["dimaio"] = {k: float(round(v, 6)) for k, v in body["dimaio"].items()}
     body["description"] = f"fitted by excavsim calibrate --model {fit.model} to {source}"
     SoilsFile.model_validate({"soils": {name: body}})  # the file must load
     return yaml.safe_dump({"soils": {name: body}}, sort_keys=False)
 
 
-def calibrate(record: str | pathlib.Path, model: str, out: str | pathlib.Path, *, soil: str | None = None,
-              say: Callable[[str], None] = print) -> dict[str, Fit]:
+@dataclasses.dataclass
+class Rerun:
+    """The recorded digs dug again in the world with a fitted soil: forces at the record's samples."""
+
+    model: str
+    forces: np.ndarray  # (n, 2) the re-run's tip-frame forces at the record's times since each dig's start [N]
+    rms_n: float
+    r2: float
+
+
+def rerun(data: ForceDataset, fit: Fit, soil, *, say: Callable[[str], None] | None = None) -> Rerun:
+    """Dig the record's actions again in MuJoCo with the fitted soil on the fitted model's truth
+    (:func:`~excavsim.loop.calibrate_digs.rerun_digs`) and compare, dig by dig, the re-run's forces
+    with the measured ones at the same time since the dig's first sample, up to a common lag
+    (:func:`_aligned`)."""
+    from excavsim.loop.calibrate_digs import rerun_digs
+
+    quiet = data.meta.get("quiet", "true") == "true"
+    again = rerun_digs(data, fitted_soil(fit, soil), truth=fit.model, quiet=quiet, seed=int(data.meta.get("seed", 0)),
+                       say=say)
+    out = np.full((len(data), 2), np.nan)
+    for k in np.unique(data["dig"]):
+        m = data["dig"] == k
+        a = again["dig"] == k
+        if a.sum() < 2:
+            continue
+        out[m] = _aligned(data["t"][m] - data["t"][m][0], data.forces[m], again["t"][a] - again["t"][a][0],
+                          again.forces[a])
+    ok = np.isfinite(out).all(1) & _used(data)
+    rms, r2 = _score(np.nan_to_num(out), data.forces, ok) if ok.any() else (math.nan, math.nan)
+    return Rerun(fit.model, out, rms, r2)
+
+
+def _aligned(t: np.ndarray, f: np.ndarray, t_again: np.ndarray, f_again: np.ndarray) -> np.ndarray:
+    """The re-run's forces (n, 2) at the record's times ``t`` (n,), shifted in time by the lag within
+    ``RERUN_LAG_S`` that fits the record best (a fitted lag, 0.02 s steps): a dig's samples start at
+    the touch-down's contact, which the two runs need not reach at the same time after the dig's
+    start, and a recording's dig window is found from the joint angles at 10 Hz."""
+    best, best_cost = None, math.inf
+    for lag in np.arange(-RERUN_LAG_S, RERUN_LAG_S + 1e-9, 0.02):
+        g = np.stack([np.interp(t + lag, t_again, f_again[:, j], left=np.nan, right=np.nan) for j in (0, 1)], -1)
+        ok = np.isfinite(g).all(1)
+        if ok.sum() < 0.8 * len(t):
+            continue
+        cost = float(((g[ok] - f[ok]) ** 2).mean())
+        if cost < best_cost:
+            best, best_cost = g, cost
+    return best if best is not None else np.full_like(f, np.nan)
+
+
+def calibrate(record: str | pathlib.Path | ForceDataset, model: str, out: str | pathlib.Path, *,
+              soil: str | None = None, rerun_digs: bool = True, cross_model: bool = True,
+              name: str | None = None, say: Callable[[str], None] = print) -> dict[str, Fit]:
     """Fit the ``model`` soil (and, for the cross-model report, the other) to a record; write the
-    preset YAML and the predicted-against-measured plot to ``out``. Returns the fits by model.
+    preset YAML and the predicted-against-measured plot to ``out``; with ``rerun_digs``, dig the
+    recorded digs again in simulation with the fitted soil of each model (PNG per dig). Returns the
+    fits by model (only ``model``'s without ``cross_model``).
+
+    ``record``: a force data set file (.npz, .parquet, .csv) or a :class:`ForceDataset` (a Rerun
+    recording read by the CLI, :func:`~excavsim.loop.calibrate_digs.dataset_from_recording`).
 
     Raises:
-        ExcavsimError: the record cannot be read (``.rrd`` recordings are not read yet), has no
-            samples, or the model is unknown.
+        ExcavsimError: the record cannot be read, has too few samples, or the model is unknown.
     """
     from excavsim.config import get_soil, load_scene_config
 
     if model not in ("wedge", "dimaio"):
         raise ExcavsimError(f"unknown model {model!r}; allowed: wedge, dimaio")
-    record = pathlib.Path(record)
-    if record.suffix == ".rrd":
-        raise ExcavsimError(f"{record}: reading a Rerun recording is not supported yet; calibrate a force data set "
-                            "(.npz, .parquet, .csv) made by `excavsim learn --dataset FILE` or `excavsim calibrate "
-                            "--record-digs N`")
-    data = ForceDataset.load(record)
+    if isinstance(record, ForceDataset):
+        data, label = record, name or "recording"
+    else:
+        record = pathlib.Path(record)
+        if record.suffix == ".rrd":
+            raise ExcavsimError(f"{record}: a Rerun recording is read by the command line (`excavsim calibrate "
+                                f"{record.name}`), or pass the data set excavsim.loop.calibrate_digs."
+                                "dataset_from_recording made of it")
+        data, label = ForceDataset.load(record), name or record.stem
     if len(data) < 10:
-        raise ExcavsimError(f"{record}: {len(data)} samples; calibrating needs at least 10")
+        raise ExcavsimError(f"{label}: {len(data)} samples; calibrating needs at least 10")
     out = pathlib.Path(out)
     out.mkdir(parents=True, exist_ok=True)
-    base = get_soil(soil or data.meta.get("soil") or load_scene_config().soil)
+    base = get_soil(soil or data.meta.get("soil") if (soil or data.meta.get("soil", "unknown") != "unknown")
+                    else load_scene_config().soil)
     width = float(data.meta.get("bucket_width_m", 0.0)) or _bucket_width()
-    fits = {"wedge": fit_wedge(data, base, width), "dimaio": fit_dimaio(data, dimaio_start(base))}
+    s_bucket = base.dimaio.cutting_surface_m if base.dimaio is not None else 0.3
+    fits = {}
+    if model == "wedge" or cross_model:
+        fits["wedge"] = fit_wedge(data, base, width)
+    if model == "dimaio" or cross_model:
+        fits["dimaio"] = fit_dimaio(data, dimaio_start(base), s_bucket=s_bucket, width=width)
     fit = fits[model]
     truth = data.meta.get("truth", "unknown")
-    say(f"{record}: {len(data)} samples of {data.n_digs} digs (truth: {truth}); fitted {model}:")
+    measured = "the scans' removed volume" if data.meta.get("removed_m3", "{}") != "{}" else "the swept volume"
+    say(f"{label}: {len(data)} samples of {data.n_digs} digs (truth: {truth}; the load from {measured}); "
+        f"fitted {model}:")
     for p, v in fit.params.items():
         say(f"  {p:12s} {v:14.6g} +- {fit.errors[p]:.3g}")
-    say("how well each model explains the record (both fitted to it):")
-    for name, f in fits.items():
-        say(f"  {name:7s} RMS residual {f.rms_n:8.1f} N, R^2 {f.r2:6.3f}")
-    stem = record.stem
+    reruns: dict[str, Rerun] = {}
+    one_episode = data.meta.get("source") == "excavsim.loop.calibrate_digs"
+    if rerun_digs and not one_episode:
+        say("  (no re-run: the record is not the digs of one episode, as --record-digs or a recording gives)")
+    if rerun_digs and one_episode:
+        for m, f in fits.items():
+            reruns[m] = rerun(data, f, base)
+    say("how well each model explains the record (each fitted to it; the touch-down samples left out):")
+    for m, f in fits.items():
+        line = f"  {m:7s} fitted model: RMS {f.rms_n:7.1f} N, R^2 {f.r2:6.3f}"
+        if m in reruns:
+            line += f"; re-run in MuJoCo with its fitted soil: RMS {reruns[m].rms_n:7.1f} N, R^2 {reruns[m].r2:6.3f}"
+        say(line)
+    stem = label.replace(" ", "_")
     yaml_path = out / f"{stem}_{model}.yaml"
-    yaml_path.write_text(preset_yaml(fit, base, f"{stem}_{model}".replace("-", "_"), record.name))
+    yaml_path.write_text(preset_yaml(fit, base, f"{stem}_{model}".replace("-", "_"), label))
     png = out / f"{stem}_{model}.png"
-    _plot_fit(png, data, fits, model)
+    _plot_fit(png, data, fits, reruns, model)
     say(f"wrote {yaml_path} and {png}")
     return fits
 
@@ -282,43 +408,50 @@ def _bucket_width() -> float:
     return float(Simulation(seed=0).model.numeric(constants.BUCKET_WIDTH_NUMERIC).data[0])
 
 
-def _plot_fit(path: pathlib.Path, data: ForceDataset, fits: dict[str, Fit], model: str) -> None:
+def _plot_fit(path: pathlib.Path, data: ForceDataset, fits: dict[str, Fit], reruns: dict[str, Rerun],
+              model: str, *, columns: int = 4) -> None:
+    """Per dig (``columns`` digs a row, each over two panels: f_x above f_z): measured, each fitted
+    model, each re-run."""
     import matplotlib
 
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
-    fig, axes = plt.subplots(2, 1, figsize=(10, 6), sharex=True)
-    i = np.arange(len(data))
-    for ax, col, label in ((axes[0], 0, "f_x (along the blade)"), (axes[1], 1, "f_z (blade normal)")):
-        ax.plot(i, data.forces[:, col], "k.", ms=2, label="measured")
-        for name, f in fits.items():
-            ax.plot(i, f.predicted[:, col], lw=1.5 if name == model else 0.8,
-                    label=f"{name} fitted (RMS {f.rms_n:.0f} N, R^2 {f.r2:.2f})")
-        ax.set_ylabel(f"{label} [N]")
-        ax.legend(loc="upper right", fontsize=8)
-    axes[1].set_xlabel("sample (digs one after another, at the F/T rate)")
-    axes[0].set_title(f"calibrate --model {model}: predicted against measured tip-frame forces")
+    digs = np.unique(data["dig"])
+    cols = min(len(digs), columns)
+    rows = -(-len(digs) // cols)
+    fig, axes = plt.subplots(2 * rows, cols, figsize=(4.5 * cols + 1, 5.8 * rows + 0.6), squeeze=False)
+    colours = {"wedge": "tab:orange", "dimaio": "tab:blue"}
+    for i, k in enumerate(digs):
+        m = data["dig"] == k
+        t = data["t"][m] - data["t"][m][0]
+        for r, label in enumerate(("f_x (along the blade)", "f_z (blade normal)")):
+            ax = axes[2 * (i // cols) + r, i % cols]
+            ax.plot(t, data.forces[m, r], "k.", ms=3, label="measured")
+            for name, f in fits.items():
+                ax.plot(t, f.predicted[m, r], color=colours[name], lw=1.6 if name == model else 0.9,
+                        label=f"{name} fitted (R^2 {f.r2:.2f})")
+            for name, rr in reruns.items():
+                ax.plot(t, rr.forces[m, r], color=colours[name], ls="--", lw=1.0,
+                        label=f"{name} re-run in MuJoCo (R^2 {rr.r2:.2f})")
+            if i % cols == 0:
+                ax.set_ylabel(f"{label} [N]")
+            if r == 1:
+                ax.set_xlabel(f"dig {int(k) + 1}: time since its first sample [s]")
+    for j in range(len(digs), rows * cols):
+        for r in (0, 1):
+            axes[2 * (j // cols) + r, j % cols].set_visible(False)
+    axes[0, 0].legend(loc="best", fontsize=7)
+    fig.suptitle(f"calibrate --model {model}: measured, fitted and re-run tip-frame forces per dig")
     fig.tight_layout()
-    fig.savefig(path, dpi=90)
+    fig.savefig(path, dpi=min(90.0, 1000.0 / fig.get_figwidth()))  # at most 1000 px wide
     plt.close(fig)
 
 
 def record_digs(path: str | pathlib.Path, *, truth: str = "wedge", soil: str | None = None, digs: int = 3,
-                seed: int = 0, quiet: bool = False, say: Callable[[str], None] | None = None) -> ForceDataset:
-    """Dig ``digs`` random feasible digs on the ``truth`` model and save their force record at ``path``.
+                seed: int = 0, quiet: bool = False, observer=None,
+                say: Callable[[str], None] | None = None) -> ForceDataset:
+    """:func:`excavsim.loop.calibrate_digs.record_digs` (kept here for the command)."""
+    from excavsim.loop.calibrate_digs import record_digs as _record
 
-    ``quiet``: the wedge's truth terms (speed, saw-tooth, heterogeneity) off, so that the record is
-    of a known soil. The record's metadata names the truth, the soil and the bucket width.
-    """
-    from excavsim.config import load_scene_config
-    from excavsim.loop.collect import collect_dataset
-
-    t: dict = {"model": truth}
-    if quiet:
-        t.update(speed_coefficient_s_per_m=0.0, sawtooth_amplitude=0.0, heterogeneity_std=0.0)
-    data = collect_dataset(soil=soil, digs=digs, seed=seed, digs_per_bed=digs, overrides={"scene": {"truth": t}},
-                           progress=say)
-    data.meta.update(truth=truth, soil=soil or load_scene_config().soil)
-    data.save(path)
-    return data
+    return _record(path, truth=truth, soil=soil, digs=digs, seed=seed, quiet=quiet, observer=observer, say=say)

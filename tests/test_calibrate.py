@@ -1,0 +1,232 @@
+"""Calibrating a soil from a record of digs: recovering a known soil, reading a Rerun recording, the re-run.
+
+The records are made here by the world (quiet: no speed, saw-tooth or heterogeneity terms, so that
+the soil is the preset's), two digs each, seed 0.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+
+from excavsim.config import get_soil
+from excavsim.errors import ExcavsimError
+from excavsim.handoff.maps import ElevationMap
+from excavsim.learning import identify
+from excavsim.learning.wedge_fit import RecordWedge, load_profile, touchdown_samples
+from excavsim.loop import calibrate as cal
+from excavsim.loop import calibrate_digs as cd
+from excavsim.mechanics.wedge import wedge_force
+from excavsim.record import RerunRecorder
+from excavsim.record.reading import read_recording
+
+
+@pytest.fixture(scope="module")
+def sand(tmp_path_factory):
+    """Two quiet digs in the testbed sand, as a force record and as a Rerun recording of the episode."""
+    d = tmp_path_factory.mktemp("sand")
+    data = cd.record_digs(d / "sand.npz", digs=2, seed=0, quiet=True, observer=RerunRecorder(d / "sand.rrd"))
+    return d / "sand.npz", d / "sand.rrd", data
+
+
+@pytest.fixture(scope="module")
+def clay(tmp_path_factory):
+    path = tmp_path_factory.mktemp("clay") / "clay.npz"
+    return path, cd.record_digs(path, soil="lean_clay", digs=2, seed=0, quiet=True)
+
+
+def check_recovered(params: dict, soil, *, c_abs_pa: float, c_rel: float) -> None:
+    """The tolerances stated in the README: gamma within 10 %, delta within 3.5 deg, phi within 3.5 deg
+    (on these seed-0 records; see the README for the spread over seeds), c within
+    max(c_abs_pa, c_rel * c)."""
+    gamma = soil.density_kg_m3 * identify.G_M_S2
+    assert params["gamma_n_m3"] == pytest.approx(gamma, rel=0.10)
+    assert abs(params["delta_deg"] - math.degrees(soil.delta)) < 3.5
+    assert abs(params["phi_deg"] - math.degrees(soil.phi)) < 3.5
+    assert abs(params["c_pa"] - soil.cohesion_pa) < max(c_abs_pa, c_rel * soil.cohesion_pa)
+
+
+def test_calibrate_recovers_the_testbed_sand_from_a_record(sand, tmp_path):
+    """Measured (2 digs): c 0.13 kPa, phi 31.7, delta 27.2 deg, gamma 19.28 kN/m^3 (true 0, 30, 30, 19.62)."""
+    path, _, _ = sand
+    fits = cal.calibrate(path, "wedge", tmp_path, rerun_digs=False, cross_model=False, say=lambda s: None)
+    check_recovered(fits["wedge"].params, get_soil("testbed_sand"), c_abs_pa=1000.0, c_rel=0.0)
+    assert fits["wedge"].r2 > 0.95
+    from excavsim.config import SoilsFile, load_config
+
+    soils = load_config(tmp_path / "sand_wedge.yaml", SoilsFile).soils
+    assert next(iter(soils.values())).friction_angle_deg == pytest.approx(fits["wedge"].params["phi_deg"], abs=1e-3)
+
+
+def test_calibrate_recovers_a_cohesive_soil_from_a_record(clay, tmp_path):
+    """Lean clay (c 17.2 kPa, phi = delta 17.2 deg, 17.66 kN/m^3): c within 10 %. Measured (2 digs): c 17.46 kPa,
+    phi 18.0, delta 16.6 deg, gamma 18.01 kN/m^3."""
+    path, _ = clay
+    fits = cal.calibrate(path, "wedge", tmp_path, rerun_digs=False, cross_model=False, say=lambda s: None)
+    check_recovered(fits["wedge"].params, get_soil("lean_clay"), c_abs_pa=1000.0, c_rel=0.10)
+
+
+def test_the_scans_measure_what_each_dig_removed(sand):
+    """The record's per-dig removed volume (maps before and after) is the soil that went into the
+    bucket: the fit's load; the swept volume alone would be 13-20 % short."""
+    _, _, data = sand
+    vols = cd.removed_volumes(data)
+    assert sorted(vols) == [0, 1]
+    for k, vol in vols.items():
+        swept = float(data["v"][data["dig"] == k].max())
+        assert 1.08 * swept < vol < 1.3 * swept
+        assert 0.012 < vol < 0.03  # the T3's bucket holds 20-30 l heaped
+
+
+def test_removed_volume_counts_the_band_around_the_dig_only():
+    """A 10 l hole on the dig's path counts; a heap of spoil 1 m beside the arm plane does not."""
+    from excavsim.robot.kinematics import PlanarArm
+
+    class Arm:  # the arm plane along world +x from the origin (waist 0)
+        def plane_to_world(self, waist, xz):
+            xz = np.asarray(xz, dtype=float)
+            return np.stack([xz[:, 0], np.zeros(len(xz)), xz[:, 1]], axis=-1)
+
+    assert PlanarArm  # the real arm has the same plane_to_world signature
+    h = np.full((60, 60), 0.5)
+    before = ElevationMap(0.0, -1.5, 0.05, h.copy(), np.ones_like(h, bool), 0.0)
+    after_h = h.copy()
+    after_h[28:32, 36:41] -= 0.1  # 4 x 5 cells of 5 cm, 10 cm deep: 5 l... and the same again:
+    after_h[28:32, 41:46] -= 0.1  # 10 l in all, along x 1.8-2.3 m at y -0.1..0.1 m
+    after_h[50:54, 36:40] += 0.2  # a heap at y = 1.0 m
+    after = ElevationMap(0.0, -1.5, 0.05, after_h, np.ones_like(h, bool), 1.0)
+    path = np.array([[2.3, 0.45], [1.8, 0.4]])
+    assert cd.removed_volume(before, after, path, Arm(), 0.0, 0.3) == pytest.approx(0.010, rel=1e-9)
+
+
+def test_record_wedge_is_eq_8_on_flat_ground_and_the_load_weight():
+    """On flat ground (l_i all d) the blade force is eq. 8's ``F = (gamma d^2 N_gamma + c d N_c) w`` at
+    the probe depth along (-sin delta, -cos delta); the load adds gamma V along (sin rho, -cos rho) and
+    its share s as surcharge gamma s V / D."""
+    soil = get_soil("sandy_loam")
+    theta = np.array([soil.cohesion_pa, soil.phi, soil.delta, soil.density_kg_m3 * identify.G_M_S2])
+    rw = RecordWedge(0.3, surcharge_fraction=0.0)
+    rake = math.radians(35.0)
+    x = np.array([[0.1] * 5 + [rake, 0.0, 0.0]])
+    f = rw.forces(theta, x)[0]
+    mag = float(wedge_force(0.1, rake, soil.model_copy(update={"adhesion_pa": 0.0}), 0.3))
+    np.testing.assert_allclose(f, mag * np.array([-math.sin(soil.delta), -math.cos(soil.delta)]), rtol=1e-9)
+    x_load = x.copy()
+    x_load[0, 6] = 0.02
+    np.testing.assert_allclose(rw.forces(theta, x_load)[0] - f,
+                               theta[3] * 0.02 * np.array([math.sin(rake), -math.cos(rake)]), rtol=1e-9)
+    out = np.array([[0.0] * 5 + [rake, 0.02, 0.0]])  # out of the soil: the load's weight only
+    np.testing.assert_allclose(rw.forces(theta, out)[0], theta[3] * 0.02 * np.array([math.sin(rake),
+                                                                                       -math.cos(rake)]))
+
+
+def test_touchdown_samples_are_the_rise_off_the_touchdown():
+    z = np.array([0.40, 0.41, 0.43, 0.43, 0.40, 0.38, 0.50, 0.49, 0.45])
+    dig = np.array([0, 0, 0, 0, 0, 0, 1, 1, 1])
+    assert touchdown_samples(z, dig).tolist() == [True, True, False, False, False, False, False, False, False]
+    assert load_profile(np.array([0.0, 0.01, 0.02]), np.zeros(3), {0: 0.03}).tolist() == pytest.approx([0, 0.015,
+                                                                                                          0.03])
+
+
+def test_rrd_reading_returns_the_records_samples(sand):
+    """The recording's tip-frame F/T samples are the record's, bit for bit; the record built from the
+    recording (joint angles through the robot's kinematics, the scanned maps, the logged plans) has
+    the same tip poses, depths and swept volumes within millimetres and the same removed volumes."""
+    npz, rrd, data = sand
+    rec = read_recording(rrd)
+    i = np.abs(rec["ft_time"][None, :] - data["t"][:, None]).argmin(axis=1)
+    assert np.abs(rec["ft_time"][i] - data["t"]).max() < 1e-6
+    np.testing.assert_array_equal(rec["ft_tip"][i, 0], data["fx"])
+    np.testing.assert_array_equal(rec["ft_tip"][i, 2], data["fz"])
+    assert len(rec["maps"]) == 3 and rec["seed"] == 0 and rec["soil"] == "testbed_sand"
+    again = cd.recording_dataset(rec)
+    assert again.n_digs == 2 and again.meta["quiet"] == "true" and again.meta["truth"] == "wedge"
+    for k in (0, 1):
+        a, b = again["dig"] == k, data["dig"] == k
+        ta, tb = np.round(again["t"][a], 6), np.round(data["t"][b], 6)
+        common = np.intersect1d(ta, tb)
+        assert common.size > 0.9 * b.sum()
+        ia, ib = np.isin(ta, common), np.isin(tb, common)
+        for col, tol in (("fx", 0.0), ("fz", 0.0), ("x", 0.005), ("z", 0.005), ("rake", 0.005), ("l1", 0.005),
+                         ("v", 5e-4)):
+            assert np.abs(again[col][a][ia] - data[col][b][ib]).max() <= tol, col
+    assert cd.removed_volumes(again) == pytest.approx(cd.removed_volumes(data), rel=0.01)
+    np.testing.assert_allclose(cd.recorded_actions(again), cd.recorded_actions(data), atol=0.006)
+
+
+def test_a_recording_without_ft_data_is_refused(tmp_path):
+    import rerun as rr
+
+    path = tmp_path / "other.rrd"
+    rec = rr.RecordingStream("other", recording_id="x")
+    rec.save(str(path))
+    rec.set_time("sim_time", duration=0.0)
+    rec.log("something", rr.Scalars(1.0))
+    rec.flush()
+    rec.disconnect()
+    with pytest.raises(ExcavsimError, match="no F/T samples in the tip frame"):
+        read_recording(path)
+    (tmp_path / "junk.rrd").write_text("not a recording")
+    with pytest.raises(ExcavsimError, match="not a Rerun recording"):
+        read_recording(tmp_path / "junk.rrd")
+    with pytest.raises(ExcavsimError, match="no such recording"):
+        read_recording(tmp_path / "missing.rrd")
+
+
+def test_calibrate_a_recording_re_runs_the_digs_with_the_fitted_soils(sand, tmp_path, capsys):
+    """`excavsim calibrate RECORDING.rrd`: fits both models, re-runs the digs in MuJoCo with each
+    fitted soil; the wedge's re-run on its own truth explains the record (measured R^2 0.996), and
+    writes the preset and the per-dig plot."""
+    from excavsim.cli import main
+
+    _, rrd, _ = sand
+    assert main(["calibrate", str(rrd), "--out", str(tmp_path)]) == 0
+    out = capsys.readouterr().out
+    assert "re-run in MuJoCo" in out and "the scans' removed volume" in out
+    line = next(s for s in out.splitlines() if s.strip().startswith("wedge") and "re-run" in s)
+    assert float(line.rsplit("R^2", 1)[1]) > 0.95
+    assert (tmp_path / "sand_wedge.png").stat().st_size > 20_000
+    assert (tmp_path / "sand_wedge.yaml").exists()
+
+
+def test_calibrate_command_errors_name_the_fix(sand, tmp_path, capsys):
+    from excavsim.cli import main
+
+    npz, rrd, _ = sand
+    assert main(["calibrate", str(rrd), "--record-digs", "1", "--out", str(tmp_path)]) == 2
+    assert "not sand.rrd" in capsys.readouterr().err
+    assert main(["calibrate", str(npz), "--rrd", str(tmp_path / "x.rrd"), "--out", str(tmp_path)]) == 2
+    assert "give --record-digs too" in capsys.readouterr().err
+    assert main(["calibrate", str(tmp_path / "x.rrd"), "--out", str(tmp_path)]) == 2
+    assert "no such recording" in capsys.readouterr().err
+    assert main(["calibrate", str(tmp_path / "x.txt"), "--record-digs", "1", "--out", str(tmp_path)]) == 2
+    assert ".npz, .parquet or .csv" in capsys.readouterr().err
+    assert main(["calibrate", str(npz), "--record-digs", "1", "--rrd", "x.txt", "--out", str(tmp_path)]) == 2
+    assert "ends in .rrd" in capsys.readouterr().err
+    with pytest.raises(ExcavsimError, match="read by the command line"):
+        cal.calibrate(rrd, "wedge", tmp_path)
+    with pytest.raises(ExcavsimError, match="allowed: wedge, dimaio"):
+        cal.calibrate(npz, "mohr", tmp_path)
+
+
+@pytest.fixture(scope="module")
+def dimaio_record(tmp_path_factory):
+    path = tmp_path_factory.mktemp("dimaio") / "dimaio.npz"
+    return cd.record_digs(path, truth="dimaio", digs=2, seed=0)
+
+
+def test_dimaio_fit_on_a_dimaio_record_from_a_start_twice_the_truth(dimaio_record):
+    """From every parameter at twice its value, the fitted DiMaio model finds the density within 5 %,
+    the Coulomb coefficient within 15 % and the accumulation within 30 % (the identifiable ones; see
+    the README for the rest), and explains the record better than the fitted wedge."""
+    soil = get_soil("testbed_sand")
+    true = cal.dimaio_start(soil)
+    fit = cal.fit_dimaio(dimaio_record, {k: 2 * v for k, v in true.items()}, s_bucket=0.3, width=0.3)
+    p = fit.params
+    assert p["rho"] == pytest.approx(true["rho"], rel=0.05)
+    assert p["mu"] == pytest.approx(true["mu"], rel=0.15)
+    assert p["eps"] == pytest.approx(true["eps"], rel=0.30)
+    wedge = cal.fit_wedge(dimaio_record, soil, 0.3)
+    assert fit.r2 > 0.8 and fit.r2 > wedge.r2 + 0.2
