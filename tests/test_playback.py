@@ -8,7 +8,7 @@ import numpy as np
 import pytest
 
 from excavsim.errors import ExcavsimError
-from excavsim.execution.playback import (Admittance, Demonstration, FixedImpedance, ForceVelocityEstimate,
+from excavsim.execution.playback import (Admittance, DepthDual, Demonstration, FixedImpedance, ForceVelocityEstimate,
                                          VariableImpedance, critical_damping, dual_stiffness, lambda_from_ratio,
                                          load_demonstration, static_response, weighted_error)
 
@@ -129,3 +129,43 @@ def test_playback_in_the_demonstration_soil_reproduces_it(recorded):
     # the force: peak within 10 %, RMS error within 10 % of the demonstrated peak (F/T noise, a new cut)
     assert e["force_peak_n"] == pytest.approx(e["demo_force_peak_n"], rel=0.1)
     assert e["force_rms_n"] < 0.1 * e["demo_force_peak_n"]
+
+
+def test_the_depth_law_is_the_static_minimiser_of_eq_3_14_in_the_depth():
+    # hand check: Ke = 1e4 N/m, W = 1e6, a deficit of 500 N -> dz = 1e4 * 500 / (1e6 + 1e8) = 0.0495 m
+    law = DepthDual(ke_n_m=1e4, w=1e6, limit_m=0.3)
+    assert law.target(500.0) == pytest.approx(1e4 * 500.0 / 1.01e8)
+    grid = np.linspace(-0.3, 0.3, 60001)
+    e = 1e6 * grid ** 2 + (500.0 - 1e4 * grid) ** 2
+    assert grid[np.argmin(e)] == pytest.approx(law.target(500.0), abs=2e-5)
+    assert law.target(-1e6) == -0.3  # clipped
+    # with a constant deficit the shift settles on the target through the lag; out of contact it returns to 0
+    law.reset(DT)
+    for _ in range(400):
+        dz = law.step(np.array([-1500.0, 0.0]), np.array([1000.0, 0.0]))
+    assert dz == pytest.approx(law.target(500.0), rel=1e-3)
+    for _ in range(400):
+        dz = law.step(np.zeros(2), np.zeros(2))
+    assert abs(dz) < 1e-6
+
+
+def test_position_control_fails_in_the_changed_soils_and_variable_impedance_beats_both_fixed_ones(recorded):
+    from excavsim.loop.playback import K_MAX, K_MIN, MASS, SOFTER, STIFFER, W, DEMO_SOIL, play, scaled_soil
+    d = recorded.with_approach(0.10, 1.0)
+    soils = {"stiffer": scaled_soil(DEMO_SOIL, STIFFER), "softer": scaled_soil(DEMO_SOIL, SOFTER)}
+    e = {}
+    for name, soil in soils.items():
+        for law in (FixedImpedance("position", MASS, K_MAX), FixedImpedance("force", MASS, K_MIN),
+                    VariableImpedance("variable", MASS, K_MIN, K_MAX, 1000.0, depth=DepthDual(w=W))):
+            run = play(d, soil, name, law)
+            assert run.outcome == "completed"
+            e[name, law.name] = run.errors(W)
+    demo_peak = e["stiffer", "position"]["demo_force_peak_n"]
+    # ch. 6's failures of position control: stalled far off the path in the stiffer soil, the force lost in
+    # the softer one (the path held)
+    assert e["stiffer", "position"]["pos_rms_m"] > 0.1
+    assert e["softer", "position"]["pos_rms_m"] < 0.03 and e["softer", "position"]["force_peak_n"] < 0.7 * demo_peak
+    for name in soils:
+        v, p, f = e[name, "variable"], e[name, "position"], e[name, "force"]
+        assert v["weighted_error"] < min(p["weighted_error"], f["weighted_error"]), name
+        assert v["force_rms_n"] < p["force_rms_n"] and v["pos_rms_m"] < f["pos_rms_m"], name

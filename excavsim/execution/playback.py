@@ -4,11 +4,10 @@ Source: 002_694c274da322d931.txt, ch. 3 (§3.1 recording and playback in dissimi
 §3.2 the duality principle, §3.3 the generalised duality principle, §3.3.2 the position-force error
 weighting, §3.3.3-3.3.4 the environment impedance from the force/velocity ratio), ch. 6 and App. A.2.
 
-**Demonstration** (:class:`Demonstration`): a time series of the bucket-tip pose in the arm plane
-(x, z, pitch) and the environment's force on the bucket in the arm plane (radial, vertical), taken
-from an executor record (:func:`demonstration_from_record`: the tip path logged every control step
-in the cut and the F/T trace, rotated from the tip frame into the plane). Stored as JSON with a
-schema (:data:`SCHEMA`) that :func:`load_demonstration` checks on load.
+**Demonstration** (:mod:`excavsim.execution.demonstration`, re-exported here): a time series of the
+bucket-tip pose in the arm plane (x, z, pitch) and the environment's force on the bucket in the arm
+plane (radial, vertical), from an executor record, a Rerun recording's joints and F/T readings, or
+teleoperation; JSON with a schema checked on load.
 
 **Playback** (:class:`ImpedancePlayback`): at the control rate, each of the plane's axes x, z runs
 the machine impedance of eq. 3.15, ``Mm xc'' = f0 + fe - Bm (xc' - x0') - Km (xc - x0)``, with x0
@@ -16,15 +15,30 @@ the demonstrated position, f0 = -fe_demo the demonstrated *applied* force (in th
 environment a perfect track has fe = -f0, eq. 3.10 at x = x0) and fe the measured F/T force. It is
 discretised by the backward difference of App. A.2 (eq. A.76) and realised as an admittance: xc is
 the commanded tip position, turned into joint targets by IK for the T3's position servos; the pitch
-follows the demonstration. Three impedance laws (:class:`FixedImpedance`, :class:`VariableImpedance`):
+follows the demonstration. The impedance laws (:class:`FixedImpedance`, :class:`VariableImpedance`):
 
 * fixed high impedance (position control, Table 6.5's upper stiffness, Fig. 6.42),
+* fixed moderate impedance (K = 1e4 N/m, Fig. 6.44),
 * fixed low impedance (force-dominant, Table 6.5's lower stiffness, Fig. 6.43),
 * variable impedance (§3.3.4, eq. 3.37): per axis the stiffness is interpolated between its bounds
   from the force/velocity ratio ``|fe| / (G |v_m|)`` (the environment impedance estimate,
   :class:`ForceVelocityEstimate`), with G the velocity weighting (the position-force weighting of
   §3.3.2 in eq. 3.37's form); the damping follows from the damping factor, ``B = 2 zeta sqrt(K M)``
-  (Table 6.5: K = 1e5 N/m, M = 100 kg, zeta = 1 gives the 6324 N s/m of §6.2).
+  (Table 6.5: K = 1e5 N/m, M = 100 kg, zeta = 1 gives the 6324 N s/m of §6.2),
+* any of them with :class:`DepthDual`: the demonstrated path shifted vertically by the depth that
+  minimises eq. 3.14 for a nominal environment stiffness against depth (the static minimisation of
+  eq. 3.21 applied to the depth; assumed, see the class). The chapter-6 experiment's variable
+  controller is eq. 3.37 with this shift: eq. 3.37 alone cannot get a lost force back in a softer soil,
+  since the soil's force along the path is set by the depth, which a diagonal x-z impedance does not
+  command (measured in the README).
+
+**Beside the executor's compliance.** :class:`~excavsim.execution.dig.DigExecutor`'s ``compliance: on`` /
+``impedance`` is not an impedance controller and plays nothing back: it follows the *planned* path and
+only raises the rest of it (never lowers it) while a planar joint's torque is above a fraction of its
+relief limit, at a rate proportional to the excess, which in ``impedance`` mode grows with the F/T
+force over the tip speed (the §3.3.4 force/velocity ratio used as a gain, not as a machine
+impedance). It has no desired force, so it cannot cut deeper where a force is lost; the controllers
+here track a demonstrated position *and* force.
 
 The duality relations themselves are here as functions the tests check on a 1-D mass-spring-damper:
 :func:`static_response` (eqs. 3.17-3.18), :func:`weighted_error` (eq. 3.14) and :func:`dual_stiffness`
@@ -42,160 +56,22 @@ virtual admittance mass (the T3's servos are position servos, so Mm is chosen, n
 from __future__ import annotations
 
 import dataclasses
-import json
 import math
-from pathlib import Path
 
 import numpy as np
 
 from excavsim.errors import ExcavsimError
-from excavsim.handoff.dig import ExecutionRecord
+from excavsim.execution.demonstration import (SCHEMA, SCHEMA_VERSION, Demonstration, demonstration_from_joints,
+                                              demonstration_from_record, load_demonstration, plane_force,
+                                              plane_state, validate)
 from excavsim.handoff.observation import Observation, Servos
 from excavsim.robot.kinematics import PlanarArm
 from excavsim.sensing.ft import ForceSensor
 
-SCHEMA_VERSION = 1
-# the demonstration file: every key required, arrays of the given widths with one row per sample
-SCHEMA = {
-    "format": "excavsim-demonstration",
-    "version": SCHEMA_VERSION,
-    "fields": {
-        "times": "N numbers [s], strictly increasing, uniform at dt",
-        "pose": "N x 3 numbers: tip x [m], z [m], pitch [rad] in the arm plane",
-        "force": "N x 2 numbers: the environment's force on the bucket, radial and vertical [N]",
-        "dt": "positive number: the sample period [s]",
-        "waist": "number: the waist angle of the arm plane [rad]",
-        "source": "text: where the demonstration came from",
-        "soil": "text: the demonstration environment",
-    },
-}
-
-
-@dataclasses.dataclass(frozen=True)
-class Demonstration:
-    """A demonstrated dig: tip pose and measured tip force in the arm plane at a uniform rate.
-
-    Attributes:
-        times: (N,) [s] from the first sample, uniform at ``dt``.
-        pose: (N, 3) tip x, z [m], pitch [rad].
-        force: (N, 2) the environment's force on the bucket, radial (along the arm plane's x) and
-            vertical [N] (the F/T sign: the force ON the bucket).
-        dt: sample period [s] (the control period of the executor that recorded it).
-        waist: waist angle of the arm plane [rad].
-        source, soil: provenance.
-    """
-
-    times: np.ndarray
-    pose: np.ndarray
-    force: np.ndarray
-    dt: float
-    waist: float
-    source: str = ""
-    soil: str = ""
-
-    def __post_init__(self):
-        validate(self.to_dict())
-
-    def to_dict(self) -> dict:
-        return {"format": SCHEMA["format"], "version": SCHEMA_VERSION,
-                "times": np.asarray(self.times, float).tolist(), "pose": np.asarray(self.pose, float).tolist(),
-                "force": np.asarray(self.force, float).tolist(), "dt": float(self.dt), "waist": float(self.waist),
-                "source": str(self.source), "soil": str(self.soil)}
-
-    def save(self, path: str | Path) -> Path:
-        path = Path(path)
-        path.write_text(json.dumps(self.to_dict()))
-        return path
-
-    def with_approach(self, height_m: float, duration_s: float) -> Demonstration:
-        """The demonstration with a free-motion descent prepended: from ``height_m`` above its first
-        pose straight down to it in ``duration_s``, with zero force (the bucket in the air)."""
-        n = max(1, int(round(duration_s / self.dt)))
-        s = np.linspace(0.0, 1.0, n, endpoint=False)[:, None]
-        top = self.pose[0] + np.array([0.0, height_m, 0.0])
-        pre = top + s * (self.pose[0] - top)
-        pose = np.concatenate([pre, self.pose])
-        force = np.concatenate([np.zeros((n, 2)), self.force])
-        times = np.arange(len(pose)) * self.dt
-        return Demonstration(times, pose, force, self.dt, self.waist, self.source + f" + {height_m:g} m approach",
-                             self.soil)
-
-
-def validate(doc: dict) -> None:
-    """Check a demonstration document against :data:`SCHEMA`; raises :class:`ExcavsimError` saying what is wrong."""
-    if not isinstance(doc, dict):
-        raise ExcavsimError(f"demonstration: expected a JSON object, got {type(doc).__name__}")
-    if doc.get("format") != SCHEMA["format"] or doc.get("version") != SCHEMA_VERSION:
-        raise ExcavsimError(f"demonstration: format/version must be {SCHEMA['format']!r}/{SCHEMA_VERSION}, "
-                            f"got {doc.get('format')!r}/{doc.get('version')!r}")
-    missing = [k for k in SCHEMA["fields"] if k not in doc]
-    extra = [k for k in doc if k not in SCHEMA["fields"] and k not in ("format", "version")]
-    if missing or extra:
-        raise ExcavsimError(f"demonstration: missing keys {missing}, unknown keys {extra}")
-    try:
-        times = np.asarray(doc["times"], dtype=float)
-        pose = np.asarray(doc["pose"], dtype=float)
-        force = np.asarray(doc["force"], dtype=float)
-        dt, waist = float(doc["dt"]), float(doc["waist"])
-    except (TypeError, ValueError) as exc:
-        raise ExcavsimError(f"demonstration: non-numeric data ({exc})") from None
-    n = times.shape[0] if times.ndim == 1 else -1
-    if n < 2 or pose.shape != (n, 3) or force.shape != (n, 2):
-        raise ExcavsimError(f"demonstration: times (N,), pose (N, 3), force (N, 2) with N >= 2 expected, got "
-                            f"{times.shape}, {pose.shape}, {force.shape}")
-    if not all(np.all(np.isfinite(a)) for a in (times, pose, force)) or not (math.isfinite(waist) and dt > 0):
-        raise ExcavsimError("demonstration: every number must be finite and dt positive")
-    if not np.allclose(np.diff(times), dt, rtol=1e-6, atol=1e-9):
-        raise ExcavsimError(f"demonstration: times must be uniform at dt = {dt} s")
-    if not isinstance(doc["source"], str) or not isinstance(doc["soil"], str):
-        raise ExcavsimError("demonstration: source and soil must be text")
-
-
-def load_demonstration(path: str | Path) -> Demonstration:
-    """Read and validate a demonstration file (:data:`SCHEMA`)."""
-    try:
-        doc = json.loads(Path(path).read_text())
-    except (OSError, json.JSONDecodeError) as exc:
-        raise ExcavsimError(f"demonstration {path}: cannot read ({exc})") from None
-    validate(doc)
-    return Demonstration(np.asarray(doc["times"], float), np.asarray(doc["pose"], float),
-                         np.asarray(doc["force"], float), doc["dt"], doc["waist"], doc["source"], doc["soil"])
-
-
-def plane_force(force_world: np.ndarray, waist: float, waist_sign: float) -> np.ndarray:
-    """A world force (..., 3) in the arm plane at ``waist``: (radial, vertical) (..., 2) [N]."""
-    phi = waist_sign * waist
-    f = np.asarray(force_world, dtype=float)
-    return np.stack([f[..., 0] * math.cos(phi) + f[..., 1] * math.sin(phi), f[..., 2]], axis=-1)
-
-
-def demonstration_from_record(rec: ExecutionRecord, *, arm: PlanarArm, ft: ForceSensor, waist: float, dt: float,
-                              source: str = "executor record", soil: str = "") -> Demonstration:
-    """The cut of an executed dig as a demonstration.
-
-    The executor logs the tip pose every control step from the start of the cut to the tick before
-    the lift-out starts (``executed_path``, the stall's back-out included), so the samples' times are
-    ``phase_starts["lift out"] - (N - k) dt``. The F/T trace (tip frame, at the F/T rate) is
-    interpolated onto them and rotated into the arm plane with the tip frame at each pose (IK of the
-    pose, the sensor's own kinematic model).
-
-    Raises:
-        ExcavsimError: the record has no cut or no lift-out.
-    """
-    if len(rec.executed_path) < 2 or "lift out" not in rec.phase_starts or len(rec.ft) < 2:
-        raise ExcavsimError(f"demonstration: the record has no cut to demonstrate (outcome {rec.outcome!r})")
-    pose = np.asarray(rec.executed_path, dtype=float)
-    n = len(pose)
-    t = rec.phase_starts["lift out"] - (n - np.arange(n)) * dt
-    ft_t = np.array([s[0] for s in rec.ft])
-    ft_f = np.array([s[1] for s in rec.ft])
-    f_tip = np.stack([np.interp(t, ft_t, ft_f[:, k]) for k in range(3)], axis=-1)
-    q_arm, ok = arm.inverse(pose)
-    force = np.zeros((n, 2))
-    for i in range(n):
-        q = np.array([waist, *(q_arm[i] if ok[i] else q_arm[max(i - 1, 0)]), 0.0, 0.0])
-        force[i] = plane_force(ft.frames(q)["tip_rot"] @ f_tip[i], waist, arm.waist_sign)
-    return Demonstration(np.arange(n) * dt, pose, force, dt, waist, source, soil)
+__all__ = ["SCHEMA", "SCHEMA_VERSION", "Demonstration", "demonstration_from_joints", "demonstration_from_record",
+           "load_demonstration", "plane_force", "plane_state", "validate", "DepthDual", "FixedImpedance",
+           "VariableImpedance", "Admittance", "PlaybackRun", "ImpedancePlayback", "ForceVelocityEstimate",
+           "critical_damping", "static_response", "weighted_error", "dual_stiffness", "lambda_from_ratio"]
 
 
 # ----------------------------------------------------------------------------------- duality (§3.2-3.3)
@@ -254,13 +130,62 @@ class ForceVelocityEstimate:
 
 # ----------------------------------------------------------------------------------- impedance laws
 @dataclasses.dataclass
+class DepthDual:
+    """The depth of the cut chosen by the static duality of eqs. 3.14 and 3.21 (assumed, see below).
+
+    A demonstrated force is lost in a softer soil because the bucket would have to cut deeper, and it
+    is exceeded in a stiffer one where the arm stalls against its relief torques (ch. 6): neither is
+    corrected by an impedance on the x and z axes alone (the soil's force along the path is set by the
+    depth, a cross-coupling eq. 3.15's diagonal impedance does not have). This law shifts the
+    demonstrated path vertically by ``dz`` (positive: deeper) so as to minimise eq. 3.14's error with
+    the depth as the coordinate: with the force magnitude deficit ``e = |f0| - |fe|`` and a nominal
+    environment stiffness against depth ``Ke`` (``d|fe| / d depth``), ``E(dz) = W dz^2 + (e - Ke dz)^2``
+    is least at ``dz = Ke e / (W + Ke^2)``, the same static minimisation that gives eq. 3.21
+    (``Km = W / Ke``). ``dz`` follows that target through a first-order lag ``tau_s``; ``|fe|`` is
+    low-passed with ``force_tau_s`` (F/T noise, shear saw-teeth); out of contact (``|f0| <= f_min``) the
+    target is 0, so free motion is position-controlled.
+
+    Assumed (the thesis does not have it): the law itself, the vertical direction of the shift, the
+    nominal ``Ke`` (a mind parameter, not measured: the default 1e4 N/m was chosen from {2e3, 5e3, 1e4}
+    on seed 0 of the chapter-6 experiment and checked on seeds 1 and 2, see the README), the lag and the
+    limit ``limit_m``.
+    """
+
+    ke_n_m: float = 1.0e4
+    w: float = 1.0e6
+    tau_s: float = 0.2
+    force_tau_s: float = 0.1
+    f_min: float = 50.0
+    limit_m: float = 0.3
+
+    def target(self, deficit_n: float) -> float:
+        """The depth shift [m] minimising ``W dz^2 + (deficit - Ke dz)^2`` (clipped to ``limit_m``)."""
+        ke = self.ke_n_m
+        return float(np.clip(ke * deficit_n / (self.w + ke * ke), -self.limit_m, self.limit_m))
+
+    def reset(self, dt: float) -> None:
+        self.dz, self.f_mag = 0.0, None
+        self.alpha, self.alpha_f = dt / (self.tau_s + dt), dt / (self.force_tau_s + dt)
+
+    def step(self, f0: np.ndarray, fe: np.ndarray) -> float:
+        """One control step: the applied force wanted ``f0`` and the measured ``fe`` (2,) [N] -> ``dz`` [m]."""
+        m = float(np.linalg.norm(fe))
+        self.f_mag = m if self.f_mag is None else self.f_mag + self.alpha_f * (m - self.f_mag)
+        want = float(np.linalg.norm(f0))
+        goal = self.target(want - self.f_mag) if want > self.f_min else 0.0
+        self.dz += self.alpha * (goal - self.dz)
+        return self.dz
+
+
+@dataclasses.dataclass
 class FixedImpedance:
-    """A fixed machine impedance per axis (Figs. 6.42-6.44)."""
+    """A fixed machine impedance per axis (Figs. 6.42-6.44), optionally with the :class:`DepthDual` shift."""
 
     name: str
     mass: float
     stiffness: float
     zeta: float = 1.0
+    depth: DepthDual | None = None
 
     def reset(self, n: int, dt: float) -> None:
         self.n = n
@@ -273,7 +198,8 @@ class FixedImpedance:
 @dataclasses.dataclass
 class VariableImpedance:
     """The variable impedance of §3.3.4 (eq. 3.37): stiffness between ``k_min`` and ``k_max`` from
-    the force/velocity ratio weighted by ``G`` [N s/m]; damping by the damping factor."""
+    the force/velocity ratio weighted by ``G`` [N s/m]; damping by the damping factor; optionally with the
+    :class:`DepthDual` shift of the demonstrated path (the chapter-6 experiment's variable controller)."""
 
     name: str
     mass: float
@@ -283,6 +209,7 @@ class VariableImpedance:
     f_min: float = 20.0
     zeta: float = 1.0
     lambda_tau_s: float = 0.05
+    depth: DepthDual | None = None
 
     def reset(self, n: int, dt: float) -> None:
         self.lam = np.ones(n)  # start stiff: in the air
@@ -331,6 +258,7 @@ class PlaybackRun:
     force: np.ndarray
     stiffness: np.ndarray
     outcome: str = "completed"
+    depth: np.ndarray | None = None  # (N,) the DepthDual shift [m], positive deeper; None without one
 
     def errors(self, w: float) -> dict[str, float]:
         """Trajectory errors against the demonstration: RMS and largest tip distance [m], RMS and largest
@@ -360,11 +288,7 @@ class ImpedancePlayback:
         self._ftw = np.zeros((4, 3))
 
     def _plane(self, obs: Observation, waist: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-        q = obs.q[1:4]
-        tip = self.arm.forward(q)
-        vel = (self.arm.jacobian(q) @ obs.qdot[1:4])[:2]
-        self.ft.reading_into(obs, self._ftw)
-        return tip, vel, plane_force(self._ftw[2], waist, self.arm.waist_sign)
+        return plane_state(self.arm, self.ft, obs, waist, self._ftw)
 
     def run(self, demo: Demonstration, soil: str = "") -> PlaybackRun:
         """Play ``demo`` from the arm's current pose (it should be at the demonstration's start)."""
@@ -374,6 +298,10 @@ class ImpedancePlayback:
         n = len(demo.times)
         law = self.law
         law.reset(2, dt)
+        depth = getattr(law, "depth", None)
+        if depth is not None:
+            depth.reset(dt)
+        dz = np.zeros(n)
         obs = sim.observe()
         adm = Admittance(demo.pose[0, :2], law.mass, dt)
         a_f = 1.0 - math.exp(-2 * math.pi * self.force_bandwidth_hz * dt)
@@ -385,7 +313,11 @@ class ImpedancePlayback:
             tip, vel, fe = self._plane(obs, demo.waist)
             f0 += a_f * (-demo.force[i] - f0)
             k, b = law.gains(fe, vel)
-            xc = adm.step(demo.pose[i, :2], f0, fe, k, b)
+            x0 = demo.pose[i, :2].copy()
+            if depth is not None:
+                dz[i] = depth.step(f0, fe)
+                x0[1] -= dz[i]
+            xc = adm.step(x0, f0, fe, k, b)
             cmd = np.array([xc[0], xc[1], demo.pose[i, 2]])
             q, ok = self.arm.inverse(cmd)
             if ok:
@@ -401,4 +333,5 @@ class ImpedancePlayback:
                 n = i + 1
                 break
         return PlaybackRun(law.name, soil, demo.times[:n].copy(), demo.pose[:n].copy(), demo.force[:n].copy(),
-                           out["command"], out["pose"], out["force"], out["stiffness"], outcome)
+                           out["command"], out["pose"], out["force"], out["stiffness"], outcome,
+                           dz[:n].copy() if depth is not None else None)

@@ -10,9 +10,16 @@ same seed: the arm goes home, to the approach pose, and then
 
 The playback soils are Table 6.4's kind of change of the demonstration soil's DiMaio parameters
 (assumed factors, :data:`STIFFER` and :data:`SOFTER`): every viscous, stiffness, shear and
-accumulation term scaled up (down). The controllers use Table 6.5's mass (100 kg), stiffness range
-(1e3 - 1e5 N/m) and damping factor (1.0); the velocity weighting G of eq. 3.37 is swept as in
-Figs. 6.46-6.48 (low, high, medium).
+accumulation term scaled up (down). The controllers (:func:`controllers`) use Table 6.5's mass
+(100 kg), stiffness range (1e3 - 1e5 N/m) and damping factor (1.0): fixed high, moderate (Fig. 6.44)
+and low impedance, and the variable one, eq. 3.37 with G = 1000 and the
+:class:`~excavsim.execution.playback.DepthDual` depth law; the velocity weighting G is swept as in
+Figs. 6.46-6.48 (low, high, medium), with two ablations (eq. 3.37 alone, the depth law on position
+control). Printed and written: the errors per soil and controller (position RMS, force RMS, eq. 3.14's
+E) with a closing note (:func:`verdict`), ``errors.csv``, ``errors.png``, ``sweep.png``, the
+Figs. 3.7-3.10 analysis of §3.3.1 (``duality.png``, :func:`plot_duality`) and one Figs. 6.42-6.48
+figure per soil and controller. A given demonstration (``--demo``: teleoperated, or read from a
+recording) replaces the recorded one.
 """
 
 from __future__ import annotations
@@ -24,8 +31,9 @@ from pathlib import Path
 import numpy as np
 
 from excavsim.config import SoilParams, get_soil, load_scene_config
-from excavsim.execution.playback import (Demonstration, FixedImpedance, ImpedancePlayback, PlaybackRun,
-                                         VariableImpedance, demonstration_from_record)
+from excavsim.errors import ExcavsimError
+from excavsim.execution.playback import (DepthDual, Demonstration, FixedImpedance, ImpedancePlayback, PlaybackRun,
+                                         VariableImpedance, demonstration_from_joints, demonstration_from_record)
 from excavsim.handoff.dig import DigPlan
 from excavsim.handoff.maps import ElevationMap
 from excavsim.loop.demo import DEMO_ACTION
@@ -38,8 +46,11 @@ SCALED = ("viscous_tangential_n_s_m2", "viscous_normal_n_s_m2", "viscous_angular
           "angular_stiffness_nm_rad", "shear_strength_pa", "accumulation_n_m3")
 STIFFER, SOFTER = 3.0, 0.3
 MASS, K_MIN, K_MAX = 100.0, 1.0e3, 1.0e5  # Table 6.5
+K_MODERATE = 1.0e4  # Fig. 6.44's moderate fixed impedance (B = 2000 N s/m)
 W = 1.0e6  # §3.3.1: 1 mm of position error weighs as 1 N of force error (for the printed E)
 G_SWEEP = {"low G": 100.0, "high G": 100000.0, "medium G": 1000.0}  # Figs. 6.46, 6.47, 6.48
+VARIABLE = "variable (G=1000)"  # the chapter's variable controller: eq. 3.37 with the DepthDual shift
+POSITION, FORCE = "position (high K)", "force (low K)"
 
 
 def scaled_soil(name: str, factor: float) -> SoilParams:
@@ -56,12 +67,29 @@ def make_world(soil: SoilParams, seed: int) -> Simulation:
 
 
 def controllers(sweep: bool = True) -> list:
-    laws = [FixedImpedance("position (high K)", MASS, K_MAX), FixedImpedance("force (low K)", MASS, K_MIN),
-            VariableImpedance("variable (G=1000)", MASS, K_MIN, K_MAX, G_SWEEP["medium G"])]
+    """The fixed high, moderate and low impedances (Figs. 6.42-6.44) and the variable one (eq. 3.37 with
+    the :class:`~excavsim.execution.playback.DepthDual` depth); with ``sweep`` also the velocity-weighting
+    sweep (Figs. 6.46-6.48) and two ablations: eq. 3.37 without the depth law, the depth law on position
+    control."""
+    laws = [FixedImpedance(POSITION, MASS, K_MAX), FixedImpedance("moderate (K=1e4)", MASS, K_MODERATE),
+            FixedImpedance(FORCE, MASS, K_MIN),
+            VariableImpedance(VARIABLE, MASS, K_MIN, K_MAX, G_SWEEP["medium G"], depth=DepthDual(w=W))]
     if sweep:
-        laws += [VariableImpedance(f"variable ({k}={g:g})", MASS, K_MIN, K_MAX, g)
+        laws += [VariableImpedance(f"variable ({k}={g:g})", MASS, K_MIN, K_MAX, g, depth=DepthDual(w=W))
                  for k, g in G_SWEEP.items() if k != "medium G"]
+        laws += [VariableImpedance("eq. 3.37 only (G=1000)", MASS, K_MIN, K_MAX, G_SWEEP["medium G"]),
+                 FixedImpedance("position + depth", MASS, K_MAX, depth=DepthDual(w=W))]
     return laws
+
+
+def demo_plan(sim: Simulation, rig) -> DigPlan:
+    """The plan of :data:`DEMO_ACTION` on the flat fill (the fill's height is read from the world,
+    privileged, only to lay out the demonstration dig)."""
+    z = float(np.median(sim.soil.grid.heights))
+    emap = ElevationMap(0.55, -1.5, 0.05, np.full((60, 60), z), np.ones((60, 60), bool), 0.0)
+    surface = rig.planner.surface(emap)
+    poses, phases = rig.planner.trajectory(DEMO_ACTION, surface)
+    return DigPlan(poses, phases, math.radians(rig.goal.waist_deg), rig.planner.swept_volume(poses, surface))
 
 
 def record_demonstration(seed: int = 0, soil: str = DEMO_SOIL) -> Demonstration:
@@ -69,12 +97,8 @@ def record_demonstration(seed: int = 0, soil: str = DEMO_SOIL) -> Demonstration:
     sim = make_world(get_soil(soil), seed)
     rig = make_rig(sim, seed=seed)
     go_home(sim, rig)
-    z = float(np.median(sim.soil.grid.heights))  # the flat fill (privileged, only to lay out the demo dig)
-    emap = ElevationMap(0.55, -1.5, 0.05, np.full((60, 60), z), np.ones((60, 60), bool), 0.0)
-    surface = rig.planner.surface(emap)
-    poses, phases = rig.planner.trajectory(DEMO_ACTION, surface)
-    waist = math.radians(rig.goal.waist_deg)
-    plan = DigPlan(poses, phases, waist, rig.planner.swept_volume(poses, surface))
+    plan = demo_plan(sim, rig)
+    waist = plan.waist
     rec = rig.executor.run(plan)
     return demonstration_from_record(rec, arm=rig.arm, ft=rig.executor.ft, waist=waist, dt=sim.control_dt,
                                      source=f"executor record of {DEMO_ACTION} ({rec.outcome})", soil=soil)
@@ -89,19 +113,40 @@ def play(demo: Demonstration, soil: SoilParams, label: str, law, seed: int = 0) 
     q[0] = demo.waist
     q[1:4], ok = rig.arm.inverse(demo.pose[0])
     if not ok:
-        raise RuntimeError("playback: the demonstration's first pose is out of reach")
+        raise ExcavsimError(f"playback: the demonstration's first pose {np.round(demo.pose[0], 3).tolist()} (x, z [m], "
+                            "pitch [rad]) is out of the arm's reach")
     go_to(sim, q, rig.executor_cfg)
     return ImpedancePlayback(sim, rig.arm, rig.executor.ft, law).run(demo, soil=label)
 
 
-def run_playback(out: Path | None = None, *, seed: int = 0, sweep: bool = True,
+def demonstration_from_signals(joint_times: np.ndarray, joints: np.ndarray, ft_times: np.ndarray,
+                               ft_tip: np.ndarray, path_world: np.ndarray, *, source: str,
+                               soil: str = "") -> Demonstration:
+    """A demonstration from a dig's sampled joints and F/T readings (e.g. read back from a recording by
+    :func:`excavsim.record.demo_reading.read_dig`), with the robot's model of itself from the scene."""
+    sim = make_world(get_soil(DEMO_SOIL), 0)
+    rig = make_rig(sim)
+    return demonstration_from_joints(joint_times, joints, ft_times, ft_tip, path_world, arm=rig.arm,
+                                     ft=rig.executor.ft, dt=sim.control_dt, source=source, soil=soil)
+
+
+def run_playback(out: Path | None = None, *, seed: int = 0, sweep: bool = True, demo: Demonstration | None = None,
                  progress: Callable[[str], None] = print) -> dict:
     """The experiment (see the module docstring); returns ``{(soil, controller): errors}`` and writes
-    the demonstration, the plots and the error table into ``out``."""
-    demo = record_demonstration(seed)
-    progress(f"demonstration: {len(demo.times)} samples ({demo.times[-1]:.2f} s) in {demo.soil}; "
-             f"{demo.source}")
-    demo = demo.with_approach(0.10, 1.0)
+    the demonstration, the plots and the error table into ``out``.
+
+    Args:
+        demo: a demonstration to play back instead of recording :data:`DEMO_ACTION` (its first pose is
+            reached by a joint move; no approach is prepended).
+    """
+    if demo is None:
+        demo = record_demonstration(seed)
+        progress(f"demonstration: {len(demo.times)} samples ({demo.times[-1]:.2f} s) in {demo.soil}; "
+                 f"{demo.source}")
+        demo = demo.with_approach(0.10, 1.0)
+    else:
+        progress(f"demonstration given: {len(demo.times)} samples ({demo.times[-1]:.2f} s), soil {demo.soil!r}, "
+                 f"{demo.source}; the 'same' soil is {DEMO_SOIL} under DiMaio's model")
     if out is not None:
         out.mkdir(parents=True, exist_ok=True)
         demo.save(out / "demonstration.json")
@@ -109,24 +154,53 @@ def run_playback(out: Path | None = None, *, seed: int = 0, sweep: bool = True,
              f"softer x{SOFTER:g}": scaled_soil(DEMO_SOIL, SOFTER)}
     runs: dict[tuple[str, str], PlaybackRun] = {}
     table = {}
+    progress(f"{'soil':12s} {'controller':24s} {'pos RMS/max [cm]':>17s} | {'force RMS/max err [N]':>21s} "
+             f"{'peak [N]':>8s} | {'E = mean W x~^2 + f~^2':>22s}")
     for label, soil in soils.items():
         for law in controllers(sweep and label != "same"):
             run = play(demo, soil, label, law, seed)
             runs[label, law.name] = run
             e = table[label, law.name] = run.errors(W)
-            progress(f"{label:12s} {law.name:24s} pos rms {100 * e['pos_rms_m']:6.2f} cm max "
-                     f"{100 * e['pos_max_m']:6.2f} cm | force rms err {e['force_rms_n']:7.1f} N max "
-                     f"{e['force_max_err_n']:7.1f} N, peak {e['force_peak_n']:7.1f} N (demo "
-                     f"{e['demo_force_peak_n']:6.1f} N) | E {e['weighted_error']:9.0f} | {run.outcome}")
+            progress(f"{label:12s} {law.name:24s} {100 * e['pos_rms_m']:7.2f} / {100 * e['pos_max_m']:6.2f}  | "
+                     f"{e['force_rms_n']:8.1f} / {e['force_max_err_n']:8.1f}   {e['force_peak_n']:8.1f} | "
+                     f"{e['weighted_error']:22.0f}" + ("" if run.outcome == "completed" else f" | {run.outcome}"))
+    progress(f"(demonstrated force peak {table['same', POSITION]['demo_force_peak_n']:.0f} N; W = {W:g})")
+    for line in verdict(table, [k for k in soils if k != "same"]):
+        progress(line)
     if out is not None:
         _plot(runs, out)
+        _plot_errors(table, out / "errors.png")
+        if sweep:
+            _plot_sweep(table, [k for k in soils if k != "same"], out / "sweep.png")
+            plot_duality(out / "duality.png")
         lines = ["soil,controller,pos_rms_m,pos_max_m,force_rms_n,force_max_err_n,force_peak_n,weighted_error"]
         lines += [f"{s},{c},{e['pos_rms_m']:.4f},{e['pos_max_m']:.4f},{e['force_rms_n']:.1f},"
                   f"{e['force_max_err_n']:.1f},{e['force_peak_n']:.1f},{e['weighted_error']:.0f}"
                   for (s, c), e in table.items()]
         (out / "errors.csv").write_text("\n".join(lines) + "\n")
-        progress(f"wrote {out}/demonstration.json, errors.csv and the figures")
+        extra = ", sweep.png, duality.png" if sweep else ""
+        progress(f"wrote {out}/demonstration.json, errors.csv, errors.png{extra} and a figure per soil and controller")
     return table
+
+
+def verdict(table: dict, soils: list[str]) -> list[str]:
+    """The closing note: per changed soil, whether the variable controller's E, position and force
+    errors are below each fixed extreme's."""
+    lines = []
+    for soil in soils:
+        v, p, f = (table[soil, c] for c in (VARIABLE, POSITION, FORCE))
+        wins = v["weighted_error"] < min(p["weighted_error"], f["weighted_error"])
+        lines.append(
+            f"{soil}: {VARIABLE} E {v['weighted_error']:.0f} vs position {p['weighted_error']:.0f}, force "
+            f"{f['weighted_error']:.0f} -> {'lower than both' if wins else 'NOT lower than both'}; "
+            f"position RMS {100 * v['pos_rms_m']:.1f} cm (position control {100 * p['pos_rms_m']:.1f}, low K "
+            f"{100 * f['pos_rms_m']:.1f}), force RMS error {v['force_rms_n']:.0f} N (position control "
+            f"{p['force_rms_n']:.0f}, low K {f['force_rms_n']:.0f})")
+    return lines
+
+
+def _slug(text: str) -> str:
+    return "".join(c if c.isalnum() else "_" for c in text).strip("_")
 
 
 def _plot(runs: dict[tuple[str, str], PlaybackRun], out: Path) -> None:
@@ -141,6 +215,9 @@ def _plot(runs: dict[tuple[str, str], PlaybackRun], out: Path) -> None:
             ax[k].plot(t, run.desired_pose[:, k], "k--", label="desired (demonstration)")
             ax[k].plot(t, run.pose[:, k], "C0", label="actual")
             ax[k].set_ylabel(lab)
+        if run.depth is not None:
+            ax[1].plot(t, run.desired_pose[:, 1] - run.depth, "C2:", label="demonstration + depth shift")
+            ax[1].legend(fontsize=8)
         for k, lab in enumerate(("F radial [N]", "F vertical [N]")):
             ax[2 + k].plot(t, run.desired_force[:, k], "k--")
             ax[2 + k].plot(t, run.force[:, k], "C1")
@@ -153,6 +230,98 @@ def _plot(runs: dict[tuple[str, str], PlaybackRun], out: Path) -> None:
         ax[4].legend(fontsize=8)
         fig.suptitle(f"playback in {soil} soil: {name}")
         fig.tight_layout()
-        slug = "".join(c if c.isalnum() else "_" for c in f"{soil}_{name}").strip("_")
-        fig.savefig(out / f"playback_{slug}.png", dpi=80)
+        fig.savefig(out / f"playback_{_slug(f'{soil}_{name}')}.png", dpi=80)
         plt.close(fig)
+
+
+def _plot_errors(table: dict, path: Path) -> None:
+    """Position RMS, force RMS error and E per controller, one group of bars per soil."""
+    import matplotlib
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+    soils = list(dict.fromkeys(s for s, _ in table))
+    names = list(dict.fromkeys(c for _, c in table))
+    fig, ax = plt.subplots(3, 1, figsize=(10, 9), sharex=True)
+    width = 0.8 / len(names)
+    for j, name in enumerate(names):
+        xs = [i + (j - len(names) / 2 + 0.5) * width for i, s in enumerate(soils) if (s, name) in table]
+        es = [table[s, name] for s in soils if (s, name) in table]
+        for k, (key, scale) in enumerate((("pos_rms_m", 100.0), ("force_rms_n", 1.0), ("weighted_error", 1e-3))):
+            ax[k].bar(xs, [scale * e[key] for e in es], width, label=name if k == 0 else None, color=f"C{j % 10}")
+    for a, lab in zip(ax, ("position RMS [cm]", "force RMS error [N]", "E = mean(W x~^2 + f~^2) [1e3]")):
+        a.set_ylabel(lab)
+    ax[2].set_yscale("log")
+    ax[2].set_xticks(range(len(soils)), soils)
+    ax[0].legend(fontsize=7, ncol=3)
+    fig.suptitle(f"playback errors against the demonstration (W = {W:g})")
+    fig.tight_layout()
+    fig.savefig(path, dpi=80)
+    plt.close(fig)
+
+
+def _plot_sweep(table: dict, soils: list[str], path: Path) -> None:
+    """The velocity-weighting sweep of Figs. 6.46-6.48: the variable controller's errors against G, with the
+    fixed impedances' as horizontal lines."""
+    import matplotlib
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+    gs = sorted(G_SWEEP.values())
+    names = {g: VARIABLE if g == G_SWEEP["medium G"] else next(f"variable ({k}={g:g})" for k, v in G_SWEEP.items()
+                                                              if v == g) for g in gs}
+    fig, ax = plt.subplots(3, len(soils), figsize=(5 * len(soils), 8), squeeze=False, sharex=True)
+    for c, soil in enumerate(soils):
+        for r, (key, scale, lab) in enumerate((("pos_rms_m", 100.0, "position RMS [cm]"),
+                                               ("force_rms_n", 1.0, "force RMS error [N]"),
+                                               ("weighted_error", 1e-3, "E [1e3]"))):
+            a = ax[r, c]
+            a.semilogx(gs, [scale * table[soil, names[g]][key] for g in gs], "o-", color="C3",
+                       label="variable + depth")
+            for j, fixed in enumerate((POSITION, "moderate (K=1e4)", FORCE)):
+                a.axhline(scale * table[soil, fixed][key], color=f"C{j}", ls="--", label=fixed)
+            a.set_ylabel(lab)
+        ax[0, c].set_title(soil)
+        ax[-1, c].set_xlabel("velocity weighting G [N s/m] (eq. 3.37)")
+    ax[0, 0].legend(fontsize=7)
+    fig.suptitle("velocity-weighting sweep (Figs. 6.46-6.48: G = 100, 1000, 1e5)")
+    fig.tight_layout()
+    fig.savefig(path, dpi=80)
+    plt.close(fig)
+
+
+W_DUALITY = 1.0e9  # the weighting at which Figs. 3.7-3.10's dampings (1-6 kN s/m) come out (the figures do not say)
+
+
+def plot_duality(path: Path) -> None:
+    """Figs. 3.7-3.10: the damping minimising eq. 3.25 (§3.3.1, :func:`~excavsim.execution.duality.optimal_damping`)
+    against environment stiffness, environment damping, machine mass and the desired trajectories' bandwidth."""
+    import matplotlib
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    from excavsim.execution.duality import optimal_damping
+
+    def bm(mm=110.0, be=500.0, ke=39000.0, f3db=20.0):
+        return optimal_damping(mm, be, ke, f3db_hz=f3db, w=W_DUALITY)
+
+    fig, ax = plt.subplots(2, 2, figsize=(10, 7))
+    kes, bes, mms, bws = (np.linspace(5e3, 5e4, 10), np.linspace(50, 600, 10), np.linspace(100, 900, 9),
+                          np.linspace(2, 100, 10))
+    for mm in (110.0, 500.0, 960.0):
+        ax[0, 0].plot(kes, [bm(mm=mm, ke=k) for k in kes], label=f"Mm = {mm:g} kg")
+        ax[0, 1].plot(bes, [bm(mm=mm, be=b) for b in bes], label=f"Mm = {mm:g} kg")
+    for ke in (1.5e4, 3.9e4):
+        ax[1, 0].plot(mms, [bm(mm=m, ke=ke) for m in mms], label=f"Ke = {ke:g} N/m")
+    ax[1, 1].plot(bws, [bm(mm=100.0, ke=1e4, f3db=f) for f in bws], label="Mm = 100 kg, Ke = 1e4 N/m")
+    for a, (xl, title) in zip(ax.flat, (("Ke [N/m] (Be = 500 N s/m)", "Fig. 3.7"),
+                                        ("Be [N s/m] (Ke = 39000 N/m)", "Fig. 3.8"),
+                                        ("Mm [kg] (Be = 500 N s/m)", "Fig. 3.9 (against machine mass)"),
+                                        ("f3dB [Hz] (Be = 500 N s/m)", "Fig. 3.10"))):
+        a.set_xlabel(xl)
+        a.set_ylabel("optimal Bm [N s/m]")
+        a.set_title(title, fontsize=9)
+        a.legend(fontsize=7)
+    fig.suptitle(f"dynamic impedance selection (§3.3.1): Bm minimising E = W||x~||^2 + ||f~||^2, "
+                 f"Km = W/Ke, W = {W_DUALITY:g}, f3dB = 20 Hz unless varied", fontsize=9)
+    fig.tight_layout()
+    fig.savefig(path, dpi=80)
+    plt.close(fig)
