@@ -308,7 +308,7 @@ def record_digs(path: str | pathlib.Path, *, truth: str = "wedge", soil: str | N
                 seed: int = 0, quiet: bool = False, say: Callable[[str], None] | None = None) -> ForceDataset:
     """Dig ``digs`` random feasible digs on the ``truth`` model and save their force record at ``path``.
 
-    ``quiet``: the wedge's truth terms (speed, saw-tooth, heterogeneity) off, so that the record is
+    ``quiet``: the wedge's truth terms (rate effect, failure-cycle drops, heterogeneity) off, so that the record is
     of a known soil. The record's metadata names the truth, the soil and the bucket width.
     """
     from excavsim.config import load_scene_config
@@ -316,7 +316,7 @@ def record_digs(path: str | pathlib.Path, *, truth: str = "wedge", soil: str | N
 
     t: dict = {"model": truth}
     if quiet:
-        t.update(speed_coefficient_s_per_m=0.0, sawtooth_amplitude=0.0, heterogeneity_std=0.0)
+        t.update(cohesion_rate_per_decade=0.0, brittleness_index=0.0, heterogeneity_std=0.0)
     data = collect_dataset(soil=soil, digs=digs, seed=seed, digs_per_bed=digs, overrides={"scene": {"truth": t}},
                            progress=say)
     data.meta.update(truth=truth, soil=soil or load_scene_config().soil)
