@@ -1,9 +1,10 @@
 """The compiled control step of the bucket-soil interaction (numba, cached on disk).
 
 :func:`soil_step` is the per-control-step kernel of :mod:`excavsim.world.soil`: the edge's depth and
-the wedge's failure force with the truth terms, the elastic cutting force, cutting the swept cells,
-bearing and friction on the outer surface, rocks, and the load's weight, summed into the wrench on
-the bucket. Its loops over grid cells and surface samples are in :mod:`excavsim.world.grid_kernels`.
+the wedge's failure force (static, rate effect, inertia), the cutting force through the wedge's
+failure cycle (:func:`failure_cycle`), cutting the swept cells, bearing and friction on the outer
+surface, rocks, and the load's weight, summed into the wrench on the bucket. Its loops over grid
+cells and surface samples are in :mod:`excavsim.world.grid_kernels`.
 Grid conventions are those of :class:`~excavsim.world.terrain.SoilGrid` (``h[row, col]``, row along
 y, col along x). The kernel's parameters, state and outputs are the named records of
 :mod:`excavsim.world.soil_records`; inside the compiled code a record (``grid``, ``p``, ``st``,
@@ -148,7 +149,7 @@ def soil_step(heights, strength, grid, mj_arrays, bucket_vel6, bucket, edge, sur
               state, pressure, out):
     """One control step of the bucket-soil interaction (see :mod:`excavsim.world.soil`).
 
-    Cuts the swept cells; updates the state (previous edge, elastic cutting force, shear travel,
+    Cuts the swept cells; updates the state (previous edge, cutting force and failure cycle,
     load) and the bearing pressures; writes the forces on the bucket, their moment about its centre
     of mass (cutting, bearing, rocks and the load's weight, with the load after this step's cut)
     and diagnostics to ``out``. The records are those of :mod:`excavsim.world.soil_records`, each
