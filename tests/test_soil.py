@@ -321,9 +321,9 @@ def test_a_parameter_changed_in_the_record_changes_the_next_step_as_the_physics_
         sim.soil.params["density_kg_m3"] *= factor
         contacts.append(drv.place((2.18, SURFACE - 0.1, math.radians(30))))
     base, heavy = contacts
-    inertia = base.record["inertial_force_n"][0]
+    inertia = base.inertial_force_n
     assert base.cutting_speed_m_s == heavy.cutting_speed_m_s > 0.05 and base.depth_m == heavy.depth_m > 0.05
-    assert inertia > 0 and heavy.record["inertial_force_n"][0] == pytest.approx(2 * inertia, rel=1e-12)
+    assert inertia > 0 and heavy.inertial_force_n == pytest.approx(2 * inertia, rel=1e-12)
     assert heavy.wedge_failure_force_n == pytest.approx(base.wedge_failure_force_n + inertia, rel=1e-12)
 
 

@@ -129,7 +129,9 @@ class SoilContact:
     depth_m = _scalar("depth_m", "mean edge depth below the surface [m]")
     rake_rad = _scalar("rake_rad", "rake of the blade [rad]")
     cutting_speed_m_s = _scalar("cutting_speed_m_s", "edge speed into the soil [m/s]")
+    advance_speed_m_s = _scalar("advance_speed_m_s", "edge's horizontal advance into the soil [m/s]")
     wedge_failure_force_n = _scalar("wedge_failure_force_n", "failure force of the wedge with the truth terms [N]")
+    inertial_force_n = _scalar("inertial_force_n", "part of it that accelerates the soil entering the wedge [N]")
     cutting_force = _vector("cutting_force_n", "wedge force on the bucket [N]")
     bearing_force = _vector("bearing_force_n", "bearing and friction on the outer surface [N]")
     rock_force = _vector("rock_force_n", "rock contact force [N]")
@@ -137,6 +139,11 @@ class SoilContact:
     torque = _vector("torque_nm", "total moment about the bucket's centre of mass [N m]")
     cut_volume_m3 = _scalar("cut_volume_m3", "soil cut this step [m^3]")
     max_penetration_m = _scalar("max_penetration_m", "deepest outer-surface sample below the surface [m]")
+
+    @property
+    def wedge_failed(self) -> bool:
+        """Whether the wedge failed along its critical plane this step (the saw-tooth's drop)."""
+        return bool(self._v[_OUT["wedge_failed"]] == 1.0)
 
     @property
     def load_weight(self) -> np.ndarray:
