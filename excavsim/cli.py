@@ -873,7 +873,7 @@ def build_parser() -> argparse.ArgumentParser:
     calib.add_argument("--truth", choices=["wedge", "dimaio"], default="wedge",
                        help="the world's force model for --record-digs (default wedge)")
     calib.add_argument("--quiet", action="store_true",
-                       help="with --record-digs: the wedge's speed, saw-tooth and heterogeneity terms off")
+                       help="with --record-digs: the wedge's rate effect, failure-cycle drops and heterogeneity off")
     calib.add_argument("--seed", type=_seed, default=0, metavar="N", help="seed of --record-digs")
     calib.add_argument("--table-5-3", action="store_true",
                        help="reproduce Table 5.3 and Fig. 5.40 (DiMaio's model identified from its own forces)")

@@ -265,7 +265,7 @@ def test_a_stall_is_the_same_compiled_and_in_python(arm, flat_plan):
     robot = load_robot_config()
     wrist = robot.joints.wrist_pitch.model_copy(update={"torque_limit_nm": 500.0})
     robot = robot.model_copy(update={"joints": robot.joints.model_copy(update={"wrist_pitch": wrist})})
-    stiff = get_soil("testbed_sand").model_copy(update={"cohesion_pa": 6800.0})
+    stiff = get_soil("testbed_sand").model_copy(update={"cohesion_pa": 9000.0})
     a, b = dig_both_ways(lambda: Simulation(robot=robot, soil=stiff, seed=0), arm, load_executor_config(), flat_plan)
     assert a[0].outcome == "stalled"
     assert_same_dig(a, b)

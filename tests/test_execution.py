@@ -291,12 +291,13 @@ def test_moves_that_time_out_move_on_and_the_dig_completes_late(arm, reach_table
 
 
 def stiff_soil_run(arm, reach_table, compliance: str):
-    """Planned with the nominal sand; the world's sand is 5x stiffer at 10 cm (cohesion 6.8 kPa adds
-    c d N_c w = 408 N to eq. 8's 102 N) and the wrist relief is 500 N m."""
+    """Planned with the nominal sand; the world's sand is 6x stiffer at 10 cm (cohesion 9 kPa adds
+    c d N_c w = 540 N to eq. 8's 102 N; 6.8 kPa stalled the wrist while the world added 30 % of the load as
+    surcharge) and the wrist relief is 500 N m."""
     robot = load_robot_config()
     wrist = robot.joints.wrist_pitch.model_copy(update={"torque_limit_nm": 500.0})
     robot = robot.model_copy(update={"joints": robot.joints.model_copy(update={"wrist_pitch": wrist})})
-    stiff = get_soil("testbed_sand").model_copy(update={"cohesion_pa": 6800.0})
+    stiff = get_soil("testbed_sand").model_copy(update={"cohesion_pa": 9000.0})
     sim = Simulation(robot=robot, soil=stiff, seed=0)  # seed 2's weaker patches let this dig through
     plan = planned_dig(sim, arm, reach_table, flat_map())
     cfg = load_executor_config().model_copy(update={"compliance": compliance})

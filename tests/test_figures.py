@@ -46,10 +46,12 @@ def test_one_figure_end_to_end_writes_a_png(tmp_path, capsys):
 def test_the_force_trace_figure_drives_the_world_and_reports_its_numbers(tmp_path):
     [(png, summary)] = write_figures(["fig54"], tmp_path)
     assert png.read_bytes()[:8] == PNG_MAGIC
-    # eq. 8 at 10 cm, rake 30 deg, 0.3 m wide testbed sand: 102 N; the world runs above it
+    # eq. 8 at 10 cm, rake 30 deg, 0.3 m wide testbed sand: 102 N, the force just before failure; the
+    # world's failure cycle runs between 80 % and 100 % of it (times the local strength)
     assert "eq. 8 102 N" in summary
     mean = float(summary.split("mean ")[1].split(" N")[0])
-    assert 102 < mean < 400, summary
+    assert 0.6 * 102 < mean < 1.2 * 102, summary
+    assert float(summary.split("largest sample ")[1].split(" N")[0]) < 1.5 * 102, summary
 
 
 def test_a_drive_records_from_the_start_of_the_returned_motion():

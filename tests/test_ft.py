@@ -28,7 +28,7 @@ SURFACE = 0.5  # configs/scene.yaml initial fill [m]
 def quiet_scene() -> SceneConfig:
     """The default scene without the truth terms and without F/T noise (as tests/test_soil.py)."""
     base = load_scene_config()
-    t = {"speed_coefficient_s_per_m": 0.0, "sawtooth_amplitude": 0.0, "heterogeneity_std": 0.0,
+    t = {"cohesion_rate_per_decade": 0.0, "brittleness_index": 0.0, "heterogeneity_std": 0.0,
          "ft_force_noise_n": 0.0, "ft_torque_noise_nm": 0.0}
     return base.model_copy(update={"truth": base.truth.model_copy(update=t)})
 

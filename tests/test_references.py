@@ -21,11 +21,10 @@ import numpy as np
 import pytest
 
 from excavsim.config import get_soil
-from excavsim.loop.drags import inclined_penetration
+from excavsim.loop.drags import inclined_penetration, scene_with_truth
 from excavsim.mechanics.earth_pressure import coulomb_passive_coefficient, rankine_passive_coefficient
 from excavsim.mechanics.wedge import critical_beta, n_factors, wedge_force
 from excavsim.mechanics.wedge_inertia import acceleration_factor, inertial_force
-from excavsim.planning.predictor import WedgePredictor
 from excavsim.world.simulation import Simulation
 
 RAD = math.radians
@@ -86,22 +85,28 @@ def test_coulomb_coefficient_refuses_a_non_positive_friction_angle():
 
 @pytest.fixture(scope="module")
 def speed_series():
-    """Fig. 63's motion (alpha 10 deg, rho 30 deg) through the world's default soil at four speeds:
-    the mean soil force while the edge is 5-7 cm deep, and the static model's prediction there."""
+    """Fig. 63's motion (alpha 10 deg, rho 30 deg) through uniform testbed sand (no heterogeneity, no
+    failure-cycle drops) at four speeds up to soil-bin speeds: the mean soil force while the edge is
+    5-7 cm deep, and the static model (eq. 8 at the edge's depth) there."""
     sand = get_soil("testbed_sand")
+    scene = scene_with_truth(heterogeneity_std=0.0, brittleness_index=0.0)
     out = []
-    for v in (0.05, 0.1, 0.2, 0.4):
-        rec = inclined_penetration(Simulation(seed=0), x0_m=2.4, length_m=0.45, alpha_rad=RAD(10), rake_rad=RAD(30),
-                                   speed_m_s=v)
+    for v in (0.1, 0.5, 1.0, 1.5):
+        rec = inclined_penetration(Simulation(scene=scene, seed=0), x0_m=2.4, length_m=0.45, alpha_rad=RAD(10),
+                                   rake_rad=RAD(30), speed_m_s=v)
         sel = (rec.depth_m > 0.05) & (rec.depth_m < 0.07)
-        pred = WedgePredictor(sand, 0.3).predict(rec.depth_m[sel], rec.rake_rad[sel], rec.cut_m3[sel])
-        out.append((v, rec.magnitude_n[sel].mean(), np.linalg.norm(pred, axis=-1).mean()))
+        static = wedge_force(rec.depth_m[sel], rec.rake_rad[sel], sand, 0.3)
+        out.append((v, rec.magnitude_n[sel].mean(), static.mean()))
     return np.array(out)
 
 
 def test_world_forces_grow_with_speed_as_soil_bin_measurements_do(speed_series):
+    """Soil-bin measurements (e.g. Onwualu & Watts 1998) show draft growing with v and v^2: in sand the
+    world's growth is the inertial v^2 term, rising and convex."""
     v, world, _ = speed_series.T
     assert np.all(np.diff(world) > 0), world
+    slope = np.diff(world) / np.diff(v)
+    assert np.all(np.diff(slope) > 0), world  # convex
     assert world[-1] > 1.2 * world[0], world
 
 
@@ -111,8 +116,8 @@ def test_the_static_model_predicts_slow_cuts_better_than_fast_ones(speed_series)
     v, world, static = speed_series.T
     np.testing.assert_allclose(static, static[0], rtol=0.02)  # same depths, speed-free
     err = np.abs(world - static)
-    assert err[:2].max() < 0.1 * static[0] < err[-1], (world, static)  # within 10 % slow, beyond it fast
-    assert world[-1] > 1.2 * static[-1]
+    assert err[0] < 0.03 * static[0] < 0.1 * static[0] < err[-1], (world, static)  # within 3 % slow, > 10 % fast
+    assert np.all(np.diff(err) > 0), err
 
 
 # -- the dynamic Fundamental Equation of Earthmoving's inertial term (McKyes 1985) ------------------------

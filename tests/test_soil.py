@@ -29,7 +29,7 @@ SURFACE = 0.5  # configs/scene.yaml initial fill [m]
 def quiet_scene(**truth) -> SceneConfig:
     """The default scene with the truth terms switched off (or set as given)."""
     base = load_scene_config()
-    t = {"speed_coefficient_s_per_m": 0.0, "sawtooth_amplitude": 0.0, "heterogeneity_std": 0.0,
+    t = {"cohesion_rate_per_decade": 0.0, "brittleness_index": 0.0, "heterogeneity_std": 0.0,
          "ft_force_noise_n": 0.0, "ft_torque_noise_nm": 0.0}
     t.update(truth)
     return base.model_copy(update={"truth": base.truth.model_copy(update=t)})
@@ -133,13 +133,13 @@ def test_horizontal_drag_matches_the_wedge_model(depth):
     steady = contacts[len(contacts) // 2:]
     f = np.array([c.cutting_force for c in steady])
     soil = sim.soil.soil
-    # Surcharge: 30 % of the load in the bucket (configs/scene.yaml); compare per step.
-    from excavsim.mechanics.wedge import surcharge_force
-    loads = np.cumsum([0.0] + [c.cut_volume_m3 for c in contacts])  # load before each step
-    expect = np.array([wedge_force(depth, rake, soil, sim.soil.bucket.width) + surcharge_force(0.3 * v, rake, soil)
-                       for v in loads[len(contacts) // 2:len(contacts)]]).ravel()
+    # Nothing heaps ahead (the bucket is far from full), so no surcharge; the inertial term of the
+    # dynamic earthmoving equation at the drag's 0.1 m/s is under 1 %.
+    from excavsim.mechanics.wedge_inertia import inertial_force
+    width = sim.soil.bucket.width
+    expect = float(wedge_force(depth, rake, soil, width) + inertial_force(depth, rake, 0.1, soil, width))
     mag = np.linalg.norm(f, axis=1)
-    np.testing.assert_allclose(mag, expect, rtol=0.08)
+    np.testing.assert_allclose(mag, expect, rtol=0.01)
     # Direction: backward (+x, away from the robot) and down at pi/2 - rho - delta from horizontal.
     angle = np.arctan2(-f[:, 2], f[:, 0])
     np.testing.assert_allclose(angle, math.pi / 2 - rake - soil.delta, atol=0.01)
@@ -152,8 +152,8 @@ def test_drag_forces_are_hundreds_of_newtons_and_grow_with_depth():
         contacts = Driver(Simulation(seed=3)).drag(2.3, 2.0, depth, math.radians(30))
         peaks.append(np.mean([np.linalg.norm(c.cutting_force) for c in contacts[len(contacts) // 3:]]))
     assert peaks[0] < peaks[1] < peaks[2]
-    assert 30 < peaks[0] and peaks[2] < 2000, peaks
-    assert peaks[1] > 100, peaks
+    assert 15 < peaks[0] and peaks[2] < 2000, peaks  # eq. 8: 26 N at 5 cm; the failure cycle averages below it
+    assert peaks[1] > 80, peaks  # eq. 8: 102 N at 10 cm
 
 
 def test_cutting_force_acts_only_while_the_edge_moves_into_soil():
@@ -170,17 +170,17 @@ def test_cutting_force_acts_only_while_the_edge_moves_into_soil():
 
 
 def test_speed_increases_the_cutting_force():
-    """Fig. 63: the static model misses the speed effect; the truth term adds it."""
+    """Fig. 63: the static model misses the speed effect; the dynamic earthmoving equation adds it."""
     forces = []
-    for speed in (0.05, 0.3):
-        sim = Simulation(scene=quiet_scene(speed_coefficient_s_per_m=2.0), seed=5)
-        c = Driver(sim).drag(2.3, 2.15, 0.1, math.radians(30), speed)
+    for speed in (0.05, 1.0):
+        sim = Simulation(scene=quiet_scene(), seed=5)
+        c = Driver(sim).drag(2.3, 2.0, 0.1, math.radians(30), speed)
         forces.append(np.mean([c_.wedge_failure_force_n for c_ in c[len(c) // 2:]]))
-    assert forces[1] > 1.3 * forces[0]
+    assert forces[1] > 1.2 * forces[0]
 
 
 def test_sawtooth_rises_and_drops():
-    sim = Simulation(scene=quiet_scene(sawtooth_amplitude=0.3), seed=6)
+    sim = Simulation(scene=quiet_scene(brittleness_index=0.3), seed=6)
     contacts = Driver(sim).drag(2.3, 1.9, 0.1, math.radians(30), 0.05)
     f = np.array([np.linalg.norm(c.cutting_force) for c in contacts])
     drops = np.diff(f) < -0.15 * f[1:]
@@ -311,19 +311,20 @@ def test_the_kernel_writes_every_field_of_its_output_record_each_step():
 
 
 def test_a_parameter_changed_in_the_record_changes_the_next_step_as_the_physics_says():
-    """The speed factor of the truth terms (Fig. 63): ``speed_coefficient_s_per_m`` set to k in the
-    kernel's parameter record multiplies the wedge's failure force by ``1 + k v``."""
+    """The soil's density in the kernel's parameter record is the mass the dynamic earthmoving equation
+    accelerates: doubled, it doubles the inertial part of the wedge's failure force and nothing else."""
     contacts = []
-    for k in (0.0, 2.0):
+    for factor in (1.0, 2.0):
         sim = Simulation(scene=quiet_scene(), seed=5)
         drv = Driver(sim)
         drv.drag(2.3, 2.2, 0.1, math.radians(30), 0.1)
-        sim.soil.params["speed_coefficient_s_per_m"] = k
+        sim.soil.params["density_kg_m3"] *= factor
         contacts.append(drv.place((2.18, SURFACE - 0.1, math.radians(30))))
-    base, fast = contacts
-    assert base.cutting_speed_m_s == fast.cutting_speed_m_s > 0.05 and base.depth_m == fast.depth_m > 0.05
-    assert fast.wedge_failure_force_n == pytest.approx(base.wedge_failure_force_n * (1 + 2.0 * base.cutting_speed_m_s),
-                                                       rel=1e-12)
+    base, heavy = contacts
+    inertia = base.inertial_force_n
+    assert base.cutting_speed_m_s == heavy.cutting_speed_m_s > 0.05 and base.depth_m == heavy.depth_m > 0.05
+    assert inertia > 0 and heavy.inertial_force_n == pytest.approx(2 * inertia, rel=1e-12)
+    assert heavy.wedge_failure_force_n == pytest.approx(base.wedge_failure_force_n + inertia, rel=1e-12)
 
 
 def test_a_record_is_built_from_every_one_of_its_fields():

@@ -31,7 +31,7 @@ class SoilTruthConfig(StrictModel):
     terms below and bearing on the outer surface) or ``dimaio``, the bucket-ground model of
     002_694c274da322d931.txt §5.1-5.2 (viscous friction, lagging stiffness with shear failure, the
     load, Coulomb friction; :mod:`excavsim.world.dimaio`), with the parameters of the soil preset's
-    ``dimaio`` block. The speed, saw-tooth and heterogeneity terms act on the wedge only; rocks
+    ``dimaio`` block. The rate effect, the failure cycle and heterogeneity act on the wedge only; rocks
     and F/T noise act on both.
     """
 
@@ -39,11 +39,18 @@ class SoilTruthConfig(StrictModel):
         default="wedge", description="the world's bucket-soil force model: wedge (eq. 8) or dimaio (DiMaio ch. 5)"
     )
 
-    speed_coefficient_s_per_m: float = Field(
-        default=2.0, ge=0, le=100, description="cutting force grows as (1 + k v), v the cutting speed (Fig. 63)"
+    cohesion_rate_per_decade: float = Field(
+        default=0.1, ge=0, le=1,
+        description="rate effect: cohesion and adhesion grow by this share per tenfold advance speed above the "
+                    "reference (clays ~0.1 per log cycle of strain rate, Kulhawy & Mayne 1990) [-]",
     )
-    sawtooth_amplitude: float = Field(
-        default=0.2, ge=0, lt=1, description="relative drop of the cutting force as a failure surface shears (Fig. 54)"
+    rate_reference_speed_m_s: float = Field(
+        default=0.01, gt=0, le=10, description="advance speed at which the preset's cohesion holds (assumed) [m/s]"
+    )
+    brittleness_index: float = Field(
+        default=0.2, ge=0, lt=1,
+        description="share of the failure force lost when the wedge fails along its critical plane, the "
+                    "saw-tooth's drop (post-peak softening, Bishop 1967; assumed from Fig. 54) [-]",
     )
     heterogeneity_std: float = Field(
         default=0.15, ge=0, le=2, description="std of the log of a spatially correlated strength factor"
@@ -75,9 +82,6 @@ class BucketSoilConfig(StrictModel):
     )
     dump_angle_deg: float = Field(
         default=135.0, ge=0, le=180, description="mouth tilt from vertical at which the bucket is empty [deg]"
-    )
-    load_surcharge_fraction: float = Field(
-        default=0.3, ge=0, le=1, description="share of the load's volume that acts as surcharge on the wedge"
     )
     cut_stiffness_n_per_m: float = Field(
         default=1.0e5, gt=0, le=1e8, description="rate at which the cutting force builds with edge travel [N/m]"

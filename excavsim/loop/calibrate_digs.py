@@ -37,7 +37,7 @@ from excavsim.loop.samples import DigSamples
 # 2 % of the load at 0.25-0.4 m, 3-4 digs of the testbed sand).
 RIM_ACROSS_M = 0.3  # beyond the bucket's half width, across the arm plane
 RIM_ALONG_M = 0.4  # beyond the path's radial extent
-QUIET = {"speed_coefficient_s_per_m": 0.0, "sawtooth_amplitude": 0.0, "heterogeneity_std": 0.0}
+QUIET = {"cohesion_rate_per_decade": 0.0, "brittleness_index": 0.0, "heterogeneity_std": 0.0}
 
 
 def removed_volume(before: ElevationMap, after: ElevationMap, path_xz: np.ndarray, arm, waist: float,
@@ -100,7 +100,7 @@ def record_digs(path, *, truth: str = "wedge", soil: str | None = None, digs: in
     """Dig ``digs`` random feasible digs (one episode, seed ``seed``) on the ``truth`` model and save
     their force record at ``path``; returns it.
 
-    ``quiet``: the wedge's truth terms (speed, saw-tooth, heterogeneity) off, so that the record is
+    ``quiet``: the wedge's truth terms (rate effect, failure-cycle drops, heterogeneity) off, so that the record is
     of a known soil. The metadata names the truth, the soil, the seed, the bucket width, and per dig
     the action (``actions``) and the soil the scans saw it remove (``removed_m3``), as JSON.
     ``observer``: another observer of the episode (a Rerun recorder).

@@ -3,8 +3,8 @@
 Each figure of 000_a3ca905d8c6d92bf.txt listed by :func:`figures` is redrawn from this project's
 world and mind, beside the static wedge model (eq. 8, :mod:`excavsim.mechanics.wedge`) where the
 thesis compares with it. The force figures (20, 54, 59, 61, 63) drive the bucket through the
-world's soil model as it is (:mod:`excavsim.loop.drags`): they show that model's present
-behaviour, including its scripted terms (the speed factor and the saw-tooth of
+world's soil model as it is (:mod:`excavsim.loop.drags`): they show that model's behaviour (the
+dynamic earthmoving equation's inertial term, the wedge's failure cycle, the heterogeneity of
 ``configs/scene.yaml``'s ``truth``), not the testbed's. The planner figures live in
 :mod:`excavsim.loop.figures_plan`.
 
@@ -34,7 +34,7 @@ from excavsim.world.simulation import Simulation
 
 RAD = math.radians
 EQ8 = "static eq. 8, no surcharge"
-ENTRY_M = 0.08  # the first 8 cm of a drag carry the bearing transient of the vertical entry
+ENTRY_M = 0.08  # the first 8 cm of a drag: the first failures of the wedge as it is first loaded
 PLANNER = "planner's model: eq. 8 + 30 % of the swept soil as surcharge"
 
 
@@ -114,6 +114,7 @@ def fig54(ctx: FigureContext, path: pathlib.Path) -> str:
     peaks = _drops(smooth[steady], sub.s_m[steady])
     spacing = float(np.median(np.diff(peaks))) if len(peaks) > 1 else float("nan")
     expect = depth / math.tan(float(critical_beta(rake, ctx.soil.phi, ctx.soil.delta)))
+    crest = float(np.mean([smooth[steady][sub.s_m[steady] == p][0] for p in peaks])) if len(peaks) else float("nan")
     fig = _figure((8.0, 4.2))
     ax = fig.add_subplot()
     ax.plot(sub.s_m, sub.magnitude_n, color="#bbbbbb", lw=0.8, label="world, 50 Hz")
@@ -135,8 +136,9 @@ def fig54(ctx: FigureContext, path: pathlib.Path) -> str:
     _save(fig, path)
     mean = float(sub.magnitude_n[steady].mean())
     return (f"mean {mean:.0f} N past 8 cm vs eq. 8 {float(bare[steady].mean()):.0f} N, planner "
-            f"{float(planner[steady].mean()):.0f} N; entry peak {float(sub.magnitude_n.max()):.0f} N; "
-            f"{len(peaks)} drops > 5 %, median spacing {spacing:.3f} m vs d cot beta* {expect:.3f} m")
+            f"{float(planner[steady].mean()):.0f} N; largest sample {float(sub.magnitude_n.max()):.0f} N; "
+            f"{len(peaks)} drops > 5 %, crests {crest:.0f} N, median spacing {spacing:.3f} m (spacings "
+            f"{', '.join(f'{x:.3f}' for x in np.diff(peaks))}) vs d cot beta* {expect:.3f} m")
 
 
 def fig59(ctx: FigureContext, path: pathlib.Path) -> str:
@@ -174,7 +176,7 @@ def fig61(ctx: FigureContext, path: pathlib.Path) -> str:
     """Fig. 61: force along a 10 deg approach for rakes of 20, 30, 40, 50 deg, in the world as configured
     and with its truth terms (speed, saw-tooth, heterogeneity) off, beside eq. 8."""
     rakes = (20, 30, 40, 50)
-    quiet = drags.scene_with_truth(speed_coefficient_s_per_m=0.0, sawtooth_amplitude=0.0, heterogeneity_std=0.0)
+    quiet = drags.scene_with_truth(cohesion_rate_per_decade=0.0, brittleness_index=0.0, heterogeneity_std=0.0)
     fig = _figure((10.0, 4.4))
     axes = fig.subplots(1, 2, sharey=True)
     at5: dict[str, list] = {"world": [], "quiet": []}
@@ -226,8 +228,8 @@ def fig62(ctx: FigureContext, path: pathlib.Path) -> str:
 
 def fig63(ctx: FigureContext, path: pathlib.Path) -> str:
     """Fig. 63: force against speed (alpha 10 deg, rho 30 deg) beside the static model."""
-    speeds = np.array([0.02, 0.05, 0.1, 0.2, 0.3, 0.5])
-    world, static, inertia = [], [], []
+    speeds = np.array([0.02, 0.05, 0.1, 0.2, 0.5, 1.0, 1.5])
+    world, static, bare_eq8, inertia = [], [], [], []
     fig = _figure((10.0, 4.0))
     ax, axs = fig.subplots(1, 2)
     for i, v in enumerate(speeds):
@@ -237,28 +239,33 @@ def fig63(ctx: FigureContext, path: pathlib.Path) -> str:
         sel = (rec.depth_m > 0.05) & (rec.depth_m < 0.07)
         world.append(float(rec.magnitude_n[sel].mean()))
         static.append(float(planner[sel].mean()))
+        bare_eq8.append(float(bare[sel].mean()))
         inertia.append(float(inertial_force(rec.depth_m[sel], rec.rake_rad[sel], v, ctx.soil, ctx.width).mean()))
         ax.plot(rec.s_m, rec.magnitude_n, color=f"C{i}", lw=0.9, label=f"{v:g} m/s")
     ax.plot(rec.s_m, planner, "k-", lw=1.2, label="planner's model")
+    ax.plot(rec.s_m, bare, "k--", lw=1.0, label=EQ8)
     ax.set_xlabel("distance along the 10 deg approach [m]")
     ax.set_ylabel("|F| [N]")
     ax.legend(fontsize=7)
-    world, static, dynamic = np.array(world), np.array(static), np.array(static) + np.array(inertia)
+    world, static, bare_eq8 = np.array(world), np.array(static), np.array(bare_eq8)
+    dynamic = bare_eq8 + np.array(inertia)
     quad = np.polyfit(speeds, world, 2)
     axs.plot(speeds, world, "o-", label="world (5-7 cm deep)")
-    axs.plot(speeds, static, "k--", label="static (planner's model)")
-    axs.plot(speeds, dynamic, "k:", label="static + inertia (dynamic FEE, McKyes 1985)")
+    axs.plot(speeds, static, "k-", lw=1.0, label="planner's model (static)")
+    axs.plot(speeds, bare_eq8, "k--", label="eq. 8 (static)")
+    axs.plot(speeds, dynamic, "k:", label="eq. 8 + inertia (dynamic FEE, McKyes 1985)")
     axs.set_xlabel("tool speed [m/s]")
     axs.set_ylabel("mean |F| at 5-7 cm depth [N]")
-    axs.set_ylim(0, 1.15 * world.max())
+    axs.set_ylim(0, 1.15 * max(world.max(), static.max()))
     axs.legend(fontsize=7)
-    fig.suptitle("Fig. 63: speed, alpha 10 deg, rho 30 deg; the world's speed term is the scripted factor "
-                 "1 + 2 v of configs/scene.yaml", fontsize=9)
+    fig.suptitle("Fig. 63: speed, alpha 10 deg, rho 30 deg; the world's speed effect is the inertia of the soil "
+                 "entering the failing wedge (sand: no rate effect)", fontsize=9)
     _save(fig, path)
-    return (f"world {world[0]:.0f} -> {world[-1]:.0f} N from {speeds[0]:g} to {speeds[-1]:g} m/s "
-            f"(x{world[-1] / world[0]:.2f}), static {static.mean():.0f} N; quadratic fit "
-            f"{quad[2]:.0f} + {quad[1]:.0f} v + {quad[0]:.0f} v^2 N (curvature ~0: linear, not v^2); static + "
-            f"inertia {dynamic[0]:.0f} -> {dynamic[-1]:.0f} N")
+    at = {float(v): w for v, w in zip(speeds, world)}
+    return (f"world {world[0]:.0f} N at {speeds[0]:g} m/s, {at[0.1]:.0f} N at 0.1, {at[0.5]:.0f} N at 0.5, "
+            f"{world[-1]:.0f} N at {speeds[-1]:g} m/s (x{world[-1] / world[0]:.2f}); eq. 8 {bare_eq8.mean():.0f} N, "
+            f"planner {static.mean():.0f} N; quadratic fit {quad[2]:.0f} + {quad[1]:.0f} v + {quad[0]:.0f} v^2 N; "
+            f"eq. 8 + inertia {dynamic[0]:.0f} -> {dynamic[-1]:.0f} N")
 
 
 def fig20(ctx: FigureContext, path: pathlib.Path) -> str:

@@ -21,8 +21,9 @@ the failure plane, enters eqs. 3-4 beside ``W + Q``; solving for the blade force
 
 the second line being McKyes' form. Simplification: evaluated at the static critical angle beta*
 (the minimum of ``N_gamma``), as the static factors are; the soil is rigid and enters the wedge at
-the blade's speed. This module is a reference for figures and tests; neither the world nor the
-planner uses it.
+the blade's speed. The world's soil model adds this term to its wedge force
+(:mod:`excavsim.world.soil`, tabulated per rake by ``acceleration_factor``); the planner's model
+stays static (eq. 8).
 """
 
 from __future__ import annotations

@@ -1,9 +1,10 @@
 """The compiled control step of the bucket-soil interaction (numba, cached on disk).
 
 :func:`soil_step` is the per-control-step kernel of :mod:`excavsim.world.soil`: the edge's depth and
-the wedge's failure force with the truth terms, the elastic cutting force, cutting the swept cells,
-bearing and friction on the outer surface, rocks, and the load's weight, summed into the wrench on
-the bucket. Its loops over grid cells and surface samples are in :mod:`excavsim.world.grid_kernels`.
+the wedge's failure force (static, rate effect, inertia), the cutting force through the wedge's
+failure cycle (:func:`failure_cycle`), cutting the swept cells, bearing and friction on the outer
+surface, rocks, and the load's weight, summed into the wrench on the bucket. Its loops over grid
+cells and surface samples are in :mod:`excavsim.world.grid_kernels`.
 Grid conventions are those of :class:`~excavsim.world.terrain.SoilGrid` (``h[row, col]``, row along
 y, col along x). The kernel's parameters, state and outputs are the named records of
 :mod:`excavsim.world.soil_records`; inside the compiled code a record (``grid``, ``p``, ``st``,
@@ -91,12 +92,64 @@ def remember_edge(st, ends, cx, cy, cz):
     centre[2] = cz
 
 
+@numba.njit(cache=True, inline="always")
+def failure_cycle(st, p, travel, advance, f_nom, f_fail, spacing):
+    """The cutting force on the blade through the wedge's failure cycle (Fig. 53-54); updates ``st``.
+
+    First loading: the force builds elastically with the edge's ``travel`` into the soil
+    (``cut_stiffness_n_per_m``) up to the failure force ``f_fail``, and relaxes when the edge backs
+    off. When it reaches ``f_fail`` the wedge fails along its critical plane and the force drops by
+    the brittleness index ``I_B`` (the failed wedge slides at its post-peak strength). From then on
+    the blade pushes the failed wedge, of length ``spacing = d cot beta*`` ahead of the edge, off
+    the intact soil while the next wedge takes up load: the share ``m`` of the nominal (strength 1)
+    failure force ``f_nom`` it carries grows by ``I_B`` per ``spacing`` of horizontal ``advance``,
+    and the next failure comes when ``m f_nom`` reaches ``f_fail`` (the local strength factor times
+    the static part, plus the inertial part), after about
+    ``hetero * d cot beta*`` of advance: the spacing follows the geometry and the local strength.
+    With ``I_B = 0`` the force stays at the failure force (the static picture). Out of the soil
+    (``f_fail = 0``) the cycle restarts.
+
+    Returns:
+        (the cutting force [N], whether the wedge failed this step).
+    """
+    ib = p.brittleness_index
+    if f_fail <= 0.0:
+        st.failed = False
+        st.mobilised = 0.0
+        st.cut_force_n = 0.0
+        return 0.0, False
+    if not st.failed or ib <= 0.0:
+        fc = min(max(st.cut_force_n + p.cut_stiffness_n_per_m * travel, 0.0), f_fail)
+        st.cut_force_n = fc
+        if ib > 0.0 and fc >= f_fail:
+            st.failed = True
+            st.mobilised = (1.0 - ib) * f_fail / f_nom
+            return fc, True
+        return fc, False
+    m = st.mobilised
+    if travel < 0.0:
+        m += p.cut_stiffness_n_per_m * travel / f_nom  # elastic unloading as the edge backs off
+    elif advance > 0.0:
+        m += ib * advance / spacing
+    m = max(m, 0.0)
+    failed = False
+    if m * f_nom >= f_fail:
+        fc = f_fail
+        m = (1.0 - ib) * f_fail / f_nom
+        failed = True
+    else:
+        fc = m * f_nom
+    st.mobilised = m
+    st.cut_force_n = fc
+    return fc, failed
+
+
 @numba.njit(cache=True)
 def soil_step(heights, strength, grid, mj_arrays, bucket_vel6, bucket, edge, surface, table, rocks, params, dt_s,
               state, pressure, out):
     """One control step of the bucket-soil interaction (see :mod:`excavsim.world.soil`).
 
-    Cuts the swept cells; updates the state (previous edge, elastic cutting force, shear travel,
+    Cuts the swept cells; updates the state (previous edge, cutting force and failure cycle,
     load) and the bearing pressures; writes the forces on the bucket, their moment about its centre
     of mass (cutting, bearing, rocks and the load's weight, with the load after this step's cut)
     and diagnostics to ``out``. The records are those of :mod:`excavsim.world.soil_records`, each
@@ -168,9 +221,18 @@ def soil_step(heights, strength, grid, mj_arrays, bucket_vel6, bucket, edge, sur
     travel = -((cx - prev_c[0]) * ux + (cy - prev_c[1]) * uy + (cz - prev_c[2]) * uz)
     speed = max(travel, 0.0) / dt_s
 
-    # wedge failure force (eq. 8 + adhesion + surcharge) with the truth terms
+    # the edge's horizontal advance into the soil: the speed at which soil enters the wedge
+    advance = (cx - prev_c[0]) * ax + (cy - prev_c[1]) * ay
+    v_adv = max(advance, 0.0) / dt_s
+
+    # wedge failure force: eq. 8 + adhesion + the surcharge heaped ahead (static), with the rate
+    # effect on cohesion and the inertial term of the dynamic earthmoving equation
     f_fail = 0.0
+    f_inert = 0.0
+    f_nom = 0.0
     wedge_len = 0.0
+    hetero = 1.0
+    spacing = 1.0
     if depth > 0.0:
         rk = max(rake, p.rake_min_rad)
         ng = _interp_uniform(t_rake0, t_step, table.n_gamma, rk)
@@ -178,9 +240,15 @@ def soil_step(heights, strength, grid, mj_arrays, bucket_vel6, bucket, edge, sur
         nadh = _interp_uniform(t_rake0, t_step, table.n_a, rk)
         den = _interp_uniform(t_rake0, t_step, table.denominator, rk)
         beta = _interp_uniform(t_rake0, t_step, table.beta_rad, rk)
+        nacc = _interp_uniform(t_rake0, t_step, table.n_acc, rk)
         dw = bk.width_m / nw
-        f_static = (p.gamma_g_n_m3 * d2sum * ng + p.cohesion_pa * dsum * nc + p.adhesion_pa * dsum * nadh) * dw
-        wedge_len = depth * (1.0 / np.tan(rk) + 1.0 / np.tan(beta))
+        rate = 1.0
+        if v_adv > p.rate_reference_speed_m_s:
+            rate += p.cohesion_rate_per_decade * np.log10(v_adv / p.rate_reference_speed_m_s)
+        f_static = (p.gamma_g_n_m3 * d2sum * ng + rate * (p.cohesion_pa * nc + p.adhesion_pa * nadh) * dsum) * dw
+        f_inert = p.density_kg_m3 * v_adv * v_adv * nacc * dsum * dw
+        spacing = depth / np.tan(beta)
+        wedge_len = depth / np.tan(rk) + spacing
         ex = ends[1, 0] - ends[0, 0]
         ey = ends[1, 1] - ends[0, 1]
         ez = ends[1, 2] - ends[0, 2]
@@ -189,21 +257,14 @@ def soil_step(heights, strength, grid, mj_arrays, bucket_vel6, bucket, edge, sur
         across = np.array([ex / en, ey / en, ez / en])
         ahead = np.array([ax, ay, 0.0])
         v_ahead = surcharge_volume(h, g, centre, across, ahead, bk.width_m, wedge_len, cz + depth)
-        surcharge = v_ahead + p.load_surcharge_fraction * st.load_m3
-        f_static += p.gamma_g_n_m3 * surcharge / den
-        c = int(np.floor((cx - x0) / cell + 0.5))
-        r = int(np.floor((cy - y0) / cell + 0.5))
-        hetero = 1.0
-        if 0 <= r < strength.shape[0] and 0 <= c < strength.shape[1]:
-            hetero = strength[r, c]
-        if travel > 0.0:
-            st.shear_travel_m += travel
-        period = max(0.01, depth / np.tan(beta))
-        phase = (st.shear_travel_m / period) % 1.0
-        saw = 1.0 - p.sawtooth_amplitude * (1.0 - phase)
-        f_fail = f_static * (1.0 + p.speed_coefficient_s_per_m * speed) * hetero * saw
-    fc = min(max(st.cut_force_n + p.cut_stiffness_n_per_m * travel, 0.0), f_fail)
-    st.cut_force_n = fc
+        f_static += p.gamma_g_n_m3 * v_ahead / den
+        # the strength of the soil the failure plane runs through, at its middle (interpolated)
+        hs = bilinear(strength, x0, y0, cell, cx + 0.5 * spacing * ax, cy + 0.5 * spacing * ay)
+        if np.isfinite(hs):
+            hetero = hs
+        f_nom = f_static + f_inert
+        f_fail = f_static * hetero + f_inert
+    fc, failed_now = failure_cycle(st, p, travel, advance, f_nom, f_fail, max(spacing, 1e-3))
     fcx, fcy, fcz = fc * ux, fc * uy, fc * uz
 
     # cut the swept cells
@@ -265,7 +326,10 @@ def soil_step(heights, strength, grid, mj_arrays, bucket_vel6, bucket, edge, sur
     o.depth_m = depth
     o.rake_rad = rake
     o.cutting_speed_m_s = speed
+    o.advance_speed_m_s = v_adv
     o.wedge_failure_force_n = f_fail
+    o.inertial_force_n = f_inert
+    o.wedge_failed = 1.0 if failed_now else 0.0
     o.wedge_length_m = wedge_len
     _set3(o.cutting_force_n, fcx, fcy, fcz)
     _set3(o.bearing_force_n, fb[0], fb[1], fb[2])

@@ -13,19 +13,32 @@ Model (and where it simplifies):
   just ahead of the edge (surcharge) and spreads by settlement. Only the edge reshapes the terrain:
   the bottom and back of the bucket press on the soil (below) but do not displace it.
 * **Cutting resistance**: the wedge model, eq. 8 (000_a3ca905d8c6d92bf.txt §5.1.2), per width sample,
-  with depth ``d`` of the edge below the surface just ahead of it, the rake of the blade, ``beta``
-  minimizing ``N_gamma`` (tabulated per rake; below 5 deg the blade slices along itself, outside the
-  model, and the factors are held at 5 deg), adhesion (eq. 5) and a surcharge equal to the soil
-  above the edge level on the wedge ahead plus a share of the load, entering as its weight over the
-  denominator of eq. 5 (eq. 7 with ``q d (cot rho + cot beta)`` = surcharge weight per width). The
-  force acts along ``-sin(delta) x_t - cos(delta) z_t`` in the tip frame (the angle
-  ``pi/2 - rho - delta`` from horizontal of eq. 8). It builds elastically with the edge's travel
-  into the soil (``cut_stiffness_n_per_m``) up to the failure value and relaxes when the edge backs
-  off: it acts only while the edge moves into soil, and is continuous when the arm stalls.
-* **Truth terms the static model misses** (``SoilTruthConfig``): a speed factor ``1 + k v``
-  (Fig. 63), saw-tooth build-up and release over successive failure surfaces spaced ``d cot beta``
-  (Fig. 54), a log-normal, spatially correlated strength factor, buried rocks that push the edge
-  back (they are never excavated), and F/T noise (added to observations by the Simulation).
+  with depth ``d`` of the edge below the surface just ahead of it (bilinear in the heightfield, so
+  sub-cell), the rake of the blade, ``beta`` minimizing ``N_gamma`` (tabulated per rake; below 5 deg
+  the blade slices along itself, outside the model, and the factors are held at 5 deg), adhesion
+  (eq. 5) and the surcharge of the soil actually heaped on the wedge: the soil above the level of the
+  surface ahead of the edge over the wedge's length ``d (cot rho + cot beta)``, entering as its
+  weight over the denominator of eq. 5 (eq. 7 with ``q d (cot rho + cot beta)`` = surcharge weight
+  per width); nothing heaps on a flat surface until the full bucket spills ahead, so cohesionless
+  drags scale as ``d^2``. The force acts along ``-sin(delta) x_t - cos(delta) z_t`` in the tip frame
+  (the angle ``pi/2 - rho - delta`` from horizontal of eq. 8).
+* **Speed** (Fig. 63): the dynamic form of the Fundamental Equation of Earthmoving (McKyes 1985) adds
+  the force that accelerates the soil entering the wedge, ``rho_s v^2 d N_acc w``, with ``v`` the
+  edge's horizontal advance (:mod:`excavsim.mechanics.wedge_inertia`); for cohesive soils the
+  cohesion and adhesion grow by ``cohesion_rate_per_decade`` per tenfold ``v`` above
+  ``rate_reference_speed_m_s`` (the strain-rate effect on clay strength, about 10 % per log cycle,
+  Kulhawy & Mayne 1990; the reference speed is assumed). Cohesionless sand has no rate effect here.
+* **Failure cycle** (Figs. 53-54, :func:`~excavsim.world.kernels.failure_cycle`): the force builds
+  elastically with the edge's travel (``cut_stiffness_n_per_m``) to the failure force, the wedge
+  fails along its critical plane and the force drops by the brittleness index (post-peak softening,
+  Bishop 1967; its value is assumed); the blade then pushes the failed wedge off while the next one
+  takes up load, and the next failure comes after ``s d cot beta*`` of advance, ``s`` the strength
+  factor where the new failure plane runs. Eq. 8 is the peak of each cycle ("the force just before
+  failure", §5.1.2). It acts only while the edge moves into soil and is continuous when the arm stalls.
+* **Truth terms the static model misses** (``SoilTruthConfig``): the rate effect and the failure
+  cycle above, a log-normal, spatially correlated strength factor (interpolated at the middle of the
+  failure plane; it scales the static part), buried rocks that push the edge back (they are never
+  excavated), and F/T noise (added to observations by the Simulation).
 * **Bearing and friction** on the outer surface (Fig. 19, rake below ``alpha + epsilon``): a rate
   form elasto-plastic pressure, between the at-rest earth pressure ``K0 gamma g p`` (Jaky,
   ``K0 = 1 - sin phi``) and the strip-footing bearing capacity ``c N_c + gamma g p N_q +
@@ -59,6 +72,7 @@ from excavsim import constants
 from excavsim.config import SceneConfig, SoilParams
 from excavsim.mechanics.bearing import bearing_factors
 from excavsim.mechanics.wedge import MIN_RAKE_RAD, WedgeTable
+from excavsim.mechanics.wedge_inertia import acceleration_factor
 from excavsim.world import dimaio, kernels, soil_records
 from excavsim.world.bucket import BucketGeometry
 from excavsim.world.settle import SettleResult, settle
@@ -115,7 +129,9 @@ class SoilContact:
     depth_m = _scalar("depth_m", "mean edge depth below the surface [m]")
     rake_rad = _scalar("rake_rad", "rake of the blade [rad]")
     cutting_speed_m_s = _scalar("cutting_speed_m_s", "edge speed into the soil [m/s]")
+    advance_speed_m_s = _scalar("advance_speed_m_s", "edge's horizontal advance into the soil [m/s]")
     wedge_failure_force_n = _scalar("wedge_failure_force_n", "failure force of the wedge with the truth terms [N]")
+    inertial_force_n = _scalar("inertial_force_n", "part of it that accelerates the soil entering the wedge [N]")
     cutting_force = _vector("cutting_force_n", "wedge force on the bucket [N]")
     bearing_force = _vector("bearing_force_n", "bearing and friction on the outer surface [N]")
     rock_force = _vector("rock_force_n", "rock contact force [N]")
@@ -123,6 +139,11 @@ class SoilContact:
     torque = _vector("torque_nm", "total moment about the bucket's centre of mass [N m]")
     cut_volume_m3 = _scalar("cut_volume_m3", "soil cut this step [m^3]")
     max_penetration_m = _scalar("max_penetration_m", "deepest outer-surface sample below the surface [m]")
+
+    @property
+    def wedge_failed(self) -> bool:
+        """Whether the wedge failed along its critical plane this step (the saw-tooth's drop)."""
+        return bool(self._v[_OUT["wedge_failed"]] == 1.0)
 
     @property
     def load_weight(self) -> np.ndarray:
@@ -148,6 +169,13 @@ def strength_field(shape: tuple[int, int], cell: float, std: float, length_m: fl
     smooth = ndimage.gaussian_filter(white, sigma=length_m / cell, mode="reflect")
     smooth /= max(smooth.std(), 1e-12)
     return np.exp(std * smooth - 0.5 * std * std)
+
+
+def _table_acceleration_factor(table: WedgeTable, soil: SoilParams) -> np.ndarray:
+    """``N_acc`` of the dynamic earthmoving equation on the wedge table's rakes at their beta*
+    (McKyes 1985; :func:`~excavsim.mechanics.wedge_inertia.acceleration_factor`); 0 where no wedge exists."""
+    n = acceleration_factor(table.rake, table.beta, soil.phi, soil.delta)
+    return np.where(np.isfinite(n), n, 0.0)
 
 
 class SoilModel:
@@ -185,6 +213,7 @@ class SoilModel:
         self.params = soil_records.filled(
             soil_records.PARAMS,
             gamma_g_n_m3=self._gamma_g,
+            density_kg_m3=gamma,
             cohesion_pa=soil.cohesion_pa,
             adhesion_pa=soil.adhesion_pa,
             sin_delta=math.sin(soil.delta),
@@ -194,10 +223,10 @@ class SoilModel:
             table_rake0_rad=self.table.rake_min,
             table_rake_step_rad=self.table.rake_step,
             cut_stiffness_n_per_m=scene.bucket.cut_stiffness_n_per_m,
-            load_surcharge_fraction=scene.bucket.load_surcharge_fraction,
             capacity_m3=self.heaped_capacity,
-            speed_coefficient_s_per_m=scene.truth.speed_coefficient_s_per_m,
-            sawtooth_amplitude=scene.truth.sawtooth_amplitude,
+            cohesion_rate_per_decade=scene.truth.cohesion_rate_per_decade,
+            rate_reference_speed_m_s=scene.truth.rate_reference_speed_m_s,
+            brittleness_index=scene.truth.brittleness_index,
             k_rest_pa_per_m=(1.0 - math.sin(soil.phi)) * gamma * g,
             q_ult0_pa=q_ult0,
             q_ult_slope_pa_per_m=gamma * g * n_q,
@@ -222,7 +251,8 @@ class SoilModel:
             active=np.repeat(b.arc_length > _EDGE_EXCLUSION_M, n_w))
         tb = self.table
         self._table = soil_records.filled(soil_records.WEDGE_ROW, len(tb.rake), beta_rad=tb.beta, n_gamma=tb.n_gamma,
-                                          n_c=tb.n_c, n_a=tb.n_a, denominator=tb.denominator)
+                                          n_c=tb.n_c, n_a=tb.n_a, denominator=tb.denominator,
+                                          n_acc=_table_acceleration_factor(tb, soil))
         self._pressure = np.zeros(n_prof * n_w)
         self._state = np.zeros(1, soil_records.STATE)
         self._load_m3 = self._state["load_m3"]  # field views, read and set from Python

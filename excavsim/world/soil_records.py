@@ -73,6 +73,7 @@ WEDGE_ROW = np.dtype([
     ("n_c", _F8),
     ("n_a", _F8),
     ("denominator", _F8),
+    ("n_acc", _F8),
 ], align=True)
 """One rake of the wedge table (:class:`~excavsim.mechanics.wedge.WedgeTable`), row ``i`` at rake
 ``table_rake0_rad + i * table_rake_step_rad`` (:data:`PARAMS`); linear interpolation between rows.
@@ -81,10 +82,13 @@ Fields:
     beta_rad: critical failure angle beta [rad].
     n_gamma, n_c, n_a: the N factors of weight, cohesion and adhesion (eqs. 5, 8) [-].
     denominator: the denominator D of eq. 5, which divides the surcharge's weight [-].
+    n_acc: the acceleration factor of the dynamic earthmoving equation at beta
+        (:func:`~excavsim.mechanics.wedge_inertia.acceleration_factor`, McKyes 1985) [-].
 """
 
 PARAMS = np.dtype([
     ("gamma_g_n_m3", _F8),
+    ("density_kg_m3", _F8),
     ("cohesion_pa", _F8),
     ("adhesion_pa", _F8),
     ("sin_delta", _F8),
@@ -94,10 +98,10 @@ PARAMS = np.dtype([
     ("table_rake0_rad", _F8),
     ("table_rake_step_rad", _F8),
     ("cut_stiffness_n_per_m", _F8),
-    ("load_surcharge_fraction", _F8),
     ("capacity_m3", _F8),
-    ("speed_coefficient_s_per_m", _F8),
-    ("sawtooth_amplitude", _F8),
+    ("cohesion_rate_per_decade", _F8),
+    ("rate_reference_speed_m_s", _F8),
+    ("brittleness_index", _F8),
     ("k_rest_pa_per_m", _F8),
     ("q_ult0_pa", _F8),
     ("q_ult_slope_pa_per_m", _F8),
@@ -110,6 +114,7 @@ PARAMS = np.dtype([
 
 Fields:
     gamma_g_n_m3: unit weight of the soil, density times gravity [N/m^3].
+    density_kg_m3: the soil's density, the mass that the dynamic earthmoving equation accelerates [kg/m^3].
     cohesion_pa, adhesion_pa: the soil's cohesion c and the soil-tool adhesion c_a [Pa].
     sin_delta, cos_delta: of the soil-tool friction angle delta, which sets the wedge force's
         direction (eq. 8) [-].
@@ -118,12 +123,12 @@ Fields:
     table_rake0_rad, table_rake_step_rad: the wedge table's uniform rake grid, first rake and
         spacing [rad].
     cut_stiffness_n_per_m: how fast the cutting force builds with the edge's travel into soil [N/m].
-    load_surcharge_fraction: share of the load in the bucket that bears on the wedge [-].
     capacity_m3: heaped capacity of the bucket; cut soil beyond it spills ahead [m^3].
-    speed_coefficient_s_per_m: truth term, the failure force grows by ``1 + k v`` with the edge
-        speed ``v`` (Fig. 63) [s/m].
-    sawtooth_amplitude: truth term, the fraction of the failure force that builds up and is
-        released over each failure surface (Fig. 54) [-].
+    cohesion_rate_per_decade: truth term, the rate effect on cohesion and adhesion: their gain per
+        tenfold increase of the edge's advance speed above ``rate_reference_speed_m_s`` [-].
+    rate_reference_speed_m_s: the advance speed at which the preset's cohesion holds [m/s].
+    brittleness_index: truth term, the share of the failure force lost when the wedge fails along
+        its critical plane (post-peak softening; Bishop 1967), the drop of each saw-tooth [-].
     k_rest_pa_per_m: at-rest earth pressure per metre of depth, ``K0 gamma g`` [Pa/m].
     q_ult0_pa, q_ult_slope_pa_per_m: bearing capacity at the surface and its growth with depth,
         ``q_ult = q_ult0 + slope p`` [Pa], [Pa/m].
@@ -138,9 +143,10 @@ STATE = np.dtype([
     ("prev_edge_ends_m", _F8, (2, 3)),
     ("prev_edge_centre_m", _F8, _V3),
     ("cut_force_n", _F8),
-    ("shear_travel_m", _F8),
+    ("mobilised", _F8),
     ("load_m3", _F8),
     ("has_prev", np.bool_),
+    ("failed", np.bool_),
 ], align=True)
 """What the interaction carries from one control step to the next (besides the bearing pressures).
 
@@ -148,16 +154,22 @@ Fields:
     prev_edge_ends_m: (2, 3) the cutting edge's two ends at the last step, world frame [m].
     prev_edge_centre_m: the centre of the edge samples at the last step, world frame [m].
     cut_force_n: the elastic cutting force built up in the wedge ahead of the edge [N].
-    shear_travel_m: the edge's total travel into soil, the phase of the saw-tooth [m].
+    mobilised: after the wedge's first failure, the force carried by the new wedge as a share of
+        the nominal (strength 1) failure force at the present depth [-].
     load_m3: soil in the bucket [m^3].
     has_prev: False until the first step has set the previous edge.
+    failed: True once the wedge ahead has failed since the edge entered the soil (the failure
+        cycle of the saw-tooth runs from then on).
 """
 
 OUT = np.dtype([
     ("depth_m", _F8),
     ("rake_rad", _F8),
     ("cutting_speed_m_s", _F8),
+    ("advance_speed_m_s", _F8),
     ("wedge_failure_force_n", _F8),
+    ("inertial_force_n", _F8),
+    ("wedge_failed", _F8),
     ("wedge_length_m", _F8),
     ("cutting_force_n", _F8, _V3),
     ("bearing_force_n", _F8, _V3),
@@ -178,7 +190,11 @@ Fields:
     depth_m: mean depth of the edge samples below the surface just ahead of them [m].
     rake_rad: rake of the blade [rad].
     cutting_speed_m_s: the edge's speed into the soil, against the wedge force [m/s].
+    advance_speed_m_s: the edge's horizontal advance along ``ahead``, the speed at which soil
+        enters the wedge (dynamic earthmoving equation, rate effect) [m/s].
     wedge_failure_force_n: failure force of the wedge with the truth terms [N].
+    inertial_force_n: the part of it that accelerates the soil entering the wedge [N].
+    wedge_failed: 1.0 if the wedge failed along its critical plane this step, else 0.0.
     wedge_length_m: length of the failure wedge ahead of the edge, ``d (cot rho + cot beta)`` [m]
         (0 out of the soil).
     cutting_force_n: the wedge's force on the bucket [N].
