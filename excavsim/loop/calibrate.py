@@ -13,11 +13,13 @@ and the swept volume, at the F/T rate: ``excavsim calibrate --record-digs N``, `
 :func:`~excavsim.loop.calibrate_digs.dataset_from_recording`). What the fits model of the record
 (measured against the world's force components, the README's calibration section):
 
-* the load in the bucket is the swept volume scaled per dig to the soil the scans saw the dig
-  remove (:func:`~excavsim.learning.wedge_fit.load_profile`): the swept volume alone is 13-20 %
-  short of the load, which made gamma 14 % high;
+* the load in the bucket is the swept volume, led by the soil just ahead of the tip, scaled per dig
+  to the soil the scans saw the dig remove (:func:`~excavsim.learning.wedge_fit.load_profile`): the
+  swept volume alone is 13-20 % short of the load, which made gamma 14 % high; the load is in the
+  bucket, not on the wedge (the world's wedge carries only the soil heaped on it);
 * the depth is the surface 5 cm ahead of the tip, and the soil above that level on the failure
-  wedge ahead (the wall of the last dig) is surcharge (:class:`~excavsim.learning.wedge_fit.RecordWedge`);
+  wedge ahead (the wall of the last dig) is surcharge (:class:`~excavsim.learning.wedge_fit.RecordWedge`),
+  with McKyes' inertial term at the tip's advance speed;
 * the first samples of a dig, the bucket rising off the touch-down with its bottom pressed on the
   soil (bearing, not cutting), are left out of every fit and score;
 * DiMaio's model is stepped at the controller's rate between the F/T samples and its shear failure
@@ -145,11 +147,11 @@ SEARCH_FACTORS = (1.0, 1.0 / 3.0, 3.0)  # DiMaio's search starts: the preset's s
 SUBSTEPS = 10  # DiMaio's model is stepped at the controller's rate (100 Hz) between the 10 Hz F/T samples
 
 
-def _loads(data: ForceDataset) -> np.ndarray:
+def _loads(data: ForceDataset, width: float) -> np.ndarray:
     from excavsim.learning.wedge_fit import load_profile
     from excavsim.loop.calibrate_digs import removed_volumes
 
-    return load_profile(data["v"], data["dig"], removed_volumes(data))
+    return load_profile(data["v"], data["dig"], removed_volumes(data), tip_depth_m=data["l1"], width_m=width)
 
 
 def planar_record(data: ForceDataset, s_bucket: float, width: float) -> identify.PlanarRecord:
@@ -165,7 +167,7 @@ def planar_record(data: ForceDataset, s_bucket: float, width: float) -> identify
     times = data["t"]
     same = np.diff(data["dig"]) == 0
     dt = float(np.median(np.diff(times)[same])) if same.any() else 0.1
-    load = _loads(data)
+    load = _loads(data, width)
     sp = np.minimum(RecordWedge(width).depth(RecordWedge.inputs(data.samples, load)), s_bucket)
     return identify.PlanarRecord(data["x"], data["z"], t, n, sp, load, data.forces, dt, segment=data["dig"])
 
@@ -201,10 +203,10 @@ def fit_wedge(data: ForceDataset, soil, width: float, *, starts: int = 4, seed: 
     """The wedge model's ``c, phi, delta, gamma`` fitted with bounds to a record
     (:class:`~excavsim.learning.wedge_fit.RecordWedge`, the touch-down samples left out), from
     ``soil`` and random starts; standard errors from the Jacobian."""
-    from excavsim.learning.wedge_fit import RecordWedge
+    from excavsim.learning.wedge_fit import RecordWedge, advance_speed
 
     rw = RecordWedge(width)
-    x = rw.inputs(data.samples, _loads(data))
+    x = rw.inputs(data.samples, _loads(data, width), advance_speed(data["x"], data["t"], data["dig"]))
     keep = _used(data)
     start = np.array([soil.cohesion_pa, soil.phi, soil.delta, soil.density_kg_m3 * identify.G_M_S2])
     theta, se, _ = rw.fit(x[keep], data.forces[keep], start, starts=starts, seed=seed)
