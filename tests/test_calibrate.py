@@ -166,14 +166,15 @@ def test_the_record_model_at_the_true_soil_explains_the_record(sand):
     soil = get_soil("testbed_sand")
     theta = np.array([soil.cohesion_pa, soil.phi, soil.delta, soil.density_kg_m3 * identify.G_M_S2])
     keep = cal._used(data)
-    x = RecordWedge.inputs(data.samples, cal._loads(data, 0.3), advance_speed(data["x"], data["t"], data["dig"]))
+    width = float(data.meta["bucket_width_m"])
+    x = RecordWedge.inputs(data.samples, cal._loads(data, width), advance_speed(data["x"], data["t"], data["dig"]))
 
     def rms(rw):
         r = rw.forces(theta, x)[keep] - data.forces[keep]
         return math.sqrt(float((r ** 2).mean()))
 
-    assert rms(RecordWedge(0.3)) < 20.0
-    assert rms(RecordWedge(0.3, surcharge_fraction=0.3)) > 40.0
+    assert rms(RecordWedge(width)) < 20.0
+    assert rms(RecordWedge(width, surcharge_fraction=0.3)) > 40.0
 
 
 def test_touchdown_samples_are_the_rise_off_the_touchdown():
