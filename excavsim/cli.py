@@ -404,6 +404,8 @@ def _cmd_learn(args: argparse.Namespace) -> int:
 
 
 def _cmd_calibrate(args: argparse.Namespace) -> int:
+    import pathlib
+
     from excavsim.loop import calibrate as cal
 
     if args.table_5_3:
@@ -412,12 +414,37 @@ def _cmd_calibrate(args: argparse.Namespace) -> int:
         cal.table_5_3(args.out, noise_n=args.noise)
         return 0
     if args.record is None:
-        raise ExcavsimError("calibrate needs a RECORD (a force data set .npz, .parquet or .csv) or --table-5-3")
+        raise ExcavsimError("calibrate needs a RECORD (a force data set .npz, .parquet or .csv, or a Rerun "
+                            "recording .rrd) or --table-5-3")
+    record = pathlib.Path(args.record)
+    if args.rrd and not args.record_digs:
+        raise ExcavsimError("--rrd FILE records the digs of --record-digs N; give --record-digs too")
+    if args.rrd and pathlib.Path(args.rrd).suffix != ".rrd":
+        raise ExcavsimError(f"--rrd {shorten(args.rrd)}: a Rerun recording's name ends in .rrd")
     if args.record_digs:
-        print(f"excavsim calibrate: recording {args.record_digs} digs on the {args.truth} truth into {args.record}")
-        cal.record_digs(args.record, truth=args.truth, soil=args.soil, digs=args.record_digs, seed=args.seed,
-                        quiet=args.quiet, say=print)
-    cal.calibrate(args.record, args.model, args.out, soil=args.soil)
+        if record.suffix == ".rrd":
+            raise ExcavsimError(f"--record-digs saves a force data set (.npz, .parquet, .csv), not {record.name}; "
+                                "record the episode with --rrd FILE as well")
+        if record.suffix not in (".npz", ".parquet", ".csv"):
+            raise ExcavsimError(f"--record-digs saves RECORD as a force data set: .npz, .parquet or .csv; given "
+                                f"{shorten(record.name)}")
+        print(f"excavsim calibrate: recording {args.record_digs} digs on the {args.truth} truth into {record}"
+              + (f" (and the episode into {args.rrd})" if args.rrd else ""))
+        observer = None
+        if args.rrd:
+            from excavsim.record import RerunRecorder
+
+            observer = RerunRecorder(args.rrd)
+        cal.record_digs(record, truth=args.truth, soil=args.soil, digs=args.record_digs, seed=args.seed,
+                        quiet=args.quiet, observer=observer, say=print)
+    if record.suffix == ".rrd":
+        from excavsim.loop.calibrate_digs import recording_dataset
+        from excavsim.record.reading import read_recording
+
+        data = recording_dataset(read_recording(record))
+        cal.calibrate(data, args.model, args.out, soil=args.soil, rerun_digs=not args.no_rerun, name=record.stem)
+    else:
+        cal.calibrate(record, args.model, args.out, soil=args.soil, rerun_digs=not args.no_rerun)
     return 0
 
 
@@ -606,9 +633,33 @@ def _cmd_tune(args: argparse.Namespace) -> int:
     import math
     import pathlib
 
+    from excavsim.config import get_soil
     from excavsim.loop import truck
 
     cfg = truck.load_truck_config(args.config)
+    retarget = None
+    if args.retarget is not None:
+        if not 1 <= args.retarget <= args.trials:
+            raise ExcavsimError(f"--retarget {args.retarget}: the trial before which the target moves; allowed: 1 to "
+                                f"--trials ({args.trials})")
+        retarget = (args.retarget - 1, args.retarget_r, math.radians(args.retarget_theta))
+    if args.compare:
+        if args.record:
+            raise ExcavsimError("--record writes one run: leave it out with --compare")
+        from excavsim.config import load_scene_config
+        from excavsim.loop.truck_campaign import format_table, run_campaign
+
+        soils = args.soils or [args.soil or load_scene_config().soil]
+        print(f"excavsim tune --compare: tuned vs untuned{' and a moved target' if retarget else ''}, "
+              f"{args.trials} trials, seeds {' '.join(map(str, args.seeds))}, soils {' '.join(soils)} "
+              "(001_0de172b0d6b3614b.txt §6.2)")
+        runs = run_campaign(seeds=args.seeds, soils=soils, trials=args.trials,
+                            retarget=retarget, cfg=cfg, out=pathlib.Path(args.out), progress=print)
+        print(format_table(runs, cfg.initial_trials))
+        print(f"wrote {pathlib.Path(args.out) / 'truck_campaign.csv'} and truck_campaign.txt")
+        return 0
+    if args.soil:
+        get_soil(args.soil)
     print(f"excavsim tune: {args.trials} truck-loading trials, target r = {cfg.site.r_d} m, theta = "
           f"{math.degrees(cfg.site.theta_d):.1f} deg (001_0de172b0d6b3614b.txt §6.2)")
 
@@ -616,23 +667,86 @@ def _cmd_tune(args: argparse.Namespace) -> int:
         print(f"  {t.index + 1:3d} {t.source:16s} cost {truck.trial_cost(t, cfg):8.2f}  time {t.time_s:5.2f} s  "
               f"r {t.pile.r:.3f} m  theta {math.degrees(t.pile.theta):5.1f} deg  {t.outcome}  ({t.wall_s:.2f} s wall)")
 
-    trials = truck.tune(args.trials, cfg, seed=args.seed, progress=show)
+    observer = None
+    if args.record:
+        from excavsim.record.truck import TruckRecorder
+        observer = TruckRecorder(args.record, seed=args.seed)
+    trials = truck.tune(args.trials, cfg, seed=args.seed, progress=show, retarget=retarget, soil=args.soil,
+                        observer=observer)
     csv_path, png = truck.write_results(trials, cfg, pathlib.Path(args.out))
     k = min(cfg.initial_trials, len(trials))
     costs = [truck.trial_cost(t, cfg) for t in trials]
-    print(f"first {k}: mean cost {sum(costs[:k]) / k:.2f}; last {k}: mean cost {sum(costs[-k:]) / k:.2f}")
+    times = [t.time_s for t in trials]
+    err2 = [truck.placement_error2(t, cfg) for t in trials]
+    print(f"first {k}: mean cost {sum(costs[:k]) / k:.2f}, time {sum(times[:k]) / k:.2f} s, squared error "
+          f"{sum(err2[:k]) / k:.4f} m^2; last {k}: mean cost {sum(costs[-k:]) / k:.2f}, time "
+          f"{sum(times[-k:]) / k:.2f} s, squared error {sum(err2[-k:]) / k:.4f} m^2")
     print(f"wrote {csv_path} and {png}")
+    if args.record:
+        print(f"recorded to {args.record}; replay it with: excavsim replay {args.record}")
     return 0
 
 
 def _cmd_playback(args: argparse.Namespace) -> int:
     import pathlib
 
+    from excavsim.execution.demonstration import load_demonstration
     from excavsim.loop import playback
 
-    print("excavsim playback: demonstrate a dig, replay it in a stiffer and a softer soil with fixed high, fixed low "
-          "and variable impedance (002_694c274da322d931.txt §3.3, ch. 6)")
-    playback.run_playback(pathlib.Path(args.out), seed=args.seed, sweep=not args.no_sweep)
+    out = pathlib.Path(args.out)
+    modes = [name for name, on in (("--teleop", args.teleop), ("--from-rrd", args.from_rrd), ("--demo", args.demo))
+             if on]
+    if len(modes) > 1:
+        raise ExcavsimError(f"playback: {' and '.join(modes)} cannot be combined; give one of --teleop, --from-rrd "
+                            f"FILE.rrd, --demo FILE.json (or none for the chapter-6 experiment)")
+    if args.keys is not None and not args.teleop:
+        raise ExcavsimError("playback: --keys is the key sequence of --teleop; give --teleop with it")
+    if args.dig is not None and not args.from_rrd:
+        raise ExcavsimError("playback: --dig chooses the dig of --from-rrd FILE.rrd; give --from-rrd with it")
+    if (args.live is not None or args.record) and not args.teleop:
+        raise ExcavsimError("playback: --live and --record show or record a --teleop session; give --teleop with them")
+    if args.record and not args.record.endswith(".rrd"):
+        raise ExcavsimError(f"--record must name an .rrd file; given {shorten(repr(args.record), 200)}")
+    if args.teleop:
+        from excavsim.execution.teleop import HELP
+        from excavsim.loop import teleop
+
+        keys = args.keys if args.keys is not None else teleop.tty_keys()
+        observer = None
+        if args.record or args.live is not None:
+            from excavsim.record import RerunRecorder
+            from excavsim.record.live import viewer_url
+
+            live = viewer_url(args.live or None) if args.live is not None else None
+            if live:
+                print(f"streaming the session live to {live}")
+            observer = RerunRecorder(args.record, live=live)
+        print(f"excavsim playback --teleop: drive the bucket tip from 10 cm above the demonstration dig; {HELP}")
+        demo = teleop.teleoperate(keys, seed=args.seed, observer=observer, on_key=lambda k, p, f: print(
+            f"{k}: tip x {p[0]:.2f} m z {p[1]:.2f} m pitch {math.degrees(p[2]):.0f} deg | F radial {f[0]:7.0f} N "
+            f"vertical {f[1]:7.0f} N", flush=True))
+        if args.record:
+            print(f"recorded to {args.record}; replay it with: excavsim replay {args.record}")
+        out.mkdir(parents=True, exist_ok=True)
+        path = demo.save(out / "teleop_demonstration.json")
+        print(f"wrote {path} ({len(demo.times)} samples, {demo.times[-1]:.2f} s); play it back with: "
+              f"excavsim playback --demo {path}")
+        return 0
+    if args.from_rrd:
+        from excavsim.record.demo_reading import read_dig
+
+        dig = read_dig(args.from_rrd, args.dig or 1)
+        demo = playback.demonstration_from_signals(dig.joint_times, dig.joints, dig.ft_times, dig.ft_tip,
+                                                   dig.path_world, source=f"{args.from_rrd}, dig {dig.dig}")
+        out.mkdir(parents=True, exist_ok=True)
+        path = demo.save(out / "rrd_demonstration.json")
+        print(f"wrote {path}: dig {dig.dig} of {args.from_rrd} ({len(demo.times)} samples, {demo.times[-1]:.2f} s); "
+              f"play it back with: excavsim playback --demo {path}")
+        return 0
+    print("excavsim playback: demonstrate a dig, replay it in a stiffer and a softer soil with fixed high, moderate, "
+          "low and variable impedance (002_694c274da322d931.txt §3.3, ch. 6)")
+    demo = load_demonstration(args.demo) if args.demo else None
+    playback.run_playback(out, seed=args.seed, sweep=not args.no_sweep, demo=demo)
     return 0
 
 
@@ -642,6 +756,10 @@ def _cmd_load(args: argparse.Namespace) -> int:
     from excavsim.loop import loading as ld
 
     cfg = ld.load_loading_config(args.config)
+    if args.mujoco:
+        return _load_mujoco(args, cfg)
+    if args.record:
+        raise ExcavsimError("--record needs --mujoco (the 2-D simulation writes figures to --out)")
     out = pathlib.Path(args.out)
     out.mkdir(parents=True, exist_ok=True)
     u = cfg.units_m2
@@ -683,6 +801,51 @@ def _cmd_load(args: argparse.Namespace) -> int:
     print("\nbeside the thesis (§7.2.1; 1 unit of soil = %g m^2 of the section):" % u)
     print(table)
     print("wrote " + ", ".join(str(p) for p in paths + [out / "comparison.txt"]))
+    return 0
+
+
+def _load_mujoco(args: argparse.Namespace, cfg) -> int:
+    """``excavsim load --mujoco``: a loading episode per machine in MuJoCo (excavsim.loop.loading_mujoco)."""
+    from excavsim.loop import loading_mujoco as lm
+
+    if args.study:
+        raise ExcavsimError("--study is the 2-D simulation's (Fig. 112); --mujoco runs single episodes")
+    if args.record and not args.record.endswith(".rrd"):
+        raise ExcavsimError(f"--record must name an .rrd file; given {shorten(repr(args.record), 200)}")
+    mcfg = lm.load_mujoco_config(args.mujoco_config)
+    names = [args.machine] if args.machine else list(lm.MACHINES)
+    if args.record and len(names) > 1:
+        raise ExcavsimError("--record writes one episode: give --machine loader or --machine shovel with it")
+    rows = []
+    for name in names:
+        print(f"excavsim load --mujoco: front {name}, pile {mcfg.pile.height:g} m high, soil {mcfg.soil}, "
+              f"seed {args.seed}")
+        observer = None
+        if args.record:
+            from excavsim.record.loading import LoadingRecorder
+
+            observer = LoadingRecorder(args.record)
+        run = lm.run_episode(name, seed=args.seed, cfg=mcfg, cfg2d=cfg, observer=observer, progress=print)
+        print(lm.format_run(run))
+        rows.append((name, run))
+        if args.record:
+            print(f"recorded to {args.record}")
+    if len(rows) > 1:
+        print("\n" + lm.format_comparison(rows))
+    return 0 if all(r.done for _, r in rows) else 1
+
+
+def _cmd_figures(args: argparse.Namespace) -> int:
+    from excavsim.loop import figures
+
+    table = figures.figures()
+    if args.list:
+        for name, fig in table.items():
+            print(f"  {name}  {fig.title}")
+        return 0
+    names = figures.check_names(args.names)
+    print(f"excavsim figures: {len(names)} figure(s) of Singh's thesis into {args.out}")
+    figures.write_figures(names, args.out, seed=args.seed, progress=print)
     return 0
 
 
@@ -861,7 +1024,8 @@ def build_parser() -> argparse.ArgumentParser:
                                              "identification experiment")
     calib.add_argument("record", nargs="?", metavar="RECORD",
                        help="force data set of digs (.npz, .parquet, .csv; `learn --dataset` or --record-digs "
-                            "writes one); .rrd recordings are not read yet")
+                            "writes one) or a Rerun recording of an episode (.rrd: its F/T, joint angles, scans "
+                            "and plans are read)")
     calib.add_argument("--model", choices=["wedge", "dimaio"], default="wedge",
                        help="the model whose soil parameters are fitted (default wedge)")
     calib.add_argument("--out", metavar="DIR", default="runs/calibrate", type=_out_dir,
@@ -875,6 +1039,10 @@ def build_parser() -> argparse.ArgumentParser:
     calib.add_argument("--quiet", action="store_true",
                        help="with --record-digs: the wedge's rate effect, failure-cycle drops and heterogeneity off")
     calib.add_argument("--seed", type=_seed, default=0, metavar="N", help="seed of --record-digs")
+    calib.add_argument("--rrd", metavar="FILE", help="with --record-digs: also record the episode to this Rerun "
+                                                     "recording (calibrate it with `excavsim calibrate FILE`)")
+    calib.add_argument("--no-rerun", action="store_true",
+                       help="skip re-running the recorded digs in simulation with the fitted soils")
     calib.add_argument("--table-5-3", action="store_true",
                        help="reproduce Table 5.3 and Fig. 5.40 (DiMaio's model identified from its own forces)")
     calib.add_argument("--noise", type=_float_in(0, 1e4), default=5.0, metavar="N",
@@ -890,10 +1058,18 @@ def build_parser() -> argparse.ArgumentParser:
     load.add_argument("--runs", type=_int_in(1, 1000), metavar="N", help="runs per force limit in --study "
                       "(default configs/loading.yaml's, 20)")
     load.add_argument("--workers", type=_int_in(1, 64), default=1, metavar="N", help="processes for --study")
-    load.add_argument("--seed", type=_seed, default=0, metavar="N", help="the first random pile's seed (--study)")
+    load.add_argument("--seed", type=_seed, default=0, metavar="N",
+                      help="the first random pile's seed (--study); the episode's (--mujoco)")
     load.add_argument("--config", metavar="YAML", help="loading configuration (default configs/loading.yaml)")
     load.add_argument("--out", metavar="DIR", default="runs/load", type=_out_dir,
                       help="output directory (default runs/load)")
+    load.add_argument("--mujoco", action="store_true",
+                      help="a loading episode in MuJoCo instead: the MJCF loader/shovel beside a pile lane, the "
+                           "world's soil and scanner, the planner, a joint-space script per dig, settlement")
+    load.add_argument("--mujoco-config", metavar="YAML",
+                      help="with --mujoco: its configuration (default configs/loading_mujoco.yaml)")
+    load.add_argument("--record", metavar="FILE.rrd", type=_out_file(()),
+                      help="with --mujoco and --machine: record the episode to a Rerun file")
     load.set_defaults(func=_cmd_load)
     tune = sub.add_parser("tune", help="truck loading by the mass-excavation script, self-tuned online by "
                           "memory-based learning (001_0de172b0d6b3614b.txt §6.2): the learning curve of Fig. 12")
@@ -902,14 +1078,50 @@ def build_parser() -> argparse.ArgumentParser:
     tune.add_argument("--config", metavar="YAML", help="truck configuration (default configs/truck.yaml)")
     tune.add_argument("--out", metavar="DIR", default="runs/tune", type=_out_dir,
                       help="output directory (default runs/tune)")
+    tune.add_argument("--soil", metavar="NAME", help="soil preset of configs/soils.yaml (default the scene's)")
+    tune.add_argument("--record", metavar="FILE.rrd", type=_out_file((".rrd",)),
+                      help="record the trials to Rerun (the target, the pile, the script's phases)")
+    tune.add_argument("--retarget", type=_int_in(1, 10000), metavar="K",
+                      help="move the dump target before trial K (1-based)")
+    tune.add_argument("--retarget-r", type=_float_in(0.5, 3.0), default=1.6, metavar="M",
+                      help="the moved target's radius [m] (default 1.6)")
+    tune.add_argument("--retarget-theta", type=_float_in(-90.0, 90.0), default=45.0, metavar="DEG",
+                      help="the moved target's angle [deg] (default 45)")
+    tune.add_argument("--compare", action="store_true",
+                      help="the campaign: tuned vs untuned (and the moved target with --retarget) over --seeds and "
+                           "--soils; writes truck_campaign.csv and .txt to --out")
+    tune.add_argument("--seeds", type=_seed, nargs="+", default=[0, 1, 2], metavar="N",
+                      help="seeds of --compare (default 0 1 2)")
+    tune.add_argument("--soils", nargs="+", metavar="NAME", help="soil presets of --compare (default the scene's)")
     tune.set_defaults(func=_cmd_tune)
     pb = sub.add_parser("playback", help="programming digs by demonstration: replay a demonstrated dig in a stiffer "
                         "and a softer soil with fixed and variable impedance (DiMaio ch. 3, 6)")
     pb.add_argument("--seed", type=_seed, default=0, metavar="N", help="the worlds' seed (default 0)")
     pb.add_argument("--no-sweep", action="store_true", help="skip the velocity-weighting sweep (Figs. 6.46-6.48)")
+    pb.add_argument("--teleop", action="store_true", help="make a demonstration by teleoperation from the terminal "
+                    "(keys a/d w/s q/e move the tip, x finishes); writes DIR/teleop_demonstration.json")
+    pb.add_argument("--keys", metavar="SEQUENCE", help="with --teleop: the keys as a string instead of the terminal")
+    pb.add_argument("--live", nargs="?", const="", metavar="ADDRESS", help="with --teleop: stream the session to a "
+                    "Rerun viewer (the F/T plot shows the force while driving); alone, spawn one (needs a display)")
+    pb.add_argument("--record", metavar="FILE.rrd", type=_out_file(()),
+                    help="with --teleop: record the session to a Rerun file")
+    pb.add_argument("--from-rrd", metavar="FILE.rrd", help="make a demonstration from a dig of a Rerun recording "
+                    "(excavsim trench --record); writes DIR/rrd_demonstration.json")
+    pb.add_argument("--dig", type=_int_in(1, 100_000), metavar="N", help="with --from-rrd: which dig (default 1)")
+    pb.add_argument("--demo", metavar="FILE.json", help="play back this demonstration file instead of recording one")
     pb.add_argument("--out", metavar="DIR", default="runs/playback", type=_out_dir,
                     help="output directory (default runs/playback)")
     pb.set_defaults(func=_cmd_playback)
+    figs = sub.add_parser("figures", help="redraw the thesis' figures (Figs. 20-91: soil forces in the world beside "
+                          "the static wedge model, rotation centres, torques, feasible sets, planning time) as PNGs")
+    figs.add_argument("names", nargs="*", metavar="NAME", help="figures to draw, e.g. fig54 fig59 (default: all; "
+                      "see --list)")
+    figs.add_argument("--list", action="store_true", help="list the figures and exit")
+    figs.add_argument("--out", metavar="DIR", default="runs/figures", type=_out_dir,
+                      help="output directory, one NAME.png per figure (default runs/figures)")
+    figs.add_argument("--seed", type=_seed, default=0, metavar="N",
+                      help="the worlds' seed (Fig. 59 also uses the next two; default 0)")
+    figs.set_defaults(func=_cmd_figures)
     return parser
 
 

@@ -14,7 +14,7 @@ thesis' listing; wrist yaw and roll stay level)::
             3) when bucket > bucket_dumped, continue to dump      -> boom_carry
             4) when swing < swing_back, lower boom to dig         -> boom_dig
     Stick:  1) when digging finishes, wait                        -> stick_carry
-            2) when swing > swing_stick, begin dump procedure     -> stick_dump
+            2) when swing is stick_fraction of the way to the truck, begin dump procedure -> stick_dump
             3) when bucket > bucket_dumped, continue to dump      -> stick_after
             4) when swing < swing_back, move to dig               -> stick_dig
     Bucket: 1) when digging finishes, capture soil                -> bucket_carry
@@ -28,9 +28,13 @@ speed limit and the servo's approach, plus a latency): the boom trigger lets the
 the boom is clear, timed so the boom reaches the clearance angle by the time the swing reaches the
 truck's side. Seven of them are tuned online (:data:`TUNED`, §6.2): which seven is not legible in
 the thesis' listing, so the choice here is **assumed** (the ones that set the time and where the soil
-lands). Two of the seven are written relative to another (``open_lead`` before ``swing_dump``,
-``return_fraction`` of the bucket's opening) so that no tuned value can leave a trigger that never
-fires (assumed).
+lands). Two of the seven are written as fractions of a motion (``stick_fraction`` of the swing's
+travel, ``return_fraction`` of the bucket's opening) so that no tuned value can leave a trigger that
+never fires (assumed). The bucket-open lead ``open_lead`` is computed, not tuned: at the computed
+parameters the stick's condition of the same rule holds later than the swing's (the stick starts at
+``stick_fraction`` of the swing and must be ``stick_open_fraction`` out), so the bucket opens when the
+stick is out and ``open_lead`` changed nothing (measured: the same trial for any lead within
++-10 deg); the stick's trigger is the one that sets when the dump begins, and it is tuned instead.
 
 :func:`run_joint_script` runs a script whose commands are all joint targets on any
 :class:`~excavsim.handoff.observation.Servos` (the world's Simulation is one), and
@@ -57,8 +61,10 @@ SWING, BOOM, STICK, BUCKET = "waist_joint", "shoulder_joint", "elbow_joint", "wr
 WRIST_LEVEL = ("wrist_yaw_joint", "wrist_roll_joint")
 
 #: The seven tuned parameters of §6.2 (assumed choice, see the module docstring), in the order of the
-#: learner's input vector; all angles [rad], ``return_fraction`` [-].
-TUNED = ("boom_trigger", "swing_dump", "open_lead", "boom_dump", "stick_dump", "bucket_open", "return_fraction")
+#: learner's input vector; angles [rad] except the :data:`FRACTIONS` [-].
+TUNED = ("boom_trigger", "swing_dump", "stick_fraction", "boom_dump", "stick_dump", "bucket_open", "return_fraction")
+#: The tuned parameters that are fractions of a motion [-] (the others are angles [rad]).
+FRACTIONS = ("stick_fraction", "return_fraction")
 
 
 @dataclasses.dataclass(frozen=True)
@@ -67,7 +73,7 @@ class MassParams:
 
     swing_dig: float
     swing_dump: float
-    swing_stick: float
+    stick_fraction: float
     swing_back: float
     stop_tol: float
     open_lead: float
@@ -86,6 +92,8 @@ class MassParams:
     return_fraction: float
     dumped_fraction: float
     timeout_s: float = 40.0
+    #: the boom's clearance angle over the truck's side at the dump pose (Fig. 3): the lowest safe boom_dump
+    boom_clear_dump: float = -math.inf
 
     def tuned(self) -> np.ndarray:
         """The seven tuned parameters as a vector, in :data:`TUNED` order."""
@@ -97,9 +105,9 @@ class MassParams:
 
     def degrees(self) -> dict[str, float]:
         """Every parameter, angles in degrees (fractions and the timeout as they are), for logs."""
-        plain = ("return_fraction", "dumped_fraction", "stick_open_fraction", "timeout_s")
+        plain = ("stick_fraction", "return_fraction", "dumped_fraction", "stick_open_fraction", "timeout_s")
         return {f.name: (getattr(self, f.name) if f.name in plain else math.degrees(getattr(self, f.name)))
-                for f in dataclasses.fields(self)}
+                for f in dataclasses.fields(self) if f.name != "boom_clear_dump" or math.isfinite(self.boom_clear_dump)}
 
 
 @dataclasses.dataclass(frozen=True)
@@ -238,14 +246,15 @@ def compute_params(arm: PlanarArm, site: TruckSite, timing: TimingModel, dig_end
     # the bucket opens so that it is half open as the swing arrives
     t_half = timing.time_to(BUCKET, 0.5 * (bucket_open - bucket_carry), tol)
     open_lead = timing.remaining(SWING, t_half, tol)
-    swing_stick = swing_dig + 0.5 * (swing_dump - swing_dig)  # the stick goes out halfway through the swing
     swing_back = swing_dig + 0.75 * (swing_dump - swing_dig)  # clear of the truck on the way back
-    return MassParams(swing_dig=swing_dig, swing_dump=swing_dump, swing_stick=swing_stick, swing_back=swing_back,
+    # heuristics ("magic numbers" of §4.2, assumed): the stick goes out halfway through the swing
+    # (stick_fraction 0.5); the swing returns when the bucket is 80 % open (return_fraction 0.8)
+    return MassParams(swing_dig=swing_dig, swing_dump=swing_dump, stick_fraction=0.5, swing_back=swing_back,
                       stop_tol=math.radians(2.0), open_lead=open_lead, boom_trigger=boom_trigger,
                       boom_carry=boom_carry, boom_dump=boom_dump, boom_dig=boom0, stick_carry=stick_carry,
                       stick_dump=stick_dump, stick_after=stick_carry, stick_dig=stick0, stick_open_fraction=0.7,
                       bucket_carry=bucket_carry, bucket_open=bucket_open, bucket_dig=bucket0, return_fraction=0.8,
-                      dumped_fraction=0.6)
+                      dumped_fraction=0.6, boom_clear_dump=clear_dump)
 
 
 def passing(joint: str, start: float, end: float, fraction: float) -> Cond:
@@ -279,7 +288,7 @@ def mass_script(p: MassParams) -> Script:
             Step("boom continue", dumped, go(p.boom_carry)),
             Step("lower boom", back, go(p.boom_dig)))
     stick = (Step("stick wait", always(), go(p.stick_carry)),
-             Step("stick out", joint_above(SWING, p.swing_stick), go(p.stick_dump)),
+             Step("stick out", passing(SWING, p.swing_dig, p.swing_dump, p.stick_fraction), go(p.stick_dump)),
              Step("stick continue", dumped, go(p.stick_after)),
              Step("stick to dig", back, go(p.stick_dig)))
     bucket = (Step("capture", always(), go(p.bucket_carry)),

@@ -14,8 +14,11 @@
   its *support*, the sum of the kernel weights at the query (how many data points' worth of
   evidence it rests on), and a standard error per output: the root mean squared leave-one-out
   residual at the chosen width, grown by the query's leverage in the weighted fit (the sandwich
-  ``(Z^T Z)^+ X^T W^4 X (Z^T Z)^+``). :func:`select_action` minimizes the cost's expectation under those
-  errors, adds ``support_penalty`` per missing unit of support below ``min_support`` and per
+  ``(Z^T Z)^+ X^T W^4 X (Z^T Z)^+``). :func:`select_action` minimizes the cost (its expectation under those
+  errors when ``Objective.uncertainty``; the truck loop turns that off, configs/truck.yaml's
+  ``learning.expected_cost``: on a handful of trials the errors are those of an under-determined 7-input
+  fit and held the learner at its best early trial), adds ``support_penalty`` per missing unit of
+  support below ``min_support`` and per
   ``trust_radius`` beyond ``trust_radius`` from the nearest remembered trial, and keeps the simplex
   within ``margin`` of the data's normalized box.
 * Failures (§5.4.1: a data point "stored with a very high cost"): the memory's fourth output is 1 for

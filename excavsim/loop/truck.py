@@ -13,8 +13,12 @@ coordinates about the swing axis. A trial that leaves more than ``1 - min_dumped
 load in the bucket, or whose script does not end, is a failure (§5.4.1) and costs ``failure_cost`` more.
 
 :func:`tune` runs N trials online: the first ``initial_trials`` from the computed parameters plus
-small noise, then each from :func:`~excavsim.learning.lwr_tuning.select_action` on the memory so far,
-and writes the learning curve (Fig. 12) and a CSV table.
+small noise, then each from :func:`~excavsim.learning.lwr_tuning.select_action` on the memory so far
+(the predicted cost within the confidence bounds of §5.4.1 and the action bounds of
+:func:`tuned_bounds`; the expected cost is off by default, see ``configs/truck.yaml``), optionally
+with the target moved mid-run, and hands every trial to an observer (a recording); :func:`write_results`
+writes the learning curve (Fig. 12) and a CSV table. The campaign over seeds and soils is
+:mod:`excavsim.loop.truck_campaign`.
 """
 
 from __future__ import annotations
@@ -32,8 +36,8 @@ import yaml
 from excavsim import constants
 from excavsim.config import load_robot_config, load_sensing_config
 from excavsim.errors import ExcavsimError
-from excavsim.execution.mass_script import (BOOM, BUCKET, STICK, SWING, TUNED, MassParams, TimingModel, TruckSite,
-                                            compute_params, follow_path, mass_script, run_joint_script)
+from excavsim.execution.mass_script import (BOOM, BUCKET, FRACTIONS, STICK, SWING, TUNED, MassParams, TimingModel,
+                                            TruckSite, compute_params, follow_path, mass_script, run_joint_script)
 from excavsim.handoff.maps import ElevationMap
 from excavsim.learning.lwr_tuning import Memory, Objective, select_action
 from excavsim.loop.rig import go_to
@@ -66,11 +70,16 @@ class TruckConfig:
     failure_cost: float
     min_dumped_fraction: float
     trust_radius: float
+    expected_cost: bool = False
+    retarget_trials: int = 1
+    stick_fraction_range: tuple[float, float] = (0.1, 0.9)
+    return_fraction_range: tuple[float, float] = (0.3, 1.0)
+    angle_range: float = math.radians(25.0)
 
     @property
     def objective(self) -> Objective:
         return Objective(self.site.r_d, self.site.theta_d, self.w1, self.w2, self.min_support, self.support_penalty,
-                         self.margin, self.failure_cost, self.trust_radius)
+                         self.margin, self.failure_cost, self.trust_radius, uncertainty=self.expected_cost)
 
 
 def load_truck_config(path: str | Path | None = None) -> TruckConfig:
@@ -88,9 +97,26 @@ def load_truck_config(path: str | Path | None = None) -> TruckConfig:
                            float(d["cost"]["w2_per_m2"]), int(ln["initial_trials"]),
                            math.radians(ln["initial_noise_deg"]), tuple(ln["widths_log2"]),
                            float(ln["min_support"]), float(ln["support_penalty"]), float(ln["margin"]),
-                           float(ln["failure_cost"]), float(ln["min_dumped_fraction"]), float(ln["trust_radius"]))
+                           float(ln["failure_cost"]), float(ln["min_dumped_fraction"]), float(ln["trust_radius"]),
+                           _flag(ln["expected_cost"], "learning.expected_cost"), int(ln["retarget_trials"]),
+                           _range(d["ranges"]["stick_fraction"], "ranges.stick_fraction", 0.0, 1.0),
+                           _range(d["ranges"]["return_fraction"], "ranges.return_fraction", 0.0, 1.0),
+                           math.radians(float(d["ranges"]["angles_deg"])))
     except (OSError, KeyError, TypeError, ValueError, IndexError) as exc:
         raise ExcavsimError(f"{path}: not a truck configuration: {exc!r}") from exc
+
+
+def _flag(v, field: str) -> bool:
+    if not isinstance(v, bool):
+        raise ValueError(f"{field} must be true or false; given {v!r}")
+    return v
+
+
+def _range(v, field: str, lo: float, hi: float) -> tuple[float, float]:
+    a, b = (float(x) for x in v)
+    if not lo <= a < b <= hi:
+        raise ValueError(f"{field} must be [low, high] with {lo} <= low < high <= {hi}; given {v!r}")
+    return a, b
 
 
 def timing_model(sim: Simulation, cfg: TruckConfig) -> TimingModel:
@@ -190,6 +216,7 @@ class Trial:
     min_dumped_fraction: float = 0.9
     r_d: float = math.nan      # the target the trial was run for (set by tune)
     theta_d: float = math.nan
+    trace: TrialTrace | None = None  # kept when a recording asks for it (run_trial's trace)
 
     @property
     def failed(self) -> bool:
@@ -213,43 +240,111 @@ class _MoveCfg:
     move_timeout_s: float = 15.0
 
 
-def nominal_params(cfg: TruckConfig, *, seed: int = 0) -> MassParams:
+def nominal_params(cfg: TruckConfig, *, seed: int = 0, soil: str | None = None) -> MassParams:
     """The computed parameters (§4.2) for this site, on the dig's end pose (one dig to find it)."""
-    sim = Simulation(seed=seed)
+    sim = Simulation(soil=soil, seed=seed)
     arm = arm_from_model(sim.model)
     q = dig(sim, cfg, arm)
     return compute_params(arm, cfg.site, timing_model(sim, cfg), q[1:4], cfg.dig_swing, open_pitch=cfg.open_pitch)
 
 
-def run_trial(params: MassParams, cfg: TruckConfig, *, seed: int = 0, index: int = 0, source: str = "") -> Trial:
-    """One dig-swing-dump trial (see the module docstring)."""
+@dataclasses.dataclass(frozen=True)
+class TrialTrace:
+    """What a recording shows of one trial, all of it the mind's (sensed joints, scanned maps).
+
+    Attributes:
+        times: (n,) seconds since the script started, one per control tick.
+        q: (n, 6) joint angles [rad].
+        tip: (n, 3) the bucket tip in the world [m] (the robot's own kinematics on the sensed joints).
+        phases: (time [s] since the script started, sub-script joint, step name), every step change.
+        before, after: the elevation maps before the script and after the dump settled.
+    """
+
+    times: np.ndarray
+    q: np.ndarray
+    tip: np.ndarray
+    phases: list[tuple[float, str, str]]
+    before: ElevationMap
+    after: ElevationMap
+
+
+class _Tracing:
+    """The servos with every observation kept (for :class:`TrialTrace`)."""
+
+    def __init__(self, sim: Simulation):
+        self.sim, self.obs = sim, []
+
+    def __getattr__(self, name):
+        return getattr(self.sim, name)
+
+    def observe(self):
+        o = self.sim.observe()
+        self.obs.append((o.time, np.array(o.q, dtype=float)))
+        return o
+
+    def track(self, target):
+        o = self.sim.track(target)
+        self.obs.append((o.time, np.array(o.q, dtype=float)))
+        return o
+
+
+def run_trial(params: MassParams, cfg: TruckConfig, *, seed: int = 0, index: int = 0, source: str = "",
+              soil: str | None = None, trace: bool = False) -> Trial:
+    """One dig-swing-dump trial (see the module docstring); ``trace`` keeps a :class:`TrialTrace`."""
     wall = time.perf_counter()
-    sim = Simulation(seed=seed)
+    sim = Simulation(soil=soil, seed=seed)
     arm = arm_from_model(sim.model)
     scanner = Scanner(sim, seed)
     dig(sim, cfg, arm)
     loaded = sim.truth.volumes.bucket
     before_map = scanner.map()
     before_true = sim.soil.grid.heights.copy()
-    run = run_joint_script(sim, mass_script(params))
+    servos = _Tracing(sim) if trace else sim
+    script = mass_script(params)
+    run = run_joint_script(servos, script)
     sim.settle_soil()
     after_map = scanner.map()
     min_theta = cfg.dig_swing + 0.5 * (cfg.site.theta_d - cfg.dig_swing)
     pile = pile_position(before_map, after_map, min_theta)
     true = true_pile(sim, before_true, min_theta)
     dumped = loaded - sim.truth.volumes.bucket
-    return Trial(index, params, run.duration, pile, true, run.outcome, dumped, loaded, time.perf_counter() - wall,
-                 source, min_dumped_fraction=cfg.min_dumped_fraction)
+    out = Trial(index, params, run.duration, pile, true, run.outcome, dumped, loaded, time.perf_counter() - wall,
+                source, min_dumped_fraction=cfg.min_dumped_fraction)
+    if trace:
+        t = np.array([o[0] for o in servos.obs]) - run.start
+        q = np.stack([o[1] for o in servos.obs])
+        keep = (t >= 0.0) & (t <= run.duration + 1e-9)
+        t, q = t[keep], q[keep]
+        pose = arm.forward(q[:, 1:4])
+        tip = np.stack([pose[:, 0] * np.cos(q[:, 0]), pose[:, 0] * np.sin(q[:, 0]), pose[:, 1]], axis=1)
+        joints = [sub.joints[0] for sub in script.subscripts]
+        phases = [(tr.time - run.start, joints[tr.subscript], tr.name) for tr in run.transitions]
+        out.trace = TrialTrace(t, q, tip, phases, before_map, after_map)
+    return out
 
 
-def tuned_bounds(base: MassParams) -> tuple[np.ndarray, np.ndarray]:
-    """Bounds of the seven tuned parameters around the computed ones (assumed: +-25 deg, the lead 0-50 deg,
-    the return fraction 0.3-1.0), in :data:`~excavsim.execution.mass_script.TUNED` order."""
+def tuned_bounds(base: MassParams, cfg: TruckConfig | None = None) -> tuple[np.ndarray, np.ndarray]:
+    """Bounds of the seven tuned parameters (in :data:`~excavsim.execution.mass_script.TUNED` order): the
+    angles within ``ranges.angles_deg`` of the computed ones, the fractions in their ``ranges`` (assumed;
+    configs/truck.yaml), and the boom at the dump never below its clearance angle over the truck's side
+    (§5.4.1: bounds from the worksite's geometry; Fig. 3). With the truck moved away (§6.2) nothing stops a
+    lower boom, and without this bound the learner lowered it 25 deg, into where the truck's side would be."""
+    cfg = cfg or load_truck_config()
     x = base.tuned()
-    d = math.radians(25.0)
-    lo = np.array([x[0] - d, x[1] - d, 0.0, x[3] - d, x[4] - d, x[5] - d, 0.3])
-    hi = np.array([x[0] + d, x[1] + d, math.radians(50.0), x[3] + d, x[4] + d, x[5] + d, 1.0])
+    lo, hi = x - cfg.angle_range, x + cfg.angle_range
+    k = TUNED.index("boom_dump")
+    lo[k] = min(max(lo[k], base.boom_clear_dump), x[k])
+    for name, (a, b) in (("stick_fraction", cfg.stick_fraction_range), ("return_fraction", cfg.return_fraction_range)):
+        k = TUNED.index(name)
+        lo[k], hi[k] = a, b
     return lo, hi
+
+
+def noise_scale(cfg: TruckConfig) -> np.ndarray:
+    """The size of the initial trials' noise per tuned parameter: ``initial_noise`` [rad] on the angles,
+    ``initial_noise`` / 100 deg on the fractions (2 deg -> 0.02)."""
+    return np.array([cfg.initial_noise / math.radians(100.0) if n in FRACTIONS else cfg.initial_noise
+                     for n in TUNED])
 
 
 def retargeted(cfg: TruckConfig, r_m: float, theta: float) -> TruckConfig:
@@ -259,39 +354,56 @@ def retargeted(cfg: TruckConfig, r_m: float, theta: float) -> TruckConfig:
 
 def tune(trials: int, cfg: TruckConfig | None = None, *, seed: int = 0,
          progress: Callable[[Trial], None] | None = None, learn: bool = True,
-         retarget: tuple[int, float, float] | None = None) -> list[Trial]:
+         retarget: tuple[int, float, float] | None = None, soil: str | None = None, observer=None,
+         base: MassParams | None = None) -> list[Trial]:
     """Run ``trials`` trials online (see the module docstring); returns them in order.
 
     ``learn=False`` is the untuned baseline: every trial from the computed parameters plus the same small
     noise. ``retarget=(k, r_m, theta_rad)`` moves the dump target before trial ``k`` (0-based): the
-    parameters are computed again for the new target and the memory is kept (it maps actions to
-    outcomes, whatever the target); only the objective changes."""
+    parameters are computed again for the new target, the memory is kept (it maps actions to outcomes,
+    whatever the target) and only the objective changes; the first ``retarget_trials`` trials after the
+    move run the new computed parameters plus noise (§5.4.4: the computed parameters are "a competent
+    starting point"; without one the simplex, held near the data by the confidence bounds, creeps
+    towards the new target a fraction of the data's range per trial). ``soil`` names a soil preset
+    (configs/soils.yaml; default the scene's). ``observer`` (e.g. a recorder) is called with
+    ``started(cfg, base)``, ``trial(trial, cfg, cost=, sq_error=)`` after every trial (the trial carries
+    its :class:`TrialTrace`) and ``finished(trials, cfg)``. ``base``: the computed parameters for ``cfg``'s
+    target, seed and soil when the caller has them (:func:`nominal_params`), else computed here."""
     cfg = cfg or load_truck_config()
-    base = nominal_params(cfg, seed=seed)
-    lo, hi = tuned_bounds(base)
+    base = base if base is not None else nominal_params(cfg, seed=seed, soil=soil)
+    lo, hi = tuned_bounds(base, cfg)
     rng = np.random.default_rng((seed, 12))
     memory = Memory(len(TUNED))
     out: list[Trial] = []
-    scale = np.array([cfg.initial_noise] * 6 + [cfg.initial_noise / math.radians(100.0)])  # fraction: /100
+    scale = noise_scale(cfg)
+    computed_until = cfg.initial_trials
+    if observer is not None:
+        observer.started(cfg, base)
     for k in range(trials):
         if retarget is not None and k == retarget[0]:
             cfg = retargeted(cfg, retarget[1], retarget[2])
-            base = nominal_params(cfg, seed=seed)
-            lo, hi = tuned_bounds(base)
+            base = nominal_params(cfg, seed=seed, soil=soil)
+            lo, hi = tuned_bounds(base, cfg)
+            computed_until = max(computed_until, k + cfg.retarget_trials)
         pred, width = math.nan, math.nan
-        if not learn or k < cfg.initial_trials or len(memory) < 2:
+        if not learn or k < computed_until or len(memory) < 2:
             x = np.clip(base.tuned() + rng.normal(0.0, 1.0, len(TUNED)) * scale, lo, hi)
             source = "computed + noise"
         else:
             sel = select_action(memory, cfg.objective, lower=lo, upper=hi)
             x, pred, width, source = sel.x, sel.predicted_cost, sel.width, "learned"
-        trial = run_trial(base.with_tuned(x), cfg, seed=seed, index=k, source=source)
+        trial = run_trial(base.with_tuned(x), cfg, seed=seed, index=k, source=source, soil=soil,
+                          trace=observer is not None)
         trial.predicted_cost, trial.width = pred, width
         trial.r_d, trial.theta_d = cfg.site.r_d, cfg.site.theta_d
         memory.add(x, trial.time_s, trial.pile.r, trial.pile.theta, float(trial.failed))
         out.append(trial)
+        if observer is not None:
+            observer.trial(trial, cfg, cost=trial_cost(trial, cfg), sq_error=placement_error2(trial, cfg))
         if progress is not None:
             progress(trial)
+    if observer is not None:
+        observer.finished(out, cfg)
     return out
 
 
@@ -331,7 +443,7 @@ def write_results(trials: list[Trial], cfg: TruckConfig, out: Path) -> tuple[Pat
                "target_theta_deg": math.degrees(trial_objective(t, cfg).theta_d),
                "loaded_l": 1e3 * t.loaded_m3, "dumped_l": 1e3 * t.dumped_m3, "predicted_cost": t.predicted_cost,
                "kernel_width": t.width, "wall_s": t.wall_s}
-        row.update({f"{n}{'' if n == 'return_fraction' else '_deg'}": v
+        row.update({f"{n}{'' if n in FRACTIONS else '_deg'}": v
                     for n, v in t.params.degrees().items() if n in TUNED})
         rows.append(row)
     csv_path = out / "tune.csv"
