@@ -168,6 +168,15 @@ def actuator(name: str, joint: str, kp: float, kv: float, force: float) -> str:
             f'forcerange="{-force:g} {force:g}" inheritrange="1"/>')
 
 
+def assemble(model: str, title: str, paint: str, body: str, cap: float, acts: str) -> str:
+    """A machine's MJCF file: the header, its bodies, and the footer with the bucket's numerics, the
+    actuators and the F/T sensors."""
+    return (HEADER.format(model=model, title=title, damping=2e3, armature=200, paint=paint) + body
+            + FOOTER.format(wname=constants.BUCKET_WIDTH_NUMERIC, width=BUCKET_WIDTH_M,
+                            cname=constants.BUCKET_CAPACITY_NUMERIC, cap=cap, actuators=acts,
+                            fname=constants.FT_FORCE_SENSOR, tname=constants.FT_TORQUE_SENSOR, site=constants.FT_SITE))
+
+
 def loader_xml(cfg, heaped: float) -> str:
     m = cfg.machines.loader
     mu = math.radians(m.mu_deg)
@@ -216,11 +225,7 @@ def loader_xml(cfg, heaped: float) -> str:
 """
     acts = "\n".join([actuator("travel", "travel_joint", 3e6, 4e5, 4e5), actuator("boom", "boom_joint", 5e7, 4e6, 2e6),
                       actuator("bucket", "bucket_joint", 1e7, 4e5, 6e5)]).replace("{cls}", "loader")
-    return (HEADER.format(model="loader", title="A front loader (wheeled base, boom, bucket)", damping=2e3,
-                          armature=200, paint="0.93 0.72 0.1 1") + body
-            + FOOTER.format(wname=constants.BUCKET_WIDTH_NUMERIC, width=BUCKET_WIDTH_M,
-                            cname=constants.BUCKET_CAPACITY_NUMERIC, cap=cap, actuators=acts,
-                            fname=constants.FT_FORCE_SENSOR, tname=constants.FT_TORQUE_SENSOR, site=constants.FT_SITE))
+    return assemble("loader", "A front loader (wheeled base, boom, bucket)", "0.93 0.72 0.1 1", body, cap, acts)
 
 
 def shovel_xml(cfg, heaped: float) -> str:
@@ -262,11 +267,7 @@ def shovel_xml(cfg, heaped: float) -> str:
     acts = "\n".join([actuator("base", "base_joint", 5e6, 8e5, 1e6), actuator("boom", "boom_joint", 8e7, 6e6, 3e6),
                       actuator("stick", "stick_joint", 3e7, 2e6, 1.5e6),
                       actuator("bucket", "bucket_joint", 5e6, 2e5, 4e5)]).replace("{cls}", "shovel")
-    return (HEADER.format(model="shovel", title="A front shovel (tracked base, boom, stick, bucket)", damping=2e3,
-                          armature=200, paint="0.85 0.3 0.15 1") + body
-            + FOOTER.format(wname=constants.BUCKET_WIDTH_NUMERIC, width=BUCKET_WIDTH_M,
-                            cname=constants.BUCKET_CAPACITY_NUMERIC, cap=cap, actuators=acts,
-                            fname=constants.FT_FORCE_SENSOR, tname=constants.FT_TORQUE_SENSOR, site=constants.FT_SITE))
+    return assemble("shovel", "A front shovel (tracked base, boom, stick, bucket)", "0.85 0.3 0.15 1", body, cap, acts)
 
 
 def generated() -> dict[pathlib.Path, str]:

@@ -627,6 +627,18 @@ def _holds(prog, state, i, r0, r1, view, time, q, force_norm):
     return r
 
 
+@numba.njit(cache=True, inline="always")
+def _log_step(rows, times, log, counter, i, g, time):
+    """Append (sub-script ``i``, step ``g``, ``time``) to one of the engine's event logs: its ``rows``
+    and ``times`` arrays, counted by ``log[counter]`` (transitions: state[12], state[13], log[2];
+    timeouts: state[14], state[15], log[3])."""
+    n = log[counter]
+    rows[n, 0] = i
+    rows[n, 1] = g
+    times[n] = time
+    log[counter] = n + 1
+
+
 @numba.njit(cache=True)
 def _enter(prog, state, i, step, time):
     """Sub-script ``i`` enters its step ``step``: memory cleared, targets set, ``started`` raised, logged."""
@@ -646,11 +658,7 @@ def _enter(prog, state, i, step, time):
         tgt[j] = tg[steps[g, _S_TG0] + k]
         has[j] = True
     events[steps[g, _S_STARTED]] = True
-    n = log[2]
-    state[12][n, 0] = i
-    state[12][n, 1] = g
-    state[13][n] = time
-    log[2] = n + 1
+    _log_step(state[12], state[13], log, 2, i, g, time)
 
 
 @numba.njit(cache=True)
@@ -737,11 +745,7 @@ def engine_end_tick(prog, state, time, q, force_norm):
         if not math.isnan(stepf[g, 0]) and not late[i] and time - entered[i] > stepf[g, 0]:
             late[i] = True
             events[steps[g, _S_TIMEOUT]] = True
-            n = log[3]
-            state[14][n, 0] = i
-            state[14][n, 1] = g
-            state[15][n] = time
-            log[3] = n + 1
+            _log_step(state[14], state[15], log, 3, i, g, time)
     view = _snapshot(state)
     for i in range(n_sub):
         g = subs[i, 0] + index[i]
