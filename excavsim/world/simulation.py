@@ -11,7 +11,11 @@ One control step (:meth:`Simulation.step`): the soil model reads the bucket's po
 cuts and moves soil and computes its wrench on the bucket; the wrench is written to
 ``xfrc_applied`` of the bucket body and held over the physics substeps; MuJoCo steps; the
 observation is read. The F/T sensor (``ft_force``/``ft_torque`` at ``ft_mount``) therefore measures
-the soil force plus the bucket's own weight and inertia, as a real wrist sensor does.
+the soil force plus the bucket's own weight and inertia, as a real wrist sensor does. Its reading
+(:meth:`Simulation.observe`) adds Gaussian noise (``truth.ft_force_noise_n``, ``ft_torque_noise_nm``)
+and, while the cutting edge advances into soil, the arm's vibration that the testbed's sensor read
+while digging (``truth.ft_dig_noise_share``, calibrated to the thesis' Table 4; see
+:meth:`Simulation._dig_disturbance`), drawn from a random stream of its own.
 
 A watchdog checks every control step. MuJoCo meets an unstable state (a "huge value in QACC") by
 warning and silently resetting the state to the model's default, with its time back at 0, so a
