@@ -37,7 +37,9 @@ from excavsim.loop.samples import DigSamples
 # 2 % of the load at 0.25-0.4 m, 3-4 digs of the testbed sand).
 RIM_ACROSS_M = 0.3  # beyond the bucket's half width, across the arm plane
 RIM_ALONG_M = 0.4  # beyond the path's radial extent
-QUIET = {"cohesion_rate_per_decade": 0.0, "brittleness_index": 0.0, "heterogeneity_std": 0.0}
+# quiet records: no rate effect, failure-cycle drops, heterogeneity or the F/T reading's digging disturbance
+QUIET = {"cohesion_rate_per_decade": 0.0, "brittleness_index": 0.0, "heterogeneity_std": 0.0,
+         "ft_dig_noise_share": 0.0}
 
 
 def removed_volume(before: ElevationMap, after: ElevationMap, path_xz: np.ndarray, arm, waist: float,
