@@ -183,6 +183,115 @@ def run_playback(out: Path | None = None, *, seed: int = 0, sweep: bool = True, 
     return table
 
 
+MAX_SEEDS = 64  # a bound on --seeds (each seed is a whole experiment, about 8 s of CPU without the sweep)
+
+
+def seed_range(text: str) -> list[int]:
+    """The seeds of ``--seeds``: ``"0-7"``, ``"0,2,5"``, ``"3"`` or a mix (``"0-3,9"``), each in [0, 2**31).
+
+    Raises:
+        ExcavsimError: naming the bad part and the allowed forms.
+    """
+    allowed = "allowed: seeds N (0 <= N < 2**31) as 'A-B', 'A,B,C' or a mix such as '0-3,9'"
+    seeds: list[int] = []
+    for part in str(text).split(","):
+        lo, sep, hi = part.strip().partition("-")
+        try:
+            a, b = int(lo), int(hi) if sep else int(lo)
+        except ValueError:
+            raise ExcavsimError(f"--seeds: {part.strip()[:40]!r} is not a seed or a range; {allowed}") from None
+        if not 0 <= a <= b < 2 ** 31:
+            raise ExcavsimError(f"--seeds: {part.strip()[:40]!r} is not an increasing range of seeds; {allowed}")
+        if len(seeds) + b - a >= MAX_SEEDS:
+            raise ExcavsimError(f"--seeds: more than {MAX_SEEDS} seeds given; {allowed}")
+        seeds += [s for s in range(a, b + 1) if s not in seeds]
+    return seeds
+
+
+METRICS = (("pos_rms_m", 100.0, "position RMS [cm]", "{:7.2f}"), ("force_rms_n", 1.0, "force RMS error [N]", "{:7.0f}"),
+           ("weighted_error", 1e-3, "E = mean W x~^2 + f~^2 [1e3]", "{:7.0f}"))
+
+
+def seed_table(tables: dict[int, dict]) -> list[str]:
+    """Per soil and metric (position RMS, force RMS error, E) a table of controllers against seeds, with the mean
+    over the seeds; ``tables`` is ``{seed: run_playback's table}``."""
+    seeds = list(tables)
+    keys = list(dict.fromkeys(k for t in tables.values() for k in t))
+    lines = []
+    for soil in dict.fromkeys(s for s, _ in keys):
+        names = [c for s, c in keys if s == soil]
+        for key, scale, label, fmt in METRICS:
+            lines.append(f"{soil}: {label}")
+            lines.append(f"  {'controller':24s}" + "".join(f"{'seed ' + str(s):>9s}" for s in seeds) + f"{'mean':>9s}")
+            for name in names:
+                vals = [scale * tables[s][soil, name][key] for s in seeds]
+                lines.append(f"  {name:24s}" + "".join("  " + fmt.format(v) for v in vals)
+                             + "  " + fmt.format(float(np.mean(vals))))
+    return lines
+
+
+def seed_verdict(tables: dict[int, dict], soils: list[str]) -> list[str]:
+    """The closing note over seeds: in each changed soil, on how many seeds the variable controller's E, position
+    and force errors are below those of position control (high K) and of the low fixed impedance, with the means.
+
+    What ch. 6 claims (§6.2-6.3, ch. 7) is the compromise: position control keeps the path and loses the force,
+    the low impedance keeps the force and loses the path, and the variable impedance controls both "in favour of
+    position control" (Fig. 6.48); both errors below *both* fixed extremes is the stricter reading of issue 24."""
+    seeds, n = list(tables), len(tables)
+    lines = []
+    for soil in soils:
+        v, p, f = ({s: tables[s][soil, c] for s in seeds} for c in (VARIABLE, POSITION, FORCE))
+
+        def below(key, other):
+            return sum(v[s][key] < other[s][key] for s in seeds)
+
+        def mean(d, key, scale=1.0):
+            return scale * float(np.mean([d[s][key] for s in seeds]))
+
+        e_wins = sum(v[s]["weighted_error"] < min(p[s]["weighted_error"], f[s]["weighted_error"]) for s in seeds)
+        both = sum(v[s]["pos_rms_m"] < min(p[s]["pos_rms_m"], f[s]["pos_rms_m"])
+                   and v[s]["force_rms_n"] < min(p[s]["force_rms_n"], f[s]["force_rms_n"]) for s in seeds)
+        lines.append(
+            f"{soil} over {n} seeds: {VARIABLE} E lower than both fixed extremes on {e_wins}/{n} "
+            f"(mean {mean(v, 'weighted_error', 1e-3):.0f} k vs position {mean(p, 'weighted_error', 1e-3):.0f} k, low K "
+            f"{mean(f, 'weighted_error', 1e-3):.0f} k); position RMS below low K's on {below('pos_rms_m', f)}/{n}, "
+            f"below position control's on {below('pos_rms_m', p)}/{n} (mean {mean(v, 'pos_rms_m', 100):.1f} cm vs "
+            f"{mean(p, 'pos_rms_m', 100):.1f}, {mean(f, 'pos_rms_m', 100):.1f}); force RMS below position control's on "
+            f"{below('force_rms_n', p)}/{n}, below low K's on {below('force_rms_n', f)}/{n} (mean "
+            f"{mean(v, 'force_rms_n'):.0f} N vs {mean(p, 'force_rms_n'):.0f}, {mean(f, 'force_rms_n'):.0f}); "
+            f"both errors below both extremes on {both}/{n}")
+    return lines
+
+
+def run_seeds(seeds: list[int], out: Path | None = None, *, sweep: bool = False, demo: Demonstration | None = None,
+              progress: Callable[[str], None] = print) -> dict[int, dict]:
+    """The experiment of :func:`run_playback` on each of ``seeds`` (each seed records its own demonstration
+    unless ``demo`` is given, and replays it in worlds of that seed), then :func:`seed_table` and
+    :func:`seed_verdict`; writes ``seeds.csv`` into ``out``. Returns ``{seed: table}``."""
+    if not seeds:
+        raise ExcavsimError("run_seeds: no seeds given")
+    tables = {}
+    for s in seeds:
+        tables[s] = run_playback(None, seed=s, sweep=sweep, demo=demo, progress=lambda line: None)
+        v = {soil: e for (soil, c), e in tables[s].items() if c == VARIABLE}
+        progress(f"seed {s}: {VARIABLE} " + ", ".join(f"{soil} {100 * e['pos_rms_m']:.1f} cm / {e['force_rms_n']:.0f} N"
+                                                       for soil, e in v.items()))
+    for line in seed_table(tables):
+        progress(line)
+    changed = [soil for soil in dict.fromkeys(s for s, _ in tables[seeds[0]]) if soil != "same"]
+    for line in seed_verdict(tables, changed):
+        progress(line)
+    if out is not None:
+        out.mkdir(parents=True, exist_ok=True)
+        lines = ["seed,soil,controller,pos_rms_m,pos_max_m,force_rms_n,force_max_err_n,force_peak_n,weighted_error"]
+        lines += [f"{seed},{s},{c},{e['pos_rms_m']:.4f},{e['pos_max_m']:.4f},{e['force_rms_n']:.1f},"
+                  f"{e['force_max_err_n']:.1f},{e['force_peak_n']:.1f},{e['weighted_error']:.0f}"
+                  for seed, t in tables.items() for (s, c), e in t.items()]
+        (out / "seeds.csv").write_text("\n".join(lines) + "\n")
+        progress(f"wrote {out}/seeds.csv")
+    return tables
+
+
 def verdict(table: dict, soils: list[str]) -> list[str]:
     """The closing note: per changed soil, whether the variable controller's E, position and force
     errors are below each fixed extreme's."""
