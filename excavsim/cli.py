@@ -707,6 +707,13 @@ def _cmd_playback(args: argparse.Namespace) -> int:
         raise ExcavsimError("playback: --live and --record show or record a --teleop session; give --teleop with them")
     if args.record and not args.record.endswith(".rrd"):
         raise ExcavsimError(f"--record must name an .rrd file; given {shorten(repr(args.record), 200)}")
+    seeds = None
+    if args.seeds is not None:
+        if args.teleop or args.from_rrd or args.seed is not None:
+            raise ExcavsimError("playback: --seeds runs the chapter-6 experiment on several seeds; it cannot be "
+                                "combined with --seed, --teleop or --from-rrd (give --seeds alone, or with --demo)")
+        seeds = playback.seed_range(args.seeds)
+    seed = args.seed if args.seed is not None else 0
     if args.teleop:
         from excavsim.execution.teleop import HELP
         from excavsim.loop import teleop
@@ -722,7 +729,7 @@ def _cmd_playback(args: argparse.Namespace) -> int:
                 print(f"streaming the session live to {live}")
             observer = RerunRecorder(args.record, live=live)
         print(f"excavsim playback --teleop: drive the bucket tip from 10 cm above the demonstration dig; {HELP}")
-        demo = teleop.teleoperate(keys, seed=args.seed, observer=observer, on_key=lambda k, p, f: print(
+        demo = teleop.teleoperate(keys, seed=seed, observer=observer, on_key=lambda k, p, f: print(
             f"{k}: tip x {p[0]:.2f} m z {p[1]:.2f} m pitch {math.degrees(p[2]):.0f} deg | F radial {f[0]:7.0f} N "
             f"vertical {f[1]:7.0f} N", flush=True))
         if args.record:
@@ -746,7 +753,12 @@ def _cmd_playback(args: argparse.Namespace) -> int:
     print("excavsim playback: demonstrate a dig, replay it in a stiffer and a softer soil with fixed high, moderate, "
           "low and variable impedance (002_694c274da322d931.txt §3.3, ch. 6)")
     demo = load_demonstration(args.demo) if args.demo else None
-    playback.run_playback(out, seed=args.seed, sweep=not args.no_sweep, demo=demo)
+    if seeds is not None:
+        print(f"over seeds {', '.join(map(str, seeds))}: each seed records its own demonstration"
+              + (" (here: the given one)" if demo is not None else "") + " and replays it in worlds of that seed")
+        playback.run_seeds(seeds, out, sweep=not args.no_sweep, demo=demo)
+        return 0
+    playback.run_playback(out, seed=seed, sweep=not args.no_sweep, demo=demo)
     return 0
 
 
@@ -1096,7 +1108,9 @@ def build_parser() -> argparse.ArgumentParser:
     tune.set_defaults(func=_cmd_tune)
     pb = sub.add_parser("playback", help="programming digs by demonstration: replay a demonstrated dig in a stiffer "
                         "and a softer soil with fixed and variable impedance (DiMaio ch. 3, 6)")
-    pb.add_argument("--seed", type=_seed, default=0, metavar="N", help="the worlds' seed (default 0)")
+    pb.add_argument("--seed", type=_seed, default=None, metavar="N", help="the worlds' seed (default 0)")
+    pb.add_argument("--seeds", metavar="SPEC", help="run the experiment on several seeds ('0-7', '0,2,5') and print "
+                    "each soil's and controller's errors per seed and their mean; writes DIR/seeds.csv")
     pb.add_argument("--no-sweep", action="store_true", help="skip the velocity-weighting sweep (Figs. 6.46-6.48)")
     pb.add_argument("--teleop", action="store_true", help="make a demonstration by teleoperation from the terminal "
                     "(keys a/d w/s q/e move the tip, x finishes); writes DIR/teleop_demonstration.json")

@@ -133,17 +133,18 @@ def test_playback_in_the_demonstration_soil_reproduces_it(recorded):
 
 def test_the_variable_controller_reproduces_the_demonstration_in_its_own_soil(recorded):
     # Fig. 6.45: eq. 3.37 with the depth law in the unchanged soil. Tolerance (stated): the tip within 2 cm RMS
-    # (3.5 cm max) and the force RMS error below 15 % of the demonstrated peak (213 N of 1419 N); before the
-    # depth law compared equally filtered forces it missed by 2.1 cm / 229 N (seed 0), now 1.5 cm / 183 N.
+    # (3.5 cm max) and the force RMS error below 10 % of the demonstrated peak (142 N of 1419 N). With G = 1000
+    # it missed by 1.5 cm / 183 N (seed 0; 161-199 N on seeds 0-7: r = |fe| / (G |v|) ~ 9 softened it in its own
+    # soil); with the chapter's G = 2000 1.5 cm / 109 N (95-120 N on seeds 0-7; position control 86-112 N).
     from excavsim.config import get_soil
-    from excavsim.loop.playback import DEMO_SOIL, K_MAX, K_MIN, MASS, W, play
+    from excavsim.loop.playback import DEMO_SOIL, G_VARIABLE, K_MAX, K_MIN, MASS, W, play
     d = recorded.with_approach(0.10, 1.0)
-    run = play(d, get_soil(DEMO_SOIL), "same", VariableImpedance("variable", MASS, K_MIN, K_MAX, 1000.0,
+    run = play(d, get_soil(DEMO_SOIL), "same", VariableImpedance("variable", MASS, K_MIN, K_MAX, G_VARIABLE,
                                                                  depth=DepthDual(w=W)))
     e = run.errors(W)
     assert run.outcome == "completed"
     assert e["pos_rms_m"] < 0.02 and e["pos_max_m"] < 0.035
-    assert e["force_rms_n"] < 0.15 * e["demo_force_peak_n"]
+    assert e["force_rms_n"] < 0.10 * e["demo_force_peak_n"]
     assert e["force_peak_n"] == pytest.approx(e["demo_force_peak_n"], rel=0.1)
     assert np.abs(run.depth).max() < 0.03  # in its own soil the depth law barely moves the path
 
@@ -183,13 +184,13 @@ def test_the_depth_law_is_the_static_minimiser_of_eq_3_14_in_the_depth():
 
 
 def test_position_control_fails_in_the_changed_soils_and_variable_impedance_beats_both_fixed_ones(recorded):
-    from excavsim.loop.playback import K_MAX, K_MIN, MASS, SOFTER, STIFFER, W, DEMO_SOIL, play, scaled_soil
+    from excavsim.loop.playback import DEMO_SOIL, G_VARIABLE, K_MAX, K_MIN, MASS, SOFTER, STIFFER, W, play, scaled_soil
     d = recorded.with_approach(0.10, 1.0)
     soils = {"stiffer": scaled_soil(DEMO_SOIL, STIFFER), "softer": scaled_soil(DEMO_SOIL, SOFTER)}
     e = {}
     for name, soil in soils.items():
         for law in (FixedImpedance("position", MASS, K_MAX), FixedImpedance("force", MASS, K_MIN),
-                    VariableImpedance("variable", MASS, K_MIN, K_MAX, 1000.0, depth=DepthDual(w=W))):
+                    VariableImpedance("variable", MASS, K_MIN, K_MAX, G_VARIABLE, depth=DepthDual(w=W))):
             run = play(d, soil, name, law)
             assert run.outcome == "completed"
             e[name, law.name] = run.errors(W)
@@ -198,7 +199,18 @@ def test_position_control_fails_in_the_changed_soils_and_variable_impedance_beat
     # the softer one (the path held)
     assert e["stiffer", "position"]["pos_rms_m"] > 0.1
     assert e["softer", "position"]["pos_rms_m"] < 0.03 and e["softer", "position"]["force_peak_n"] < 0.7 * demo_peak
+    # ch. 6's compromise (§6.3, Fig. 6.48): the variable impedance keeps the path better than the low impedance
+    # and the force better than position control, and has the least eq. 3.14 error
     for name in soils:
         v, p, f = e[name, "variable"], e[name, "position"], e[name, "force"]
         assert v["weighted_error"] < min(p["weighted_error"], f["weighted_error"]), name
         assert v["force_rms_n"] < p["force_rms_n"] and v["pos_rms_m"] < f["pos_rms_m"], name
+    # the stricter reading (issue 24): in the stiffer soil, where the stalled arm also loses the path, both errors
+    # are below both fixed extremes' (seeds 0-7: by 7 cm and 190 N at least); in the softer soil the force error
+    # is at most a tie with the low impedance's (seeds 0-7: 6-20 N lower on 7, 2 N higher on 1), which buys it with
+    # 36 cm of path, while position control, on the path, is closer in position (eqs. 3.8-3.9: both cannot be had)
+    v, p, f = e["stiffer", "variable"], e["stiffer", "position"], e["stiffer", "force"]
+    assert v["pos_rms_m"] < min(p["pos_rms_m"], f["pos_rms_m"]) and v["force_rms_n"] < min(p["force_rms_n"],
+                                                                                            f["force_rms_n"])
+    v, f = e["softer", "variable"], e["softer", "force"]
+    assert v["force_rms_n"] < f["force_rms_n"] + 0.02 * demo_peak
