@@ -261,13 +261,22 @@ def fit_wedge(data: ForceDataset, soil, width: float, *, starts: int = 4, seed: 
     return Fit("wedge", params, errors, pred, rms, r2, corr, phi_range)
 
 
+# What dig records identify of DiMaio's model, with the tolerance measured (README: 8 fits, 4 DiMaio-truth
+# records of 3 digs of the testbed sand, from starts twice and half the truth; largest error in brackets).
+# At a steady drag between shears the lagging centre's force tends to k T_rt v_t (eqs. 5.44, 5.46), a
+# force per speed like b_t0 s_p v_t's: the product is identified, k and T_rt apart are not, and b_t0
+# trades with it; b_n0 multiplies a normal speed a dragging blade hardly has.
+DIMAIO_IDENTIFIED = {"rho": 0.10, "mu": 0.20, "eps": 0.30, "S": 0.30, "k*T_rt": 0.30}  # (7, 16, 25, 25, 25 %)
+
+
 def fit_dimaio(data: ForceDataset, start: dict[str, float], *, s_bucket: float, width: float,
                factors: tuple[float, ...] = SEARCH_FACTORS) -> Fit:
     """DiMaio's eight parameters of Table 5.3 and the shear strength ``S`` (eq. 5.45) fitted to a
     record: a variable-projection search from ``start`` scaled by each of ``factors``
     (:func:`~excavsim.learning.identify.projected_fit`), then the output-error fit (eq. 5.55), the
     model stepped ``SUBSTEPS`` times per sample (the controller's rate); the record's runs are the
-    digs, the touch-down samples left out."""
+    digs, the touch-down samples left out. Of the nine, dig data identify those of
+    :data:`DIMAIO_IDENTIFIED` (the rest trade against each other)."""
     rec = planar_record(data, s_bucket, width)
     keep = _used(data).astype(float)
     shear = (width, s_bucket)
@@ -426,6 +435,10 @@ def calibrate(record: str | pathlib.Path | ForceDataset, model: str, out: str | 
         lo, hi = fit.phi_range_deg
         say(f"  the record supports phi {lo:.0f}-{hi:.0f} deg (the cost's profile within {PROFILE_RISE:.0%} of its "
             f"minimum); correlation of c and phi {fit.correlation[0, 1]:+.2f}")
+    if fit.model == "dimaio":
+        say(f"  identified by dig data: rho, mu, eps, S and k*T_rt = {fit.params['k'] * fit.params['T_rt']:.4g} N s/m "
+            "(within " + ", ".join(f"{k} {v:.0%}" for k, v in DIMAIO_IDENTIFIED.items())
+            + " on DiMaio-truth records); k, T_rt, T_rn, b_t0 and b_n0 apart are not")
     reruns: dict[str, Rerun] = {}
     one_episode = data.meta.get("source") == "excavsim.loop.calibrate_digs"
     if rerun_digs and not one_episode:
