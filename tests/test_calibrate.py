@@ -322,9 +322,9 @@ def dimaio_record(tmp_path_factory):
 
 def test_dimaio_fit_on_a_dimaio_record_from_a_start_twice_the_truth(dimaio_record):
     """From every parameter at twice its value, the fitted DiMaio model recovers what dig data
-    identify (the README's tolerances, from 8 fits: 4 records of 3 digs, starts twice and half the
-    truth): the density within 10 % (measured at most 7 %), the Coulomb coefficient within 20 % (16 %),
-    the accumulation within 30 % (25 %), the shear strength within 30 % (25 %) and the stiffness
+    identify (the README's tolerances, from 12 fits: 4 records of 3 digs, starts twice, half and at
+    the truth): the density within 10 % (measured at most 7 %), the Coulomb coefficient within 20 % (16 %),
+    the accumulation within 35 % (30 %), the shear strength within 30 % (25 %) and the stiffness
     times the tangential lag, the steady force per drag speed of the lagging centre, within 30 %
     (26 %); stiffness and lags apart, b_t0 (it trades with k T_rt) and b_n0 are not identified.
     And it explains the record better than the fitted wedge. Measured on this record: rho -0.5 %,
@@ -335,7 +335,7 @@ def test_dimaio_fit_on_a_dimaio_record_from_a_start_twice_the_truth(dimaio_recor
     p = fit.params
     assert p["rho"] == pytest.approx(true["rho"], rel=0.10)
     assert p["mu"] == pytest.approx(true["mu"], rel=0.20)
-    assert p["eps"] == pytest.approx(true["eps"], rel=0.30)
+    assert p["eps"] == pytest.approx(true["eps"], rel=0.35)
     assert p["S"] == pytest.approx(true["S"], rel=0.30)
     assert p["k"] * p["T_rt"] == pytest.approx(true["k"] * true["T_rt"], rel=0.30)
     assert set(cal.DIMAIO_IDENTIFIED) == {"rho", "mu", "eps", "S", "k*T_rt"}
