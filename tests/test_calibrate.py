@@ -38,22 +38,27 @@ def clay(tmp_path_factory):
     return path, cd.record_digs(path, soil="lean_clay", digs=2, seed=0, quiet=True)
 
 
-def check_recovered(params: dict, soil, *, c_abs_pa: float, c_rel: float) -> None:
-    """The tolerances stated in the README: gamma within 10 %, delta within 3.5 deg, phi within 3.5 deg
-    (on these seed-0 records; see the README for the spread over seeds), c within
-    max(c_abs_pa, c_rel * c)."""
+def check_recovered(fit, soil, *, c_abs_pa: float, c_rel: float, phi_deg: float | None) -> None:
+    """The tolerances stated in the README: gamma within 10 %, delta within 3.5 deg, c within
+    max(c_abs_pa, c_rel * c); phi inside the range the record supports (the cost's profile within
+    PROFILE_RISE of its minimum: 20 of 20 records), and within ``phi_deg`` where the record separates
+    c from phi (the clay: 8 of 8 records within 3.5 deg; the sands' records do not, see the README)."""
+    params = fit.params
     gamma = soil.density_kg_m3 * identify.G_M_S2
     assert params["gamma_n_m3"] == pytest.approx(gamma, rel=0.10)
     assert abs(params["delta_deg"] - math.degrees(soil.delta)) < 3.5
-    assert abs(params["phi_deg"] - math.degrees(soil.phi)) < 3.5
     assert abs(params["c_pa"] - soil.cohesion_pa) < max(c_abs_pa, c_rel * soil.cohesion_pa)
+    lo, hi = fit.phi_range_deg
+    assert lo <= math.degrees(soil.phi) <= hi
+    if phi_deg is not None:
+        assert abs(params["phi_deg"] - math.degrees(soil.phi)) < phi_deg
 
 
 def test_calibrate_recovers_the_testbed_sand_from_a_record(sand, tmp_path):
     """Measured (2 digs): c 0, phi 31.4, delta 28.4 deg, gamma 19.41 kN/m^3 (true 0, 30, 30, 19.62)."""
     path, _, _ = sand
     fits = cal.calibrate(path, "wedge", tmp_path, rerun_digs=False, cross_model=False, say=lambda s: None)
-    check_recovered(fits["wedge"].params, get_soil("testbed_sand"), c_abs_pa=1000.0, c_rel=0.0)
+    check_recovered(fits["wedge"], get_soil("testbed_sand"), c_abs_pa=1000.0, c_rel=0.0, phi_deg=None)
     assert fits["wedge"].r2 > 0.95
     from excavsim.config import SoilsFile, load_config
 
@@ -66,7 +71,50 @@ def test_calibrate_recovers_a_cohesive_soil_from_a_record(clay, tmp_path):
     phi 18.0, delta 16.9 deg, gamma 18.12 kN/m^3."""
     path, _ = clay
     fits = cal.calibrate(path, "wedge", tmp_path, rerun_digs=False, cross_model=False, say=lambda s: None)
-    check_recovered(fits["wedge"].params, get_soil("lean_clay"), c_abs_pa=1000.0, c_rel=0.10)
+    check_recovered(fits["wedge"], get_soil("lean_clay"), c_abs_pa=1000.0, c_rel=0.10, phi_deg=3.5)
+
+
+def _true_theta(soil) -> np.ndarray:
+    return np.array([soil.cohesion_pa, soil.phi, soil.delta, soil.density_kg_m3 * identify.G_M_S2])
+
+
+def test_a_sand_record_does_not_separate_cohesion_from_friction(sand):
+    """The limit of the data (§5.2.4.1's "many near-equal minima"): in the sand's record c and phi
+    trade along a valley (their estimates' correlation below -0.7; measured -0.78 to -0.92 over 8
+    records), the cost's profile over phi stays within PROFILE_RISE of its minimum over more than
+    15 deg, and whatever phi the fit picks, the fitted soil predicts the true soil's forces along the
+    record's digs within 7 % (measured 0.9-6.2 % over 20 records): the force is identified, its split
+    into c and phi is not."""
+    _, _, data = sand
+    soil = get_soil("testbed_sand")
+    width = float(data.meta["bucket_width_m"])
+    fit = cal.fit_wedge(data, soil, width)
+    assert fit.correlation[0, 1] < -0.7
+    lo, hi = fit.phi_range_deg
+    assert hi - lo > 15.0
+    keep = cal._used(data)
+    x = RecordWedge.inputs(data.samples, cal._loads(data, width), advance_speed(data["x"], data["t"], data["dig"]))
+    rw = RecordWedge(width)
+    p = fit.params
+    fitted = np.array([p["c_pa"], math.radians(p["phi_deg"]), math.radians(p["delta_deg"]), p["gamma_n_m3"]])
+    f_fit, f_true = rw.forces(fitted, x[keep]), rw.forces(_true_theta(soil), x[keep])
+    assert np.sqrt(((f_fit - f_true) ** 2).sum(1).mean()) < 0.07 * np.sqrt((f_true ** 2).sum(1).mean())
+    # the profile is the fit's own cost: at the fitted phi it gives the fit's RMS again
+    rms, params = rw.profile(x[keep], data.forces[keep], fitted, np.array([fitted[1]]))
+    r = rw.forces(fitted, x[keep]) - data.forces[keep]
+    assert rms[0] == pytest.approx(math.sqrt(float((r ** 2).mean())), rel=1e-3)
+    np.testing.assert_allclose(params[0, 1], fitted[1])
+
+
+def test_supported_range_is_where_the_profile_stays_below_the_level():
+    """On a parabola ``(v - 20)^2 / 10 + 10`` the level 12.5 is crossed at 15 and 25: found by
+    linear interpolation between 2.5-deg grid points; an end where the profile is still below the
+    level is the grid's end."""
+    v = np.arange(10.0, 45.01, 2.5)
+    cost = (v - 20.0) ** 2 / 10.0 + 10.0
+    lo, hi = cal.supported_range(v, cost, 12.5)
+    assert lo == pytest.approx(15.0) and hi == pytest.approx(25.0)
+    assert cal.supported_range(v, cost, 1e9) == (10.0, 45.0)
 
 
 def test_the_scans_measure_what_each_dig_removed(sand):
@@ -273,15 +321,23 @@ def dimaio_record(tmp_path_factory):
 
 
 def test_dimaio_fit_on_a_dimaio_record_from_a_start_twice_the_truth(dimaio_record):
-    """From every parameter at twice its value, the fitted DiMaio model finds the density within 5 %,
-    the Coulomb coefficient within 15 % and the accumulation within 30 % (the identifiable ones; see
-    the README for the rest), and explains the record better than the fitted wedge."""
+    """From every parameter at twice its value, the fitted DiMaio model recovers what dig data
+    identify (the README's tolerances, from 12 fits: 4 records of 3 digs, starts twice, half and at
+    the truth): the density within 10 % (measured at most 7 %), the Coulomb coefficient within 20 % (16 %),
+    the accumulation within 35 % (30 %), the shear strength within 30 % (25 %) and the stiffness
+    times the tangential lag, the steady force per drag speed of the lagging centre, within 30 %
+    (26 %); stiffness and lags apart, b_t0 (it trades with k T_rt) and b_n0 are not identified.
+    And it explains the record better than the fitted wedge. Measured on this record: rho -0.5 %,
+    mu +8 %, epsilon -17 %, S -6 %, k T_rt -5 %, R^2 0.96 (the wedge 0.52)."""
     soil = get_soil("testbed_sand")
     true = cal.dimaio_start(soil)
     fit = cal.fit_dimaio(dimaio_record, {k: 2 * v for k, v in true.items()}, s_bucket=0.3, width=0.3)
     p = fit.params
-    assert p["rho"] == pytest.approx(true["rho"], rel=0.05)
-    assert p["mu"] == pytest.approx(true["mu"], rel=0.15)
-    assert p["eps"] == pytest.approx(true["eps"], rel=0.30)
-    wedge = cal.fit_wedge(dimaio_record, soil, 0.3)
+    assert p["rho"] == pytest.approx(true["rho"], rel=0.10)
+    assert p["mu"] == pytest.approx(true["mu"], rel=0.20)
+    assert p["eps"] == pytest.approx(true["eps"], rel=0.35)
+    assert p["S"] == pytest.approx(true["S"], rel=0.30)
+    assert p["k"] * p["T_rt"] == pytest.approx(true["k"] * true["T_rt"], rel=0.30)
+    assert set(cal.DIMAIO_IDENTIFIED) == {"rho", "mu", "eps", "S", "k*T_rt"}
+    wedge = cal.fit_wedge(dimaio_record, soil, 0.3, profile=False)
     assert fit.r2 > 0.8 and fit.r2 > wedge.r2 + 0.2

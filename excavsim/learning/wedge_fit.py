@@ -269,6 +269,53 @@ class RecordWedge:
             se = np.full(4, math.inf)
         return best.x * _WEDGE_UNITS, se, math.sqrt(float(r @ r) / r.size)
 
+    def correlation(self, theta: np.ndarray, x: np.ndarray) -> np.ndarray:
+        """The correlation (4, 4) of the estimates of ``c, phi, delta, gamma`` at ``theta``, from the
+        Jacobian of the residuals (``(J^T J)^-1`` normalized; central differences): how far the
+        record separates them. ``corr(c, phi)`` near -1 is the c-phi valley of §5.2.4.1 (a little
+        cohesion explains the forces as well as a little more friction)."""
+        u = np.asarray(theta, dtype=float) / _WEDGE_UNITS
+        h = 1e-6
+        jac = np.stack([(self.forces((u + h * e) * _WEDGE_UNITS, x)
+                         - self.forces((u - h * e) * _WEDGE_UNITS, x)).ravel() / (2 * h) for e in np.eye(4)], axis=-1)
+        cov = np.linalg.pinv(jac.T @ jac)
+        sd = np.sqrt(np.maximum(np.diag(cov), 1e-300))
+        return np.clip(cov / np.outer(sd, sd), -1.0, 1.0)
+
+    def profile(self, x: np.ndarray, y: np.ndarray, theta: np.ndarray, values: np.ndarray, *,
+                index: int = 1) -> tuple[np.ndarray, np.ndarray]:
+        """The profile of the cost along one parameter: for each of ``values`` (of parameter
+        ``index`` of ``c, phi, delta, gamma``, in its units: Pa, rad, rad, N/m^3) the other three
+        fitted again with bounds, by continuation outward from ``theta`` (the fit's optimum).
+        Returns the RMS residual [N] (as :meth:`fit`'s) and the parameters (len(values), 4) at each."""
+        lo, hi = (np.array(b) / _WEDGE_UNITS for b in WEDGE_BOUNDS)
+        free = [i for i in range(4) if i != index]
+        values = np.asarray(values, dtype=float)
+        u_best = np.clip(np.asarray(theta, dtype=float) / _WEDGE_UNITS, lo, hi)
+        rms = np.full(values.size, np.nan)
+        params = np.full((values.size, 4), np.nan)
+        order = np.argsort(np.abs(values - theta[index]))
+        start = int(order[0])
+        for direction in (1, -1):
+            guess = u_best[free].copy()
+            idx = range(start, values.size) if direction == 1 else range(start - 1, -1, -1)
+            for i in idx:
+                fixed = values[i] / _WEDGE_UNITS[index]
+
+                def residuals(uf: np.ndarray, fixed: float = fixed) -> np.ndarray:
+                    u = np.empty(4)
+                    u[free], u[index] = uf, fixed
+                    return (self.forces(u * _WEDGE_UNITS, x) - y).ravel()
+
+                res = least_squares(residuals, np.clip(guess, lo[free], hi[free]), bounds=(lo[free], hi[free]),
+                                    x_scale="jac")
+                guess = res.x
+                u = np.empty(4)
+                u[free], u[index] = res.x, fixed
+                params[i] = u * _WEDGE_UNITS
+                rms[i] = math.sqrt(2.0 * float(res.cost) / y.size)
+        return rms, params
+
 
 def advance_speed(x: np.ndarray, t: np.ndarray, dig: np.ndarray) -> np.ndarray:
     """The tip's horizontal advance towards the arm's base (n,) [m/s], ``max(-dx/dt, 0)`` by central
