@@ -512,3 +512,89 @@ def format_comparison(rows: list[tuple[str, MujocoRun]], units_m2: float = 0.01)
                      f"{100 * run.removed_fraction:7.1f}% {run.spilled_m3:8.3f} {th['per_dig']:15.1f} "
                      f"{100 * th['efficiency']:11.0f}%")
     return "\n".join(lines)
+
+
+# ---------------------------------------------------------------------------------------------- campaigns
+class LoadingCampaign(StrictModel):
+    """``configs/campaigns/loading_mujoco.yaml`` (``excavsim load --campaign``): episodes of each machine over
+    seeds, judged together (the table of :func:`format_campaign`)."""
+
+    machines: list[str] = Field(min_length=1)
+    seeds: list[int] = Field(min_length=1)
+    mujoco_config: str | None = None
+
+
+def load_campaign(path: str | pathlib.Path) -> LoadingCampaign:
+    """A loading campaign file, validated (machine names, seeds)."""
+    spec = load_config(path, LoadingCampaign)
+    bad = [m for m in spec.machines if m not in MACHINES]
+    if bad:
+        raise ExcavsimError(f"{path}: machines: unknown {bad}; allowed: {', '.join(MACHINES)}")
+    if any(not 0 <= s < 2**32 for s in spec.seeds) or len(set(spec.seeds)) != len(spec.seeds):
+        raise ExcavsimError(f"{path}: seeds must be distinct integers from 0 to 2^32 - 1; given {spec.seeds}")
+    return spec
+
+
+def same_pile_2d(name: str, cfg: LoadingMujocoConfig, cfg2d: ld.LoadingConfig) -> ld.Run:
+    """The 2-D simulation of §7.2.1 (:func:`excavsim.loop.loading.simulate`: exact terrain, the swept area removed,
+    settlement) on the episode's pile: the lane's length, 5 cm columns, faces at the world soil's repose."""
+    from excavsim.config import get_soil
+    from excavsim.world.pile2d import trapezoid_pile
+
+    repose = get_soil(cfg.soil).repose_angle_deg
+    pile = trapezoid_pile(cfg.pile.height, cfg.pile.top, cfg.pile.foot, 8.5, 0.05, repose)
+    spec = getattr(cfg2d.machines, name)
+    return ld.simulate(ld.make_machine(cfg2d, name), ld.make_rules(cfg2d, spec.capacity_units), pile, name=name,
+                       max_digs=cfg.max_digs)
+
+
+def run_campaign(spec: LoadingCampaign, *, cfg: LoadingMujocoConfig | None = None,
+                 cfg2d: ld.LoadingConfig | None = None, progress=None) -> list[tuple[str, int, MujocoRun]]:
+    """Every (machine, seed) episode of ``spec``, in sequence."""
+    cfg = cfg or load_mujoco_config(spec.mujoco_config)
+    cfg2d = cfg2d or ld.load_loading_config()
+    rows = []
+    for name in spec.machines:
+        for seed in spec.seeds:
+            run = run_episode(name, seed=seed, cfg=cfg, cfg2d=cfg2d)
+            rows.append((name, seed, run))
+            if progress:
+                progress(f"  {name} seed {seed}: " + _campaign_line(run))
+    return rows
+
+
+def _campaign_line(run: MujocoRun, units_m2: float = 0.01) -> str:
+    per = run.per_dig() / run.width_m / units_m2
+    return (f"{len(run.digs)} digs, {100 * run.removed_fraction:.1f} % removed, {per:.1f} units delivered per dig "
+            f"({100 * run.efficiency():.0f} %), {run.spilled_m3:.3f} m^3 spilled, "
+            f"{'done' if run.done else 'NOT done'} ({run.reason})")
+
+
+def format_campaign(rows: list[tuple[str, int, MujocoRun]], two_d: dict[str, ld.Run], units_m2: float = 0.01) -> str:
+    """The campaign's episodes, then per machine their mean and spread beside the 2-D simulation on the same
+    pile and the thesis (§7.2.1, Figs. 108-109; its own pile). Units: 1 unit = ``units_m2`` m^2 of the section."""
+    lines = [f"{'machine':<7} {'seed':>4} {'digs':>4} {'removed':>8} {'units/dig':>9} {'eff.':>5} {'spilled m3':>10} "
+             f"{'map left m3':>11} {'done':>4}  end"]
+    for name, seed, run in rows:
+        per = run.per_dig() / run.width_m / units_m2
+        lines.append(f"{name:<7} {seed:4d} {len(run.digs):4d} {100 * run.removed_fraction:7.1f}% {per:9.1f} "
+                     f"{100 * run.efficiency():4.0f}% {run.spilled_m3:10.3f} {run.map_end_m3:11.3f} "
+                     f"{'yes' if run.done else 'NO':>4}  {run.reason}")
+    lines += ["", f"{'machine':<7} {'episodes':>8} {'done':>5} {'digs':>11} {'units/dig':>12} {'efficiency':>11} "
+              f"{'spilled m3':>11} | {'2-D same pile':>22} | thesis"]
+    for name in dict.fromkeys(n for n, _, _ in rows):
+        runs = [r for n, _, r in rows if n == name]
+        digs = np.array([len(r.digs) for r in runs], float)
+        per = np.array([r.per_dig() / r.width_m / units_m2 for r in runs])
+        eff = np.array([100 * r.efficiency() for r in runs])
+        spill = np.array([r.spilled_m3 for r in runs])
+        t2 = two_d.get(name)
+        two = (f"{len(t2.digs)} digs, {t2.per_dig() / units_m2:.1f}, {100 * t2.efficiency():.0f} %" if t2 is not None
+               else "-")
+        th = ld.THESIS[name]
+        thesis = ((f"{th['digs']} digs, " if "digs" in th else "")
+                  + f"{th['per_dig']:.1f}, ≈ {100 * th['efficiency']:.0f} %")
+        lines.append(f"{name:<7} {len(runs):8d} {sum(r.done for r in runs):5d} {digs.mean():5.1f} ± {digs.std():3.1f} "
+                     f"{per.mean():6.1f} ± {per.std():3.1f} {eff.mean():5.0f} ± {eff.std():2.0f}% "
+                     f"{spill.mean():5.3f} ± {spill.std():.3f} | {two:>22} | {thesis}")
+    return "\n".join(lines)
