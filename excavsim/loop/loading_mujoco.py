@@ -290,10 +290,13 @@ def choose_section(machine, sections: dict[str, lp.Terrain], rules: lp.LoadingRu
     if dug:
         best = max(dug, key=lambda n: plans[n].volume)
         return best, sections[best], plans[best]
-    reasons = {p.reason for p in plans.values()}
     plan = plans["middle"]
-    if len(reasons) > 1:
-        plan.reason = "; ".join(f"{n}: {p.reason}" for n, p in plans.items())
+    if any(p.reason != "no pile left" for p in plans.values()):
+        def best(p: lp.LoadingPlan) -> str:
+            v = p.cell_volume[np.isfinite(p.cell_volume)]
+            return "no pile" if p.reason == "no pile left" else f"best {v.max() if v.size else 0.0:.3f} m^2"
+        plan.reason = (f"no dig of minimal utility ({100 * rules.min_fraction:.0f} % of capacity) on any section ("
+                       + ", ".join(f"{n}: {best(p)}" for n, p in plans.items()) + ")")
     return "middle", sections["middle"], plan
 
 
