@@ -130,6 +130,14 @@ def test_a_planned_loading_dig_is_shaping_and_reachable_by_ik_and_in_mujoco(name
     assert kept_slice.start <= cut[0] and cut[-1] < kept_slice.stop
     assert kept_slice.stop >= len(poses) - int(0.3 / 0.02)
     assert tips[:, 1].min() >= -rules.tolerance
+    # the bucket pin stays above the ground and on the bucket's side of its floor (mu < 0: a real bucket's pin is
+    # above its floor's line; with mu = +20 deg it passed 0.3 m under the ground in digs along it)
+    joints = q if name == "loader" else q[:, 1:]
+    pts = machine.points(joints) if name == "loader" else machine.points(joints, q[:, 0])
+    pin = pts[:, -2]
+    assert pin[:, 1].min() > 0.1
+    normal = np.stack([-np.sin(kept[:, 2]), np.cos(kept[:, 2])], axis=1)  # the floor's normal into the bucket
+    assert np.all(np.einsum("ij,ij->i", pin - kept[:, :2], normal) > 0.2)
     # and a pose beyond the machine's reach within the dig is refused, not silently clipped
     far = poses.copy()
     far[cut[len(cut) // 2], 1] += 10.0  # 10 m up: beyond both machines
