@@ -232,6 +232,17 @@ def test_bad_machine_config_and_arguments_are_refused(tmp_path, capsys):
     assert "give --machine" in capsys.readouterr().err
     with pytest.raises(ExcavsimError, match="beyond the lane"):
         lm.run_episode("loader", pile=lm.PileLane(height=2.0, top=3.0, foot=1.5))
+    camp = tmp_path / "camp.yaml"
+    camp.write_text("machines: [loader, excavator]\nseeds: [0, 1]\n")
+    assert cli.main(["load", "--campaign", str(camp)]) == 2  # refused before any episode runs
+    assert "allowed: loader, shovel" in capsys.readouterr().err
+    camp.write_text("machines: [loader]\nseeds: [0, 0]\n")
+    assert cli.main(["load", "--campaign", str(camp)]) == 2
+    assert "distinct" in capsys.readouterr().err
+    assert cli.main(["load", "--campaign", str(lm.constants.CONFIGS_DIR / "campaigns" / "loading_mujoco.yaml"),
+                     "--machine", "loader"]) == 2
+    assert "--campaign runs the machines" in capsys.readouterr().err
+    assert lm.load_campaign(lm.constants.CONFIGS_DIR / "campaigns" / "loading_mujoco.yaml").seeds == list(range(8))
 
 
 def test_a_recorded_loading_episode_passes_rerun_verify_and_holds_its_entities(tmp_path):
