@@ -768,7 +768,7 @@ def _cmd_load(args: argparse.Namespace) -> int:
     from excavsim.loop import loading as ld
 
     cfg = ld.load_loading_config(args.config)
-    if args.mujoco:
+    if args.mujoco or args.campaign:
         return _load_mujoco(args, cfg)
     if args.record:
         raise ExcavsimError("--record needs --mujoco (the 2-D simulation writes figures to --out)")
@@ -822,6 +822,25 @@ def _load_mujoco(args: argparse.Namespace, cfg) -> int:
 
     if args.study:
         raise ExcavsimError("--study is the 2-D simulation's (Fig. 112); --mujoco runs single episodes")
+    if args.campaign:
+        if args.record or args.machine:
+            raise ExcavsimError("--campaign runs the machines and seeds its file names; --record and --machine "
+                                "are single episodes' options")
+        import pathlib
+
+        spec = lm.load_campaign(args.campaign)
+        mcfg = lm.load_mujoco_config(args.mujoco_config or spec.mujoco_config)
+        print(f"excavsim load --campaign: {', '.join(spec.machines)} x seeds {spec.seeds} in MuJoCo, pile "
+              f"{mcfg.pile.height:g} m high, soil {mcfg.soil}")
+        rows = lm.run_campaign(spec, cfg=mcfg, cfg2d=cfg, progress=print)
+        two_d = {name: lm.same_pile_2d(name, mcfg, cfg) for name in spec.machines}
+        table = lm.format_campaign(rows, two_d, cfg.units_m2)
+        out = pathlib.Path(args.out)
+        out.mkdir(parents=True, exist_ok=True)
+        (out / "campaign.txt").write_text(table + "\n")
+        print(table)
+        print(f"wrote {out / 'campaign.txt'}")
+        return 0 if all(r.done for _, _, r in rows) else 1
     if args.record and not args.record.endswith(".rrd"):
         raise ExcavsimError(f"--record must name an .rrd file; given {shorten(repr(args.record), 200)}")
     mcfg = lm.load_mujoco_config(args.mujoco_config)
@@ -1082,6 +1101,9 @@ def build_parser() -> argparse.ArgumentParser:
                       help="with --mujoco: its configuration (default configs/loading_mujoco.yaml)")
     load.add_argument("--record", metavar="FILE.rrd", type=_out_file(()),
                       help="with --mujoco and --machine: record the episode to a Rerun file")
+    load.add_argument("--campaign", metavar="YAML", type=_name_or_path,
+                      help="MuJoCo episodes of each machine over seeds, judged together (e.g. "
+                           "configs/campaigns/loading_mujoco.yaml); writes campaign.txt to --out")
     load.set_defaults(func=_cmd_load)
     tune = sub.add_parser("tune", help="truck loading by the mass-excavation script, self-tuned online by "
                           "memory-based learning (001_0de172b0d6b3614b.txt §6.2): the learning curve of Fig. 12")

@@ -130,6 +130,14 @@ def test_a_planned_loading_dig_is_shaping_and_reachable_by_ik_and_in_mujoco(name
     assert kept_slice.start <= cut[0] and cut[-1] < kept_slice.stop
     assert kept_slice.stop >= len(poses) - int(0.3 / 0.02)
     assert tips[:, 1].min() >= -rules.tolerance
+    # the bucket pin stays above the ground and on the bucket's side of its floor (mu < 0: a real bucket's pin is
+    # above its floor's line; with mu = +20 deg it passed 0.3 m under the ground in digs along it)
+    joints = q if name == "loader" else q[:, 1:]
+    pts = machine.points(joints) if name == "loader" else machine.points(joints, q[:, 0])
+    pin = pts[:, -2]
+    assert pin[:, 1].min() > 0.1
+    normal = np.stack([-np.sin(kept[:, 2]), np.cos(kept[:, 2])], axis=1)  # the floor's normal into the bucket
+    assert np.all(np.einsum("ij,ij->i", pin - kept[:, :2], normal) > 0.2)
     # and a pose beyond the machine's reach within the dig is refused, not silently clipped
     far = poses.copy()
     far[cut[len(cut) // 2], 1] += 10.0  # 10 m up: beyond both machines
@@ -139,25 +147,75 @@ def test_a_planned_loading_dig_is_shaping_and_reachable_by_ik_and_in_mujoco(name
 
 @pytest.mark.parametrize("name", MACHINES)
 def test_a_short_mujoco_episode_removes_a_small_pile_and_conserves_volume(name):
-    """A small pile, removed to tolerance through the whole loop (scan, plan, script, settle); the lane, bucket
-    and spoil hold the same soil at every control step, to round-off."""
+    """A small pile, removed to tolerance through the whole loop (scan, plan, script, settle); the lane, the
+    bucket, the delivered and the spilled soil hold the pile's volume at every control step, to round-off, and
+    the delivered soil is what the bucket carried (never more than it held at lift-out)."""
     drift = []
+    account = lm.SoilAccount()
 
-    def account(world):
-        drift.append(world.volumes().total - world.soil.initial_volume)
+    def check(world):
+        v = world.volumes()
+        drift.append(v.box + v.bucket + account.delivered + account.spilled - world.soil.initial_volume)
+        assert abs(account.delivered + account.spilled - v.spoil) < 1e-12
 
-    run = lm.run_episode(name, pile=lm.PileLane(height=0.6, top=0.3, foot=1.5), max_digs=6, world_hooks=[account])
+    run = lm.run_episode(name, pile=lm.PileLane(height=0.6, top=0.3, foot=1.5), max_digs=6, world_hooks=[check],
+                         account=account)
     assert run.done, lm.format_run(run)
-    assert run.reason == "no pile left"
+    assert "no pile left" in run.reason
     assert len(drift) > 1000
     assert max(abs(d) for d in drift) < 1e-9 * run.start_m3
-    assert abs(run.start_m3 - run.end_m3 - run.dumped_m3) < 1e-9
+    assert abs(run.start_m3 - run.end_m3 - run.delivered_m3 - run.spilled_m3) < 1e-9
     full = [d for d in run.digs if d.planned_m3 > 0.8 * run.capacity_m3]
     assert full, "no full dig"
     for d in full:  # a full planned dig fills the bucket in the world, within 15 %
         assert abs(d.bucket_m3 - d.planned_m3) < 0.15 * d.planned_m3
     for d in run.digs:
-        assert d.dumped_m3 <= d.bucket_m3 + 0.02 * run.capacity_m3 + 1e-12
+        assert d.delivered_m3 <= d.bucket_m3 + 1e-12
+        assert d.delivered_m3 > 0.9 * d.bucket_m3  # the dump empties the bucket at the truck
+    assert run.efficiency() <= 1.0
+
+
+def test_soil_pushed_off_the_lane_counts_as_spilled_not_delivered():
+    """The account splits the world's spoil by phase: growth while dumping is delivered, any other is spilled
+    (a bulldozing dig that pushes soil over the lane's end), and the two always add up to the spoil."""
+    world = ls.LoadingWorld("loader")
+    account = lm.SoilAccount()
+    account.reset(world)
+    world.soil.spoil += 0.3  # soil leaves the lane while the bucket digs
+    account(world)
+    account.dumping = True
+    world.soil.spoil += 0.2  # the bucket pours at the truck
+    account(world)
+    account.dumping = False
+    assert account.spilled == pytest.approx(0.3) and account.delivered == pytest.approx(0.2)
+    assert account.delivered + account.spilled == pytest.approx(world.volumes().spoil)
+
+
+def test_soil_off_the_middle_section_is_still_the_pile():
+    """A map whose soil lies only along the far kerb: the middle section is bare, but the episode's end
+    condition sees the soil in the map and the planner digs the far side's section."""
+    from excavsim.handoff.maps import ElevationMap
+
+    cfg, cfg2d = lm.load_mujoco_config(), ld.load_loading_config()
+    machine = ld.make_machine(cfg2d, "loader")
+    rules = ld.make_rules(cfg2d, cfg2d.machines.loader.capacity_units)
+    ny, nx, cell = 18, 170, 0.05
+    xs = (np.arange(nx) + 0.5) * cell
+    ys = -0.45 + (np.arange(ny) + 0.5) * cell
+    ridge = np.clip(0.5 - np.abs(xs - 3.0) * math.tan(math.radians(30.0)), 0.0, None)
+    heights = np.where((ys >= cfg.section_half_width)[:, None], ridge[None, :], 0.0)
+    emap = ElevationMap(0.0, -0.45, cell, heights, np.ones((ny, nx), bool), 0.0)
+    sections = lm.map_sections(emap, cfg.section_half_width)
+    assert set(sections) == set(lm.SECTIONS)
+    assert lp.plan(machine, sections["middle"], rules).action is None  # the middle alone says "no pile"
+    assert lm.map_soil_m3(emap, 0.95, rules.ground) > 0.05
+    name, terrain, plan = lm.choose_section(machine, sections, rules)
+    assert name == "far side" and plan.action is not None
+    assert plan.volume > rules.min_fraction * rules.capacity
+    bare = ElevationMap(0.0, -0.45, cell, np.zeros((ny, nx)), np.ones((ny, nx), bool), 0.0)
+    name, _, plan = lm.choose_section(machine, lm.map_sections(bare, cfg.section_half_width), rules)
+    assert plan.action is None and plan.reason == "no pile left"
+    assert lm.map_soil_m3(bare, 0.95, rules.ground) == 0.0
 
 
 def test_bad_machine_config_and_arguments_are_refused(tmp_path, capsys):
@@ -174,6 +232,17 @@ def test_bad_machine_config_and_arguments_are_refused(tmp_path, capsys):
     assert "give --machine" in capsys.readouterr().err
     with pytest.raises(ExcavsimError, match="beyond the lane"):
         lm.run_episode("loader", pile=lm.PileLane(height=2.0, top=3.0, foot=1.5))
+    camp = tmp_path / "camp.yaml"
+    camp.write_text("machines: [loader, excavator]\nseeds: [0, 1]\n")
+    assert cli.main(["load", "--campaign", str(camp)]) == 2  # refused before any episode runs
+    assert "allowed: loader, shovel" in capsys.readouterr().err
+    camp.write_text("machines: [loader]\nseeds: [0, 0]\n")
+    assert cli.main(["load", "--campaign", str(camp)]) == 2
+    assert "distinct" in capsys.readouterr().err
+    assert cli.main(["load", "--campaign", str(lm.constants.CONFIGS_DIR / "campaigns" / "loading_mujoco.yaml"),
+                     "--machine", "loader"]) == 2
+    assert "--campaign runs the machines" in capsys.readouterr().err
+    assert lm.load_campaign(lm.constants.CONFIGS_DIR / "campaigns" / "loading_mujoco.yaml").seeds == list(range(8))
 
 
 def test_a_recorded_loading_episode_passes_rerun_verify_and_holds_its_entities(tmp_path):

@@ -6,23 +6,31 @@ a lane one bucket wide, with the world's soil model (cutting, the wedge-model fo
 truth terms, bearing, filling, pouring, settlement) and laser scanner. One episode repeats the cycle:
 
 1. **scan**: ``n_scans`` range images of the world's scanner, calibrated, median-filtered and binned into
-   the elevation map (:func:`~excavsim.sensing.elevation.build_map`); the planner's 2-D section is the
-   map's median across the lane's middle (``section_half_width``) per column;
-2. **plan**: :func:`excavsim.planning.loading.plan` on that section: the loading action (k, alpha) with
-   d1 maximized and the smallest reachable radius, all of §4.1-4.2's constraints, the shovel's base
-   placed between digs;
+   the elevation map (:func:`~excavsim.sensing.elevation.build_map`); the map gives three 2-D sections
+   (:func:`map_sections`): per column the median across the lane's middle (``|y| < section_half_width``),
+   and across each side band beyond it;
+2. **plan**: :func:`excavsim.planning.loading.plan` on the middle section: the loading action (k, alpha)
+   with d1 maximized and the smallest reachable radius, all of §4.1-4.2's constraints, the shovel's base
+   placed between digs; when the middle holds no dig of minimal utility, on the side bands, and the one
+   whose dig is the largest is dug (:func:`choose_section`: soil left along a kerb is still the pile's);
 3. **execute by script** (:mod:`excavsim.execution.loading_script`): the shovel's base drives to its
    planned place; the bucket goes to the pre-entry pose (the approach line's backward extension of the
    floor's length, which the collision constraint keeps above the surface); the planned path (approach,
    arc, lift-out), sampled every ``path_step`` and turned into joint set-points by the machine's inverse
    kinematics, is played at ``tip_speed``; the base backs off, carries the load to the truck's place
-   behind the lane (the ``carry`` keyframe) and dumps it there (``dump``): what pours outside the lane
-   is the spoil account, the truck;
+   behind the lane (the ``carry`` keyframe) and dumps it there (``dump``);
 4. **settle** the whole lane (the world's settlement to the angle of repose).
 
-The episode ends when the planner finds no dig of minimal utility, after ``max_digs``, when the physics
+The episode ends when the planner finds no dig of minimal utility on any section of the map (the reason
+gives the map's soil left above the ground, :func:`map_soil_m3`), after ``max_digs``, when the physics
 diverges or a planned pose is out of the machine's reach (the reason says which); the pile counts as
 removed when the lane holds at most ``tolerance_fraction`` of it (privileged truth, for the report).
+
+The volume account (privileged truth, :class:`SoilAccount`): soil leaves the lane either in the bucket,
+poured at the truck during the dump (**delivered**), or any other way, chiefly cut soil that a full bucket
+pushes ahead (the world's surcharge spill) over the lane's ends or sides (**spilled**). The world keeps
+both in one spoil account; the loop splits it by the phase in which it grew, so lane + bucket + delivered +
+spilled stays the pile's volume to round-off. Units per dig and the efficiency count the delivered soil only.
 
 Simplifications (stated): the lane is one bucket wide, so the world is the thesis' 2-D section extruded
 across it; the servos are position servos; the script is open loop in time (no touch-down, no force
@@ -124,28 +132,32 @@ class LoadingObserver(Protocol):
 class MujocoDig:
     """One dig in MuJoCo: the plan, what the planner predicted and what the world did [m^3].
 
-    ``planned_m3`` is the planner's swept area times the lane's width; ``bucket_m3`` the soil in the bucket
-    at the end of the lift-out, ``dumped_m3`` what reached the truck (spoil), ``peak_force_n`` the largest soil
-    force on the bucket during the dig (the wedge model's cutting force with bearing, friction and the load's
-    weight), all privileged truth but the plan.
+    ``planned_m3`` is the planner's swept area times the lane's width, ``section`` the map section it was
+    planned on; ``bucket_m3`` the soil in the bucket at the end of the lift-out, ``delivered_m3`` what the
+    bucket poured at the truck, ``spilled_m3`` what left the lane otherwise during this cycle (see the module
+    docstring), ``peak_force_n`` the largest soil force on the bucket during the dig (the wedge model's cutting
+    force with bearing, friction and the load's weight), all privileged truth but the plan.
     """
 
     action: lp.LoadingAction
     base_x: float
     planned_m3: float
     bucket_m3: float
-    dumped_m3: float
+    delivered_m3: float
+    spilled_m3: float
     lane_m3: float
     scripts: list[ls.ScriptResult]
     tip_path: np.ndarray
     planned_path: np.ndarray
     peak_force_n: float
+    section: str = "middle"
 
 
 @dataclasses.dataclass
 class MujocoRun:
     """An episode: its digs, why it ended, the lane's soil at the start and the end [m^3], the drift of the volume
-    account (lane + bucket + spoil minus the start's [m^3]), the bucket's heaped capacity [m^3] and width [m]."""
+    account (lane + bucket + delivered + spilled minus the start's [m^3]), the bucket's heaped capacity [m^3] and
+    width [m], and the soil the last map showed above the ground (the mind's view of what is left) [m^3]."""
 
     machine: str
     capacity_m3: float
@@ -157,10 +169,15 @@ class MujocoRun:
     total_drift_m3: float
     tolerance_fraction: float
     sim_time_s: float
+    map_end_m3: float = math.nan
 
     @property
-    def dumped_m3(self) -> float:
-        return float(sum(d.dumped_m3 for d in self.digs))
+    def delivered_m3(self) -> float:
+        return float(sum(d.delivered_m3 for d in self.digs))
+
+    @property
+    def spilled_m3(self) -> float:
+        return float(sum(d.spilled_m3 for d in self.digs))
 
     @property
     def removed_fraction(self) -> float:
@@ -172,7 +189,38 @@ class MujocoRun:
         return self.end_m3 <= self.tolerance_fraction * self.start_m3
 
     def per_dig(self) -> float:
-        return self.dumped_m3 / len(self.digs) if self.digs else 0.0
+        """Delivered soil per dig [m^3]."""
+        return self.delivered_m3 / len(self.digs) if self.digs else 0.0
+
+    def efficiency(self) -> float:
+        """Delivered soil per dig over the bucket's heaped capacity (§7.2.1)."""
+        return self.per_dig() / self.capacity_m3
+
+
+class SoilAccount:
+    """The world's spoil split into delivered and spilled (privileged truth; see the module docstring).
+
+    A world step hook: the spoil's growth during a step is delivered while ``dumping`` (the bucket over the
+    truck, pouring) and spilled otherwise. ``delivered + spilled`` equals the world's spoil at every step.
+    """
+
+    def __init__(self) -> None:
+        self.delivered = 0.0
+        self.spilled = 0.0
+        self.dumping = False
+        self._spoil = 0.0
+
+    def reset(self, world: LoadingWorld) -> None:
+        self.delivered = self.spilled = 0.0
+        self._spoil = world.volumes().spoil
+
+    def __call__(self, world: LoadingWorld) -> None:
+        spoil = world.volumes().spoil
+        grown, self._spoil = spoil - self._spoil, spoil
+        if self.dumping:
+            self.delivered += grown
+        else:
+            self.spilled += grown
 
 
 # ---------------------------------------------------------------------------------------------- the pieces
@@ -195,13 +243,61 @@ def make_scanner(world: LoadingWorld, cfg: LoadingMujocoConfig, seed: int) -> La
 
 def scan_section(world: LoadingWorld, scanner: LaserScanner, cfg: LoadingMujocoConfig
                  ) -> tuple[ElevationMap, lp.Terrain]:
-    """Scan, build the map, and the planner's section: per map column the median over the lane's middle."""
+    """Scan, build the map, and the planner's middle section (:func:`map_sections`)."""
+    emap = scan_map(world, scanner, cfg)
+    return emap, map_sections(emap, cfg.section_half_width)["middle"]
+
+
+def scan_map(world: LoadingWorld, scanner: LaserScanner, cfg: LoadingMujocoConfig) -> ElevationMap:
+    """``n_scans`` range images of the lane, calibrated, median-filtered and binned into the elevation map."""
     images = [scanner.scan(world.time) for _ in range(cfg.n_scans)]
     emap, _ = build_map(images, scanner.geometry, load_sensing_config().map)
+    return emap
+
+
+SECTIONS = ("middle", "near side", "far side")
+
+
+def map_sections(emap: ElevationMap, half_width: float) -> dict[str, lp.Terrain]:
+    """The map's 2-D sections (:data:`SECTIONS`): per column the median height over the rows with
+    ``|y| < half_width`` (the middle), ``y <= -half_width`` (the near side) and ``y >= half_width`` (the far
+    side); a side with no row is left out. Negative heights (map noise) are the ground."""
     xs, ys = emap.centres()
-    rows = np.abs(ys) < cfg.section_half_width
-    heights = np.maximum(np.median(emap.heights[rows], axis=0), 0.0)
-    return emap, lp.Terrain(xs, heights, emap.cell)
+    bands = {"middle": np.abs(ys) < half_width, "near side": ys <= -half_width, "far side": ys >= half_width}
+    return {name: lp.Terrain(xs, np.maximum(np.median(emap.heights[rows], axis=0), 0.0), emap.cell)
+            for name, rows in bands.items() if rows.any()}
+
+
+def map_soil_m3(emap: ElevationMap, width: float, ground: float) -> float:
+    """The soil the map shows more than ``ground`` [m] above the ground (a thinner layer is ground, as the
+    planner's ``LoadingRules.ground``), over the lane's ``width`` [m]: per column the mean over the rows."""
+    excess = np.maximum(emap.heights - ground, 0.0)
+    return float(excess.mean(axis=0).sum() * emap.cell * width)
+
+
+def choose_section(machine, sections: dict[str, lp.Terrain], rules: lp.LoadingRules
+                   ) -> tuple[str, lp.Terrain, lp.LoadingPlan]:
+    """The section to dig and its plan: the middle's when it holds a dig of minimal utility, else the side
+    band's whose dig is the largest; when no section has one, the middle's plan (no action) with a reason
+    that names every section's."""
+    plans = {"middle": lp.plan(machine, sections["middle"], rules)}
+    if plans["middle"].action is not None:
+        return "middle", sections["middle"], plans["middle"]
+    for name in SECTIONS[1:]:
+        if name in sections:
+            plans[name] = lp.plan(machine, sections[name], rules)
+    dug = [n for n, p in plans.items() if p.action is not None]
+    if dug:
+        best = max(dug, key=lambda n: plans[n].volume)
+        return best, sections[best], plans[best]
+    plan = plans["middle"]
+    if any(p.reason != "no pile left" for p in plans.values()):
+        def best(p: lp.LoadingPlan) -> str:
+            v = p.cell_volume[np.isfinite(p.cell_volume)]
+            return "no pile" if p.reason == "no pile left" else f"best {v.max() if v.size else 0.0:.3f} m^2"
+        plan.reason = (f"no dig of minimal utility ({100 * rules.min_fraction:.0f} % of capacity) on any section ("
+                       + ", ".join(f"{n}: {best(p)}" for n, p in plans.items()) + ")")
+    return "middle", sections["middle"], plan
 
 
 def dig_poses(action: lp.LoadingAction, terrain: lp.Terrain, rules: lp.LoadingRules, floor: float, *,
@@ -252,7 +348,8 @@ def joint_path(machine, poses: np.ndarray, base_x: float) -> tuple[np.ndarray, s
 # ---------------------------------------------------------------------------------------------- the episode
 def run_episode(name: str, *, seed: int = 0, cfg: LoadingMujocoConfig | None = None,
                 cfg2d: ld.LoadingConfig | None = None, pile: PileLane | None = None, max_digs: int | None = None,
-                observer: LoadingObserver | None = None, progress=None, world_hooks=()) -> MujocoRun:
+                observer: LoadingObserver | None = None, progress=None, world_hooks=(),
+                account: SoilAccount | None = None) -> MujocoRun:
     """One loading episode of ``name`` (``loader`` or ``shovel``) in MuJoCo (see the module docstring).
 
     Args:
@@ -261,6 +358,7 @@ def run_episode(name: str, *, seed: int = 0, cfg: LoadingMujocoConfig | None = N
             kinematics, capacity and the planner's grid come from ``cfg2d``.
         pile: a pile other than the configuration's; max_digs: a limit other than the configuration's.
         world_hooks: callables run after every control step with the world (tests: the volume account).
+        account: the delivered/spilled account to keep (a new one when None; tests read it at every step).
     """
     if name not in MACHINES:
         raise ExcavsimError(f"unknown loading machine {name!r}; allowed: {', '.join(MACHINES)}")
@@ -268,6 +366,9 @@ def run_episode(name: str, *, seed: int = 0, cfg: LoadingMujocoConfig | None = N
     cfg2d = cfg2d or ld.load_loading_config()
     world = LoadingWorld(name, soil=cfg.soil, seed=seed)
     world.set_terrain(world.section_heights(*pile_section(world, pile or cfg.pile)))
+    account = account if account is not None else SoilAccount()
+    account.reset(world)
+    world.step_hooks.append(account)
     world.step_hooks.extend(world_hooks)
     if observer is not None:
         world.step_hooks.append(observer.stepped)
@@ -299,13 +400,18 @@ def run_episode(name: str, *, seed: int = 0, cfg: LoadingMujocoConfig | None = N
         res, q = ls.run(world.step, q, script, dt, tolerance=tol)
         results.append(res)
 
+    map_first = map_end = math.nan
     for index in range(max_digs or cfg.max_digs):
-        emap, terrain = scan_section(world, scanner, cfg)
-        plan = lp.plan(machine, terrain, rules)
+        emap = scan_map(world, scanner, cfg)
+        map_end = map_soil_m3(emap, world.width, rules.ground)
+        map_first = map_end if index == 0 else map_first
+        section, terrain, plan = choose_section(machine, map_sections(emap, cfg.section_half_width), rules)
         if observer is not None:
             observer.scanned(index, emap, terrain)
         if plan.action is None:
-            reason = plan.reason
+            share = f" ({100 * map_end / map_first:.1f} % of the first map)" if map_first > 0 else ""
+            reason = (f"{plan.reason}; the map shows {map_end:.3f} m^3 more than {100 * rules.ground:.0f} cm above "
+                      f"the ground{share}")
             break
         poses, _ = dig_poses(plan.action, terrain, rules, machine.floor, step=sc.path_step, lift_extra=sc.lift_extra)
         try:
@@ -319,7 +425,7 @@ def run_episode(name: str, *, seed: int = 0, cfg: LoadingMujocoConfig | None = N
             trace.clear()
             forces.clear()
             results: list[ls.ScriptResult] = []
-            spoil0 = world.volumes().spoil
+            delivered0, spilled0 = account.delivered, account.spilled
             # to the dig: the loader sets its arm and drives in; the shovel drives its base, then sets its arm
             if machine.moves_base:
                 staged = np.r_[q[0], qp[0, 1:]]
@@ -337,14 +443,19 @@ def run_episode(name: str, *, seed: int = 0, cfg: LoadingMujocoConfig | None = N
             back[0] += sc.back_off if machine.moves_base else -sc.back_off  # the loader's d1 grows backwards
             play(ls.joint_move(q, back, joint_speed=speed, name="back off"), results)
             play(ls.joint_move(q, carry, joint_speed=speed, name="carry"), results)
-            play(ls.joint_move(q, dump, joint_speed=speed, name="dump"), results)
-            for _ in range(int(sc.dump_hold_s / dt)):
-                q = world.step(dump)
+            account.dumping = True  # the bucket over the truck: what pours out of the lane now is delivered
+            try:
+                play(ls.joint_move(q, dump, joint_speed=speed, name="dump"), results)
+                for _ in range(int(sc.dump_hold_s / dt)):
+                    q = world.step(dump)
+            finally:
+                account.dumping = False
             play(ls.joint_move(q, carry, joint_speed=speed, name="back to carry"), results)
             world.settle_soil()
             v = world.volumes()
-            dig = MujocoDig(plan.action, plan.base_x, plan.volume * world.width, bucket, v.spoil - spoil0, v.box,
-                            results, tip_path, poses, peak)
+            dig = MujocoDig(plan.action, plan.base_x, plan.volume * world.width, bucket,
+                            account.delivered - delivered0, account.spilled - spilled0, v.box, results, tip_path,
+                            poses, peak, section)
             digs.append(dig)
         except Diverged as exc:  # an outcome, never a hang: the episode ends and says why
             reason = f"dig {index + 1}: {exc}"
@@ -353,12 +464,14 @@ def run_episode(name: str, *, seed: int = 0, cfg: LoadingMujocoConfig | None = N
             observer.dug(index, dig)
         if progress:
             a = plan.action
-            progress(f"  dig {index + 1:3d}: k {a.k:5.2f} m, alpha {math.degrees(a.alpha):5.1f} deg, d1 {a.d1:4.2f} m, "
-                     f"r {a.r:4.2f} m: planned {dig.planned_m3:.3f} m^3, bucket {bucket:.3f}, dumped "
-                     f"{dig.dumped_m3:.3f}, lane {v.box:.3f} m^3, peak soil force {peak / 1000:.1f} kN")
+            progress(f"  dig {index + 1:3d} ({section}): k {a.k:5.2f} m, alpha {math.degrees(a.alpha):5.1f} deg, d1 "
+                     f"{a.d1:4.2f} m, r {a.r:4.2f} m: planned {dig.planned_m3:.3f} m^3, bucket {bucket:.3f}, "
+                     f"delivered {dig.delivered_m3:.3f}, spilled {dig.spilled_m3:.3f}, lane {v.box:.3f} m^3, "
+                     f"peak soil force {peak / 1000:.1f} kN")
     v = world.volumes()
-    run = MujocoRun(name, world.soil.heaped_capacity, world.width, digs, reason, start, v.box,
-                    v.total - world.soil.initial_volume, cfg.tolerance_fraction, world.time)
+    drift = v.box + v.bucket + account.delivered + account.spilled - world.soil.initial_volume
+    run = MujocoRun(name, world.soil.heaped_capacity, world.width, digs, reason, start, v.box, drift,
+                    cfg.tolerance_fraction, world.time, map_end)
     if observer is not None:
         observer.finished(run)
     return run
@@ -374,30 +487,117 @@ def machine_tip(machine, q: np.ndarray) -> np.ndarray:
 def format_run(run: MujocoRun) -> str:
     """A MuJoCo episode's digs as a table [m^3] and its end."""
     lines = [f"{'dig':>4} {'k m':>5} {'h m':>5} {'alpha':>6} {'d1 m':>5} {'r m':>5} {'base x':>7} {'planned':>8} "
-             f"{'bucket':>7} {'dumped':>7} {'lane':>7} {'peak kN':>8}"]
+             f"{'bucket':>7} {'deliv.':>7} {'spilled':>7} {'lane':>7} {'peak kN':>8} section"]
     for i, d in enumerate(run.digs, 1):
         a = d.action
         bx = "moving" if not math.isfinite(d.base_x) else f"{d.base_x:7.2f}"
         lines.append(f"{i:4d} {a.k:5.2f} {a.h:5.2f} {math.degrees(a.alpha):6.1f} {a.d1:5.2f} {a.r:5.2f} {bx:>7} "
-                     f"{d.planned_m3:8.3f} {d.bucket_m3:7.3f} {d.dumped_m3:7.3f} {d.lane_m3:7.3f} "
-                     f"{d.peak_force_n / 1000:8.1f}")
+                     f"{d.planned_m3:8.3f} {d.bucket_m3:7.3f} {d.delivered_m3:7.3f} {d.spilled_m3:7.3f} "
+                     f"{d.lane_m3:7.3f} {d.peak_force_n / 1000:8.1f} {d.section}")
     lines.append(f"end: {run.reason}; lane {run.start_m3:.3f} -> {run.end_m3:.3f} m^3 "
                  f"({100 * run.removed_fraction:.1f} % removed, {'within' if run.done else 'NOT within'} the "
                  f"{100 * run.tolerance_fraction:.0f} % tolerance); {len(run.digs)} digs, "
-                 f"{run.per_dig():.3f} m^3 per dig = {100 * run.per_dig() / run.capacity_m3:.0f} % of the heaped "
-                 f"capacity {run.capacity_m3:.3f} m^3; volume account drift {run.total_drift_m3:.1e} m^3; "
-                 f"{run.sim_time_s:.0f} s simulated")
+                 f"{run.per_dig():.3f} m^3 delivered per dig = {100 * run.efficiency():.0f} % of the heaped "
+                 f"capacity {run.capacity_m3:.3f} m^3; {run.spilled_m3:.3f} m^3 spilled off the lane; volume account "
+                 f"drift {run.total_drift_m3:.1e} m^3; {run.sim_time_s:.0f} s simulated")
     return "\n".join(lines)
 
 
 def format_comparison(rows: list[tuple[str, MujocoRun]], units_m2: float = 0.01) -> str:
-    """The episodes beside the thesis' 2-D results (§7.2.1), per dig in units of soil of the section
-    (the lane's volume over its width; 1 unit = ``units_m2`` m^2)."""
-    lines = [f"{'machine':<8} {'digs':>5} {'per dig (units)':>16} {'efficiency':>11} {'removed':>8} "
+    """The episodes beside the thesis' 2-D results (§7.2.1), delivered per dig in units of soil of the section
+    (the lane's volume over its width; 1 unit = ``units_m2`` m^2), spilled in m^3."""
+    lines = [f"{'machine':<8} {'digs':>5} {'per dig (units)':>16} {'efficiency':>11} {'removed':>8} {'spilled':>8} "
              f"{'thesis per dig':>15} {'thesis eff.':>12}"]
     for name, run in rows:
         per = run.per_dig() / run.width_m / units_m2
         th = ld.THESIS[name]
-        lines.append(f"{name:<8} {len(run.digs):5d} {per:16.1f} {100 * run.per_dig() / run.capacity_m3:10.0f}% "
-                     f"{100 * run.removed_fraction:7.1f}% {th['per_dig']:15.1f} {100 * th['efficiency']:11.0f}%")
+        lines.append(f"{name:<8} {len(run.digs):5d} {per:16.1f} {100 * run.efficiency():10.0f}% "
+                     f"{100 * run.removed_fraction:7.1f}% {run.spilled_m3:8.3f} {th['per_dig']:15.1f} "
+                     f"{100 * th['efficiency']:11.0f}%")
+    return "\n".join(lines)
+
+
+# ---------------------------------------------------------------------------------------------- campaigns
+class LoadingCampaign(StrictModel):
+    """``configs/campaigns/loading_mujoco.yaml`` (``excavsim load --campaign``): episodes of each machine over
+    seeds, judged together (the table of :func:`format_campaign`)."""
+
+    machines: list[str] = Field(min_length=1)
+    seeds: list[int] = Field(min_length=1)
+    mujoco_config: str | None = None
+
+
+def load_campaign(path: str | pathlib.Path) -> LoadingCampaign:
+    """A loading campaign file, validated (machine names, seeds)."""
+    spec = load_config(path, LoadingCampaign)
+    bad = [m for m in spec.machines if m not in MACHINES]
+    if bad:
+        raise ExcavsimError(f"{path}: machines: unknown {bad}; allowed: {', '.join(MACHINES)}")
+    if any(not 0 <= s < 2**32 for s in spec.seeds) or len(set(spec.seeds)) != len(spec.seeds):
+        raise ExcavsimError(f"{path}: seeds must be distinct integers from 0 to 2^32 - 1; given {spec.seeds}")
+    return spec
+
+
+def same_pile_2d(name: str, cfg: LoadingMujocoConfig, cfg2d: ld.LoadingConfig) -> ld.Run:
+    """The 2-D simulation of §7.2.1 (:func:`excavsim.loop.loading.simulate`: exact terrain, the swept area removed,
+    settlement) on the episode's pile: the lane's length, 5 cm columns, faces at the world soil's repose."""
+    from excavsim.config import get_soil
+    from excavsim.world.pile2d import trapezoid_pile
+
+    repose = get_soil(cfg.soil).repose_angle_deg
+    pile = trapezoid_pile(cfg.pile.height, cfg.pile.top, cfg.pile.foot, 8.5, 0.05, repose)
+    spec = getattr(cfg2d.machines, name)
+    return ld.simulate(ld.make_machine(cfg2d, name), ld.make_rules(cfg2d, spec.capacity_units), pile, name=name,
+                       max_digs=cfg.max_digs)
+
+
+def run_campaign(spec: LoadingCampaign, *, cfg: LoadingMujocoConfig | None = None,
+                 cfg2d: ld.LoadingConfig | None = None, progress=None) -> list[tuple[str, int, MujocoRun]]:
+    """Every (machine, seed) episode of ``spec``, in sequence."""
+    cfg = cfg or load_mujoco_config(spec.mujoco_config)
+    cfg2d = cfg2d or ld.load_loading_config()
+    rows = []
+    for name in spec.machines:
+        for seed in spec.seeds:
+            run = run_episode(name, seed=seed, cfg=cfg, cfg2d=cfg2d)
+            rows.append((name, seed, run))
+            if progress:
+                progress(f"  {name} seed {seed}: " + _campaign_line(run))
+    return rows
+
+
+def _campaign_line(run: MujocoRun, units_m2: float = 0.01) -> str:
+    per = run.per_dig() / run.width_m / units_m2
+    return (f"{len(run.digs)} digs, {100 * run.removed_fraction:.1f} % removed, {per:.1f} units delivered per dig "
+            f"({100 * run.efficiency():.0f} %), {run.spilled_m3:.3f} m^3 spilled, "
+            f"{'done' if run.done else 'NOT done'} ({run.reason})")
+
+
+def format_campaign(rows: list[tuple[str, int, MujocoRun]], two_d: dict[str, ld.Run], units_m2: float = 0.01) -> str:
+    """The campaign's episodes, then per machine their mean and spread beside the 2-D simulation on the same
+    pile and the thesis (§7.2.1, Figs. 108-109; its own pile). Units: 1 unit = ``units_m2`` m^2 of the section."""
+    lines = [f"{'machine':<7} {'seed':>4} {'digs':>4} {'removed':>8} {'units/dig':>9} {'eff.':>5} {'spilled m3':>10} "
+             f"{'map left m3':>11} {'done':>4}  end"]
+    for name, seed, run in rows:
+        per = run.per_dig() / run.width_m / units_m2
+        lines.append(f"{name:<7} {seed:4d} {len(run.digs):4d} {100 * run.removed_fraction:7.1f}% {per:9.1f} "
+                     f"{100 * run.efficiency():4.0f}% {run.spilled_m3:10.3f} {run.map_end_m3:11.3f} "
+                     f"{'yes' if run.done else 'NO':>4}  {run.reason}")
+    lines += ["", f"{'machine':<7} {'episodes':>8} {'done':>5} {'digs':>11} {'units/dig':>12} {'efficiency':>11} "
+              f"{'spilled m3':>11} | {'2-D same pile':>22} | thesis"]
+    for name in dict.fromkeys(n for n, _, _ in rows):
+        runs = [r for n, _, r in rows if n == name]
+        digs = np.array([len(r.digs) for r in runs], float)
+        per = np.array([r.per_dig() / r.width_m / units_m2 for r in runs])
+        eff = np.array([100 * r.efficiency() for r in runs])
+        spill = np.array([r.spilled_m3 for r in runs])
+        t2 = two_d.get(name)
+        two = (f"{len(t2.digs)} digs, {t2.per_dig() / units_m2:.1f}, {100 * t2.efficiency():.0f} %" if t2 is not None
+               else "-")
+        th = ld.THESIS[name]
+        thesis = ((f"{th['digs']} digs, " if "digs" in th else "")
+                  + f"{th['per_dig']:.1f}, ≈ {100 * th['efficiency']:.0f} %")
+        lines.append(f"{name:<7} {len(runs):8d} {sum(r.done for r in runs):5d} {digs.mean():5.1f} ± {digs.std():3.1f} "
+                     f"{per.mean():6.1f} ± {per.std():3.1f} {eff.mean():5.0f} ± {eff.std():2.0f}% "
+                     f"{spill.mean():5.3f} ± {spill.std():.3f} | {two:>22} | {thesis}")
     return "\n".join(lines)

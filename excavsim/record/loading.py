@@ -6,7 +6,8 @@ their body frames, and a ``Transform3D`` per sample; ``world/box`` the lane's ke
 (the true terrain, a ``Mesh3D`` grid whose indices are logged once) after every scan and dig;
 ``world/soil/scan`` the elevation map; ``world/plan/path`` the planned tip path (pre-entry, approach, arc,
 lift-out) and ``world/exec/path`` the executed one, as ``LineStrips3D``; scalars ``volumes/*`` (lane,
-bucket, spoil [m^3]: their sum is constant), ``truth/soil_force_n`` and ``joints/*`` sent with
+bucket, spoil [m^3]: their sum is constant; the spoil is the delivered and the spilled soil, which the
+log's dig lines give apart), ``truth/soil_force_n`` and ``joints/*`` sent with
 ``send_columns``; ``log`` as ``TextLog``. Timelines ``sim_time`` (duration) and ``dig`` (sequence).
 """
 
@@ -120,7 +121,8 @@ class LoadingRecorder:
             self.rec.log("world/exec/path", rr.LineStrips3D([np.stack([p[:, 0], np.zeros(len(p)), p[:, 1]], 1)],
                                                             colors=[(240, 240, 240)], radii=0.02))
         self.rec.log("log", rr.TextLog(f"dig {index + 1}: planned {dig.planned_m3:.3f} m^3, in the bucket at lift-out "
-                                       f"{dig.bucket_m3:.3f}, dumped {dig.dumped_m3:.3f}, lane {dig.lane_m3:.3f}"))
+                                       f"{dig.bucket_m3:.3f}, delivered {dig.delivered_m3:.3f}, spilled "
+                                       f"{dig.spilled_m3:.3f}, lane {dig.lane_m3:.3f} ({dig.section} section)"))
         self._log_truth()
 
     def finished(self, run) -> None:
