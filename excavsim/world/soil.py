@@ -98,6 +98,10 @@ class Volumes:
 
 # Where the fields of the kernel's output record lie in its float64 view, the form a step's snapshot keeps.
 _OUT = soil_records.float64_slots(soil_records.OUT)
+# the force and then the torque, adjacent in the record: the wrench that xfrc_applied takes, in one slice
+_WRENCH = slice(_OUT["force_n"].start, _OUT["torque_nm"].stop)
+assert _OUT["force_n"].stop == _OUT["torque_nm"].start and _WRENCH.stop - _WRENCH.start == 6
+_CUT, _TAKEN, _DEPTH = _OUT["cut_volume_m3"], _OUT["taken_volume_m3"], _OUT["depth_m"]
 
 
 def _scalar(field: str, doc: str) -> property:
@@ -145,6 +149,11 @@ class SoilContact:
     def wedge_failed(self) -> bool:
         """Whether the wedge failed along its critical plane this step (the saw-tooth's drop)."""
         return bool(self._v[_OUT["wedge_failed"]] == 1.0)
+
+    @property
+    def wrench(self) -> np.ndarray:
+        """The total force and then its moment (6,), ``force`` and ``torque`` in one view [N, N m]."""
+        return self._v[_WRENCH]
 
     @property
     def load_weight(self) -> np.ndarray:
@@ -343,16 +352,16 @@ class SoilModel:
     def _after_step(self, data: mujoco.MjData, dt: float) -> SoilContact:
         grid = self.grid
         out = self._out_f8.copy()  # this step's own snapshot
-        cut_volume = float(out[_OUT["cut_volume_m3"]])
-        spilled = cut_volume - float(out[_OUT["taken_volume_m3"]])
-        depth = out[_OUT["depth_m"]]
+        cut_volume = float(out[_CUT])
+        spilled = cut_volume - float(out[_TAKEN])
+        depth = out[_DEPTH]
         poured = 0.0
         if cut_volume > 0:
             w = self._window
             grid.mark(int(w[0]), int(w[1]), int(w[2]), int(w[3]))
             if spilled > 0:  # full bucket: the cut soil stays ahead of the edge, spread over the wedge
                 self.spoil += self._spill_ahead(data, out, spilled)
-        elif depth == 0.0 and self.load > 0.0:
+        elif depth == 0.0 and self._load_m3[0] > 0.0:
             poured = self._pour(data, out)
         if cut_volume > 0 or poured > 0:
             window = grid.peek_dirty()
