@@ -4,7 +4,11 @@
 the wedge's failure force (static, rate effect, inertia), the cutting force through the wedge's
 failure cycle (:func:`failure_cycle`), cutting the swept cells, bearing and friction on the outer
 surface, rocks, and the load's weight, summed into the wrench on the bucket. Its loops over grid
-cells and surface samples are in :mod:`excavsim.world.grid_kernels`.
+cells and surface samples are in :mod:`excavsim.world.grid_kernels`. While the bucket is clear of
+the terrain (swinging, dumping, returning: most of an episode) it skips cutting and bearing
+(:func:`clear_of_terrain`, a test of the terrain under the bucket's world bounding box, read every
+step, so that no bound has to be maintained where the grid changes) and writes what they would:
+the results are the same to the bit.
 Grid conventions are those of :class:`~excavsim.world.terrain.SoilGrid` (``h[row, col]``, row along
 y, col along x). The kernel's parameters, state and outputs are the named records of
 :mod:`excavsim.world.soil_records`; inside the compiled code a record (``grid``, ``p``, ``st``,
