@@ -192,3 +192,29 @@ def bearing(h, grid, pts, normals, vel, surface, sigma, dt, p, ref, across, out_
     out_torque[1] = ty
     out_torque[2] = tz
     return pmax
+
+
+@numba.njit(cache=True)
+def all_below(h, grid, x_lo, x_hi, y_lo, y_hi, z):
+    """Whether every sample of ``h`` that bilinear sampling or the nearest-cell cutting of points in
+    the world rectangle ``[x_lo, x_hi] x [y_lo, y_hi]`` can read lies strictly below the world height
+    ``z`` (``grid``: a GRID record). A NaN height, bound or ``z`` answers False; a rectangle wholly
+    outside the grid answers True (no sample is read there).
+    """
+    x0, y0, cell, z0 = grid.x0_m, grid.y0_m, grid.cell_m, grid.z0_m
+    if not (np.isfinite(x_lo) and np.isfinite(x_hi) and np.isfinite(y_lo) and np.isfinite(y_hi)
+            and np.isfinite(z)):
+        return False
+    nr, nc = h.shape
+    # bilinear reads cells floor(u) and floor(u) + 1, cutting the nearest one: a cell's margin either side
+    # (the cell coordinates are clamped before the conversion to integers: far points stay in range)
+    c_lo = max(int(np.floor(min(max((x_lo - x0) / cell, -4.0), nc + 4.0))) - 1, 0)
+    c_hi = min(int(np.floor(min(max((x_hi - x0) / cell, -4.0), nc + 4.0))) + 2, nc - 1)
+    r_lo = max(int(np.floor(min(max((y_lo - y0) / cell, -4.0), nr + 4.0))) - 1, 0)
+    r_hi = min(int(np.floor(min(max((y_hi - y0) / cell, -4.0), nr + 4.0))) + 2, nr - 1)
+    top = z - z0
+    for r in range(r_lo, r_hi + 1):
+        for c in range(c_lo, c_hi + 1):
+            if not (h[r, c] < top):
+                return False
+    return True

@@ -4,7 +4,11 @@
 the wedge's failure force (static, rate effect, inertia), the cutting force through the wedge's
 failure cycle (:func:`failure_cycle`), cutting the swept cells, bearing and friction on the outer
 surface, rocks, and the load's weight, summed into the wrench on the bucket. Its loops over grid
-cells and surface samples are in :mod:`excavsim.world.grid_kernels`.
+cells and surface samples are in :mod:`excavsim.world.grid_kernels`. While the bucket is clear of
+the terrain (swinging, dumping, returning: most of an episode) it skips cutting and bearing
+(:func:`clear_of_terrain`, a test of the terrain under the bucket's world bounding box, read every
+step, so that no bound has to be maintained where the grid changes) and writes what they would:
+the results are the same to the bit.
 Grid conventions are those of :class:`~excavsim.world.terrain.SoilGrid` (``h[row, col]``, row along
 y, col along x). The kernel's parameters, state and outputs are the named records of
 :mod:`excavsim.world.soil_records`; inside the compiled code a record (``grid``, ``p``, ``st``,
@@ -16,7 +20,7 @@ from __future__ import annotations
 import numba
 import numpy as np
 
-from excavsim.world.grid_kernels import bearing, bilinear, cut_swept, surcharge_volume
+from excavsim.world.grid_kernels import all_below, bearing, bilinear, cut_swept, surcharge_volume
 
 
 @numba.njit(cache=True, inline="always")
@@ -92,6 +96,54 @@ def remember_edge(st, ends, cx, cy, cz):
     centre[2] = cz
 
 
+# How far above the highest terrain sample it could touch the bucket must be to skip the soil's
+# contact loops (:func:`clear_of_terrain`): far above the rounding of the interpolations it bounds.
+CLEARANCE_MARGIN_M = 1e-6
+
+
+@numba.njit(cache=True, inline="always")
+def clear_of_terrain(h, grid, org, rot, box_body, prev_ends):
+    """Whether the bucket is clear of the terrain: every point the step's contact loops read (the
+    outer surface samples, the edge samples and their probes ``PROBE_CELLS`` cells ahead, the edge's
+    ends now and at the last step) lies more than ``CLEARANCE_MARGIN_M`` above every terrain sample
+    that their bilinear sampling or the cutting of the swept quad can read.
+
+    ``box_body`` (2, 3) bounds all the bucket's samples in the body frame (low and high corners); its
+    world bounding box ``org + rot box`` (centre plus the absolute rotation times the half extents)
+    bounds their world positions, and the last step's edge ends widen it. A valid upper bound only:
+    the answer False just means the full contact computation runs.
+
+    When True, the full step would find no depth below the surface (no wedge), cut nothing, and set
+    every bearing pressure to zero with no bearing force or moment: :func:`soil_step` then skips
+    those loops and writes exactly what they would.
+    """
+    x_lo = y_lo = z_lo = np.inf
+    x_hi = y_hi = -np.inf
+    for i in range(3):
+        c = org[i]
+        r = 0.0
+        for j in range(3):
+            c += rot[i, j] * 0.5 * (box_body[0, j] + box_body[1, j])
+            r += abs(rot[i, j]) * 0.5 * (box_body[1, j] - box_body[0, j])
+        if i == 0:
+            x_lo, x_hi = c - r, c + r
+        elif i == 1:
+            y_lo, y_hi = c - r, c + r
+        else:
+            z_lo = c - r
+    for e in range(2):
+        x_lo = min(x_lo, prev_ends[e, 0])
+        x_hi = max(x_hi, prev_ends[e, 0])
+        y_lo = min(y_lo, prev_ends[e, 1])
+        y_hi = max(y_hi, prev_ends[e, 1])
+        z_lo = min(z_lo, prev_ends[e, 2])
+    if not (np.isfinite(prev_ends[0, 0] + prev_ends[0, 1] + prev_ends[0, 2] + prev_ends[1, 0] + prev_ends[1, 1]
+                        + prev_ends[1, 2])):
+        return False
+    reach = PROBE_CELLS * grid.cell_m  # the depth probes ahead of the edge samples
+    return all_below(h, grid, x_lo - reach, x_hi + reach, y_lo - reach, y_hi + reach, z_lo - CLEARANCE_MARGIN_M)
+
+
 @numba.njit(cache=True, inline="always")
 def failure_cycle(st, p, travel, advance, f_nom, f_fail, spacing):
     """The cutting force on the blade through the wedge's failure cycle (Fig. 53-54); updates ``st``.
@@ -145,8 +197,33 @@ def failure_cycle(st, p, travel, advance, f_nom, f_fail, spacing):
 
 
 @numba.njit(cache=True)
+def _bearing_step(h, g, org, rot, com, omega, v_org, surface, pressure, dt_s, p, fb, tb):
+    """The outer surface's samples in the world (points, normals, velocities from the body's twist)
+    and their bearing and friction (:func:`~excavsim.world.grid_kernels.bearing`), summed into
+    ``fb`` and ``tb`` (3,); returns the largest penetration [m]."""
+    pts_body = surface.point_m
+    normals_body = surface.normal
+    n = surface.shape[0]
+    pts = np.empty((n, 3))
+    nrm = np.empty((n, 3))
+    vel = np.empty((n, 3))
+    for k in range(n):
+        for i in range(3):
+            pts[k, i] = org[i] + rot[i, 0] * pts_body[k, 0] + rot[i, 1] * pts_body[k, 1] + rot[i, 2] * pts_body[k, 2]
+            nrm[k, i] = rot[i, 0] * normals_body[k, 0] + rot[i, 1] * normals_body[k, 1] + rot[i, 2] * normals_body[k, 2]
+        rx = pts[k, 0] - org[0]
+        ry = pts[k, 1] - org[1]
+        rz = pts[k, 2] - org[2]
+        vel[k, 0] = v_org[0] + omega[1] * rz - omega[2] * ry
+        vel[k, 1] = v_org[1] + omega[2] * rx - omega[0] * rz
+        vel[k, 2] = v_org[2] + omega[0] * ry - omega[1] * rx
+    across_b = np.array([rot[0, 1], rot[1, 1], rot[2, 1]])
+    return bearing(h, g, pts, nrm, vel, surface, pressure, dt_s, p, com, across_b, fb, tb)
+
+
+@numba.njit(cache=True)
 def soil_step(heights, strength, grid, mj_arrays, bucket_vel6, bucket, edge, surface, table, rocks, params, dt_s,
-              state, pressure, out):
+              state, pressure, out, box_body, early_out):
     """One control step of the bucket-soil interaction (see :mod:`excavsim.world.soil`).
 
     Cuts the swept cells; updates the state (previous edge, cutting force and failure cycle,
@@ -169,6 +246,14 @@ def soil_step(heights, strength, grid, mj_arrays, bucket_vel6, bucket, edge, sur
         state, pressure: the STATE record and the (n,) bearing pressures of the surface samples
             [Pa], both updated in place.
         out: the OUT record, every field written.
+        box_body, early_out: (2, 3) low and high corners, body frame, of a box holding every
+            sample of the bucket (surface, edge, edge ends) [m]; whether to skip the cutting and
+            bearing loops while the bucket is clear of the terrain (:func:`clear_of_terrain`),
+            writing exactly what they would (no cut, zero bearing pressures and forces): the
+            results are the same to the bit either way.
+
+    Returns:
+        whether the step took that early-out.
     """
     h = heights
     g = grid[0]
@@ -190,8 +275,6 @@ def soil_step(heights, strength, grid, mj_arrays, bucket_vel6, bucket, edge, sur
     nw = edge.shape[0]
     ends_body = bk.edge_ends_m
     centroid = bk.load_centroid_m
-    pts_body = surface.point_m
-    normals_body = surface.normal
     t_rake0 = p.table_rake0_rad
     t_step = p.table_rake_step_rad
     sd = p.sin_delta
@@ -269,7 +352,16 @@ def soil_step(heights, strength, grid, mj_arrays, bucket_vel6, bucket, edge, sur
 
     # cut the swept cells
     prev_ends = st.prev_edge_ends_m
-    removed = cut_swept(h, g, prev_ends[0], prev_ends[1], ends[0], ends[1], o.window)
+    clear = early_out and clear_of_terrain(h, g, org, rot, box_body, prev_ends)
+    if clear:  # nothing above the edge's path: cut_swept would change no cell
+        removed = 0.0
+        win = o.window
+        win[0] = h.shape[0]
+        win[1] = -1
+        win[2] = h.shape[1]
+        win[3] = -1
+    else:
+        removed = cut_swept(h, g, prev_ends[0], prev_ends[1], ends[0], ends[1], o.window)
     cut = removed * cell * cell
     take = min(cut, max(p.capacity_m3 - st.load_m3, 0.0))
     st.load_m3 += take
@@ -277,23 +369,14 @@ def soil_step(heights, strength, grid, mj_arrays, bucket_vel6, bucket, edge, sur
 
     # bearing and friction on the outer surface
     n = surface.shape[0]
-    pts = np.empty((n, 3))
-    nrm = np.empty((n, 3))
-    vel = np.empty((n, 3))
-    for k in range(n):
-        for i in range(3):
-            pts[k, i] = org[i] + rot[i, 0] * pts_body[k, 0] + rot[i, 1] * pts_body[k, 1] + rot[i, 2] * pts_body[k, 2]
-            nrm[k, i] = rot[i, 0] * normals_body[k, 0] + rot[i, 1] * normals_body[k, 1] + rot[i, 2] * normals_body[k, 2]
-        rx = pts[k, 0] - org[0]
-        ry = pts[k, 1] - org[1]
-        rz = pts[k, 2] - org[2]
-        vel[k, 0] = v_org[0] + omega[1] * rz - omega[2] * ry
-        vel[k, 1] = v_org[1] + omega[2] * rx - omega[0] * rz
-        vel[k, 2] = v_org[2] + omega[0] * ry - omega[1] * rx
     fb = np.zeros(3)
     tb = np.zeros(3)
-    across_b = np.array([rot[0, 1], rot[1, 1], rot[2, 1]])
-    pmax = bearing(h, g, pts, nrm, vel, surface, pressure, dt_s, p, com, across_b, fb, tb)
+    if clear:  # every sample above the surface: bearing would zero each pressure and sum no force
+        for k in range(n):
+            pressure[k] = 0.0
+        pmax = 0.0
+    else:
+        pmax = _bearing_step(h, g, org, rot, com, omega, v_org, surface, pressure, dt_s, p, fb, tb)
 
     # rocks push the edge samples out
     frx = fry = frz = 0.0
@@ -342,3 +425,4 @@ def soil_step(heights, strength, grid, mj_arrays, bucket_vel6, bucket, edge, sur
     o.max_penetration_m = pmax
     _set3(o.ahead, ax, ay, 0.0)
     _set3(o.edge_centre_m, cx, cy, cz)
+    return clear

@@ -118,6 +118,8 @@ class Simulation:
         # views into MjData (they live as long as ``data``): read every step without re-wrapping
         self._warning_view = self.data.warning.number
         self._qpos_view, self._qvel_view = self.data.qpos, self.data.qvel
+        self._sensor_view, self._actuator_force_view = self.data.sensordata, self.data.actuator_force
+        self._xfrc_bucket = self.data.xfrc_applied[self._bucket]  # the bucket's row (6,): force, torque
 
     # -- sensing --------------------------------------------------------------------------------
     @property
@@ -131,15 +133,15 @@ class Simulation:
 
     def observe(self) -> Observation:
         """The sensor-level observation now (F/T with noise)."""
-        d = self.data
         # one draw of the six noises: the same numbers as a draw of the three forces, then the torques
         # (standard normals times sigma: the numbers rng.normal(0, sigma) gives, at a quarter of its cost)
-        ft = d.sensordata[self._ft_idx] + self._noise_rng.standard_normal(6) * self._ft_sigma
+        ft = self._sensor_view[self._ft_idx] + self._noise_rng.standard_normal(6) * self._ft_sigma
         c = self.contact
         if self._ft_dig > 0.0 and c is not None and c.depth_m > 0.0 and c.advance_speed_m_s > DIG_ADVANCE_M_S:
             ft += self._dig_disturbance(c)
-        return Observation(self._clock, d.qpos[self._joint_qpos], d.qvel[self._joint_dof],
-                           d.actuator_force[self._act], ft[:3], ft[3:])
+        # the MjData views cached at construction: the same arrays, without re-wrapping them every step
+        return Observation(self._clock, self._qpos_view[self._joint_qpos], self._qvel_view[self._joint_dof],
+                           self._actuator_force_view[self._act], ft[:3], ft[3:])
 
     def _dig_disturbance(self, contact: SoilContact) -> np.ndarray:
         """The F/T reading's error from the arm's vibration while the bucket digs (6,): force, torque.
@@ -193,15 +195,14 @@ class Simulation:
             raise OutOfTime(f"the episode's wall-clock limit passed at t = {self._clock:.2f} s simulated")
         if ctrl is not None:
             ctrl = np.asarray(ctrl, dtype=float)
-            if ctrl.shape != (len(self._act),) or not np.all(np.isfinite(ctrl)):
+            if ctrl.shape != (len(self._act),) or not np.isfinite(ctrl).all():
                 raise ExcavsimError(f"ctrl must be {len(self._act)} finite set-point rates [rad/s], got {ctrl!r}")
             d.ctrl[self._act] = ctrl
         if self.soil_enabled:
             self.contact = self.soil.step(d, self.control_dt)
-            d.xfrc_applied[self._bucket, :3] = self.contact.force
-            d.xfrc_applied[self._bucket, 3:] = self.contact.torque
+            self._xfrc_bucket[:] = self.contact.wrench
         else:
-            d.xfrc_applied[self._bucket] = 0.0
+            self._xfrc_bucket[:] = 0.0
         before = float(d.time)
         mujoco.mj_step(self.model, d, self.substeps)
         self.steps += 1

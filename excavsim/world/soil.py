@@ -80,6 +80,7 @@ from excavsim.world.terrain import SoilGrid
 
 _EDGE_EXCLUSION_M = 0.03  # profile within this arc length of the edge belongs to the cutting face
 _MAX_SPILL_ROWS = 24  # most rows of cells along the wedge a spill is spread over
+_OBJ_BODY = mujoco.mjtObj.mjOBJ_BODY
 
 
 @dataclasses.dataclass(frozen=True)
@@ -97,6 +98,10 @@ class Volumes:
 
 # Where the fields of the kernel's output record lie in its float64 view, the form a step's snapshot keeps.
 _OUT = soil_records.float64_slots(soil_records.OUT)
+# the force and then the torque, adjacent in the record: the wrench that xfrc_applied takes, in one slice
+_WRENCH = slice(_OUT["force_n"].start, _OUT["torque_nm"].stop)
+assert _OUT["force_n"].stop == _OUT["torque_nm"].start and _WRENCH.stop - _WRENCH.start == 6
+_CUT, _TAKEN, _DEPTH = _OUT["cut_volume_m3"], _OUT["taken_volume_m3"], _OUT["depth_m"]
 
 
 def _scalar(field: str, doc: str) -> property:
@@ -146,6 +151,11 @@ class SoilContact:
         return bool(self._v[_OUT["wedge_failed"]] == 1.0)
 
     @property
+    def wrench(self) -> np.ndarray:
+        """The total force and then its moment (6,), ``force`` and ``torque`` in one view [N, N m]."""
+        return self._v[_WRENCH]
+
+    @property
     def load_weight(self) -> np.ndarray:
         """Weight of the load in the bucket [N]."""
         return np.array([0.0, 0.0, self._v[_OUT["load_weight_z_n"]]])
@@ -192,6 +202,10 @@ class SoilModel:
             from ``scene`` and ``soil``; a field changed here changes the steps that follow.
         strength: (n_rows, n_cols) soil-strength factor on the grid's cells [-].
         rocks: (n_rocks, 4) buried rocks: centre x, y, z and radius [m].
+        early_out: whether the wedge kernel skips its cutting and bearing loops while the bucket is
+            clear of the terrain (:func:`~excavsim.world.kernels.clear_of_terrain`); the results are
+            the same to the bit either way (True by default; False is the reference for tests).
+        clear_steps: how many steps took that early-out.
     """
 
     def __init__(self, model: mujoco.MjModel, scene: SceneConfig, soil: SoilParams, rng: np.random.Generator):
@@ -254,6 +268,14 @@ class SoilModel:
                                           n_c=tb.n_c, n_a=tb.n_a, denominator=tb.denominator,
                                           n_acc=_table_acceleration_factor(tb, soil))
         self._pressure = np.zeros(n_prof * n_w)
+        # a box around every sample the kernel places on the bucket, for its clear-of-the-terrain test
+        samples = np.concatenate([b.points.reshape(-1, 3), b.edge, self._bucket_record["edge_ends_m"][0]])
+        self._box_body = np.ascontiguousarray(np.stack([samples.min(axis=0), samples.max(axis=0)]))
+        self.early_out = True  # skip the contact loops while the bucket is clear of the terrain (same results)
+        self.clear_steps = 0  # the steps that took that early-out
+        self._body_id = b.body_id
+        self._mj_data: mujoco.MjData | None = None
+        self._mj_arrays: tuple = ()
         self._state = np.zeros(1, soil_records.STATE)
         self._load_m3 = self._state["load_m3"]  # field views, read and set from Python
         self._cut_force_n = self._state["cut_force_n"]
@@ -318,25 +340,28 @@ class SoilModel:
         return self._after_step(data, dt)
 
     def _wedge_step(self, data: mujoco.MjData, dt: float) -> None:
-        b, grid = self.bucket, self.grid
-        mujoco.mj_objectVelocity(self.model, data, mujoco.mjtObj.mjOBJ_BODY, b.body_id, self._vel6, 0)
-        kernels.soil_step(grid.heights, self.strength, self._grid_record, (data.xpos, data.xmat, data.xipos,
-                          data.site_xmat), self._vel6, self._bucket_record, self._edge, self._surface, self._table,
-                          self.rocks, self.params, dt, self._state, self._pressure, self._out)
+        if data is not self._mj_data:  # views into MjData (they live as long as it): built once per data
+            self._mj_data = data
+            self._mj_arrays = (data.xpos, data.xmat, data.xipos, data.site_xmat)
+        mujoco.mj_objectVelocity(self.model, data, _OBJ_BODY, self._body_id, self._vel6, 0)
+        self.clear_steps += kernels.soil_step(
+            self.grid.heights, self.strength, self._grid_record, self._mj_arrays, self._vel6, self._bucket_record,
+            self._edge, self._surface, self._table, self.rocks, self.params, dt, self._state, self._pressure, self._out,
+            self._box_body, self.early_out)
 
     def _after_step(self, data: mujoco.MjData, dt: float) -> SoilContact:
         grid = self.grid
         out = self._out_f8.copy()  # this step's own snapshot
-        cut_volume = float(out[_OUT["cut_volume_m3"]])
-        spilled = cut_volume - float(out[_OUT["taken_volume_m3"]])
-        depth = out[_OUT["depth_m"]]
+        cut_volume = float(out[_CUT])
+        spilled = cut_volume - float(out[_TAKEN])
+        depth = out[_DEPTH]
         poured = 0.0
         if cut_volume > 0:
             w = self._window
             grid.mark(int(w[0]), int(w[1]), int(w[2]), int(w[3]))
             if spilled > 0:  # full bucket: the cut soil stays ahead of the edge, spread over the wedge
                 self.spoil += self._spill_ahead(data, out, spilled)
-        elif depth == 0.0 and self.load > 0.0:
+        elif depth == 0.0 and self._load_m3[0] > 0.0:
             poured = self._pour(data, out)
         if cut_volume > 0 or poured > 0:
             window = grid.peek_dirty()
