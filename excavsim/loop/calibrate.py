@@ -27,7 +27,10 @@ and the swept volume, at the F/T rate: ``excavsim calibrate --record-digs N``, `
   255 N RMS at the true parameters, with it by 68 N.
 
 For ``--model wedge`` it fits ``c, phi, delta, gamma`` with bounds; for ``--model dimaio`` the eight
-parameters of Table 5.3 and ``S``. It prints them with standard errors, writes a soil preset YAML,
+parameters of Table 5.3 and ``S``; ``--fix NAME=VALUE`` (:func:`parse_fixes`) holds any of them at a
+known value (a sand's c = 0: its records do not separate c from phi, the c-phi valley of
+Singh's §5.2.4.1 along which the map's depth error slides the free fit) and fits the rest.
+It prints them with standard errors, writes a soil preset YAML,
 re-runs the recorded digs in MuJoCo with the fitted soil of each model
 (:func:`~excavsim.loop.calibrate_digs.rerun_digs`) and plots, per dig, measured, fitted and re-run
 forces; the report says how well each model (fitted to the same record: cross-model) and each
