@@ -408,6 +408,8 @@ def _cmd_calibrate(args: argparse.Namespace) -> int:
 
     from excavsim.loop import calibrate as cal
 
+    if args.table_5_3 and args.fix:
+        raise ExcavsimError("--fix holds parameters of a record's fit; --table-5-3 identifies all of Table 5.3's")
     if args.table_5_3:
         print(f"excavsim calibrate --table-5-3: DiMaio's model identified from its own forces (Table 5.3, Fig. 5.40); "
               f"results in {args.out}")
@@ -417,6 +419,7 @@ def _cmd_calibrate(args: argparse.Namespace) -> int:
         raise ExcavsimError("calibrate needs a RECORD (a force data set .npz, .parquet or .csv, or a Rerun "
                             "recording .rrd) or --table-5-3")
     record = pathlib.Path(args.record)
+    fixed = cal.parse_fixes(args.model, args.fix)  # refused before any recording or fit
     if args.rrd and not args.record_digs:
         raise ExcavsimError("--rrd FILE records the digs of --record-digs N; give --record-digs too")
     if args.rrd and pathlib.Path(args.rrd).suffix != ".rrd":
@@ -442,9 +445,10 @@ def _cmd_calibrate(args: argparse.Namespace) -> int:
         from excavsim.record.reading import read_recording
 
         data = recording_dataset(read_recording(record))
-        cal.calibrate(data, args.model, args.out, soil=args.soil, rerun_digs=not args.no_rerun, name=record.stem)
+        cal.calibrate(data, args.model, args.out, soil=args.soil, rerun_digs=not args.no_rerun, name=record.stem,
+                      fixed=fixed)
     else:
-        cal.calibrate(record, args.model, args.out, soil=args.soil, rerun_digs=not args.no_rerun)
+        cal.calibrate(record, args.model, args.out, soil=args.soil, rerun_digs=not args.no_rerun, fixed=fixed)
     return 0
 
 
@@ -1061,6 +1065,10 @@ def build_parser() -> argparse.ArgumentParser:
                        help="the model whose soil parameters are fitted (default wedge)")
     calib.add_argument("--out", metavar="DIR", default="runs/calibrate", type=_out_dir,
                        help="output directory (default runs/calibrate)")
+    calib.add_argument("--fix", action="append", metavar="NAME=VALUE",
+                       help="hold a parameter of --model's fit at VALUE and fit the rest (repeatable); wedge: "
+                            "c_pa (or cohesion_pa), phi_deg, delta_deg, gamma_n_m3, e.g. cohesion_pa=0 for a "
+                            "cohesionless sand; dimaio: b_t0, b_n0, mu, eps, rho, k, T_rt, T_rn, S")
     calib.add_argument("--soil", metavar="NAME", help="preset the fit starts from and the YAML completes "
                                                       "(default: the record's)")
     calib.add_argument("--record-digs", type=_int_in(1, 1000), metavar="N",

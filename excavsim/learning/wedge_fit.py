@@ -244,30 +244,47 @@ class RecordWedge:
                          -blade * math.cos(delta) - load * np.cos(rho)], axis=-1)
 
     def fit(self, x: np.ndarray, y: np.ndarray, start: np.ndarray, *, starts: int = 4, seed: int = 0,
-            loss: str = "linear") -> tuple[np.ndarray, np.ndarray, float]:
+            loss: str = "linear", fixed: dict[int, float] | None = None) -> tuple[np.ndarray, np.ndarray, float]:
         """``c, phi, delta, gamma`` by bounded nonlinear least squares (``WEDGE_BOUNDS``) from ``start``
         and ``starts - 1`` random points; returns them, their standard errors (Jacobian at the optimum
-        and the residual variance) and the RMS residual [N]."""
+        and the residual variance; 0 for a held parameter) and the RMS residual [N].
+
+        ``fixed``: parameters held at given values, by index into ``(c, phi, delta, gamma)`` (in
+        their units: Pa, rad, rad, N/m^3), the rest fitted: a soil engineer's knowledge the record
+        lacks (a sand is cohesionless: c = 0 removes the c-phi valley of §5.2.4.1)."""
         lo, hi = (np.array(b) / _WEDGE_UNITS for b in WEDGE_BOUNDS)
+        held = {int(i): float(v) / _WEDGE_UNITS[int(i)] for i, v in (fixed or {}).items()}
+        free = [i for i in range(4) if i not in held]
+        if not free:
+            raise ValueError("every parameter of the wedge is held: nothing to fit")
         rng = np.random.default_rng(seed)
         firsts = [np.clip(np.asarray(start, dtype=float) / _WEDGE_UNITS, lo, hi)]
         firsts += [rng.uniform(lo, hi) for _ in range(starts - 1)]
 
-        def residuals(u: np.ndarray) -> np.ndarray:
-            return (self.forces(u * _WEDGE_UNITS, x) - y).ravel()
+        def full(uf: np.ndarray) -> np.ndarray:
+            u = np.empty(4)
+            u[free] = uf
+            for i, v in held.items():
+                u[i] = v
+            return u
+
+        def residuals(uf: np.ndarray) -> np.ndarray:
+            return (self.forces(full(uf) * _WEDGE_UNITS, x) - y).ravel()
 
         best = None
         for u0 in firsts:
-            res = least_squares(residuals, u0, bounds=(lo, hi), loss=loss, f_scale=50.0, x_scale="jac")
+            res = least_squares(residuals, u0[free], bounds=(lo[free], hi[free]), loss=loss, f_scale=50.0,
+                                x_scale="jac")
             if best is None or res.cost < best.cost:
                 best = res
         r = residuals(best.x)
-        s2 = float(r @ r) / max(r.size - 4, 1)
+        s2 = float(r @ r) / max(r.size - len(free), 1)
+        se = np.zeros(4)
         try:
-            se = np.sqrt(np.maximum(np.diag(np.linalg.pinv(best.jac.T @ best.jac)) * s2, 0.0)) * _WEDGE_UNITS
+            se[free] = np.sqrt(np.maximum(np.diag(np.linalg.pinv(best.jac.T @ best.jac)) * s2, 0.0))
         except np.linalg.LinAlgError:
-            se = np.full(4, math.inf)
-        return best.x * _WEDGE_UNITS, se, math.sqrt(float(r @ r) / r.size)
+            se[free] = math.inf
+        return full(best.x) * _WEDGE_UNITS, se * _WEDGE_UNITS, math.sqrt(float(r @ r) / r.size)
 
     def correlation(self, theta: np.ndarray, x: np.ndarray) -> np.ndarray:
         """The correlation (4, 4) of the estimates of ``c, phi, delta, gamma`` at ``theta``, from the
@@ -283,13 +300,15 @@ class RecordWedge:
         return np.clip(cov / np.outer(sd, sd), -1.0, 1.0)
 
     def profile(self, x: np.ndarray, y: np.ndarray, theta: np.ndarray, values: np.ndarray, *,
-                index: int = 1) -> tuple[np.ndarray, np.ndarray]:
+                index: int = 1, fixed: dict[int, float] | None = None) -> tuple[np.ndarray, np.ndarray]:
         """The profile of the cost along one parameter: for each of ``values`` (of parameter
         ``index`` of ``c, phi, delta, gamma``, in its units: Pa, rad, rad, N/m^3) the other three
         fitted again with bounds, by continuation outward from ``theta`` (the fit's optimum).
+        ``fixed``: parameters held at these values as in :meth:`fit` (not ``index``).
         Returns the RMS residual [N] (as :meth:`fit`'s) and the parameters (len(values), 4) at each."""
         lo, hi = (np.array(b) / _WEDGE_UNITS for b in WEDGE_BOUNDS)
-        free = [i for i in range(4) if i != index]
+        held = {int(i): float(v) / _WEDGE_UNITS[int(i)] for i, v in (fixed or {}).items() if int(i) != index}
+        free = [i for i in range(4) if i != index and i not in held]
         values = np.asarray(values, dtype=float)
         u_best = np.clip(np.asarray(theta, dtype=float) / _WEDGE_UNITS, lo, hi)
         rms = np.full(values.size, np.nan)
@@ -302,16 +321,20 @@ class RecordWedge:
             for i in idx:
                 fixed = values[i] / _WEDGE_UNITS[index]
 
-                def residuals(uf: np.ndarray, fixed: float = fixed) -> np.ndarray:
+                def full(uf: np.ndarray, fixed: float = fixed) -> np.ndarray:
                     u = np.empty(4)
                     u[free], u[index] = uf, fixed
-                    return (self.forces(u * _WEDGE_UNITS, x) - y).ravel()
+                    for j, v in held.items():
+                        u[j] = v
+                    return u
+
+                def residuals(uf: np.ndarray) -> np.ndarray:
+                    return (self.forces(full(uf) * _WEDGE_UNITS, x) - y).ravel()
 
                 res = least_squares(residuals, np.clip(guess, lo[free], hi[free]), bounds=(lo[free], hi[free]),
                                     x_scale="jac")
                 guess = res.x
-                u = np.empty(4)
-                u[free], u[index] = res.x, fixed
+                u = full(res.x)
                 params[i] = u * _WEDGE_UNITS
                 rms[i] = math.sqrt(2.0 * float(res.cost) / y.size)
         return rms, params

@@ -27,7 +27,10 @@ and the swept volume, at the F/T rate: ``excavsim calibrate --record-digs N``, `
   255 N RMS at the true parameters, with it by 68 N.
 
 For ``--model wedge`` it fits ``c, phi, delta, gamma`` with bounds; for ``--model dimaio`` the eight
-parameters of Table 5.3 and ``S``. It prints them with standard errors, writes a soil preset YAML,
+parameters of Table 5.3 and ``S``; ``--fix NAME=VALUE`` (:func:`parse_fixes`) holds any of them at a
+known value (a sand's c = 0: its records do not separate c from phi, the c-phi valley of
+Singh's §5.2.4.1 along which the map's depth error slides the free fit) and fits the rest.
+It prints them with standard errors, writes a soil preset YAML,
 re-runs the recorded digs in MuJoCo with the fitted soil of each model
 (:func:`~excavsim.loop.calibrate_digs.rerun_digs`) and plots, per dig, measured, fitted and re-run
 forces; the report says how well each model (fitted to the same record: cross-model) and each
@@ -186,6 +189,7 @@ class Fit:
     # supports: the values whose profile of the cost stays within PROFILE_RISE of the best fit [deg]
     correlation: np.ndarray | None = None
     phi_range_deg: tuple[float, float] | None = None
+    fixed: dict[str, float] = dataclasses.field(default_factory=dict)  # the parameters held, not fitted
 
 
 def _score(pred: np.ndarray, meas: np.ndarray, keep: np.ndarray | None = None) -> tuple[float, float]:
@@ -231,34 +235,108 @@ def supported_range(values: np.ndarray, cost: np.ndarray, level: float) -> tuple
     return left, right
 
 
+# The wedge's fitted parameters a calibration may hold (``--fix NAME=VALUE``): the name as printed (and
+# the preset's name for it), the index into (c, phi, delta, gamma) and the factor from the printed
+# unit to the fit's (Pa, rad, rad, N/m^3). The ranges are the fit's bounds (wedge_fit.WEDGE_BOUNDS).
+WEDGE_FIX = {"c_pa": (0, 1.0), "phi_deg": (1, math.pi / 180.0), "delta_deg": (2, math.pi / 180.0),
+             "gamma_n_m3": (3, 1.0)}
+WEDGE_FIX_ALIASES = {"cohesion_pa": "c_pa", "friction_angle_deg": "phi_deg", "tool_friction_angle_deg": "delta_deg"}
+
+
+def _dimaio_fix_ranges() -> dict[str, tuple[float, float]]:
+    """DiMaio's parameters (Table 5.3's and ``S``) with the output-error fit's bounds."""
+    ranges = {x: (0.0, math.inf) for x in identify.NAMES}
+    ranges["T_rt"] = ranges["T_rn"] = (1e-3, 1e3)
+    ranges["S"] = identify.LAG_BOUNDS["S"]
+    return ranges
+
+
+def fix_ranges(model: str) -> dict[str, tuple[float, float]]:
+    """The names ``--fix`` takes for ``model`` and their allowed ranges (in the printed units)."""
+    if model == "wedge":
+        from excavsim.learning.wedge_fit import WEDGE_BOUNDS
+
+        return {n: (WEDGE_BOUNDS[0][i] / f, WEDGE_BOUNDS[1][i] / f) for n, (i, f) in WEDGE_FIX.items()}
+    return _dimaio_fix_ranges()
+
+
+def parse_fixes(model: str, items: list[str] | None) -> dict[str, float]:
+    """``NAME=VALUE`` strings (``--fix``) as ``{name: value}`` in the printed names and units of
+    ``model``'s fit (for the wedge also the preset's names: cohesion_pa, friction_angle_deg,
+    tool_friction_angle_deg).
+
+    Raises:
+        ExcavsimError: a malformed item, an unknown name, a value that is not a finite number in
+            the name's range, a name given twice, or every parameter of the wedge held; the message
+            names the allowed names and ranges.
+    """
+    ranges = fix_ranges(model)
+    allowed = ", ".join(f"{n} in [{lo:g}, {hi:g}]" for n, (lo, hi) in ranges.items())
+    if model == "wedge":
+        allowed += " (or " + ", ".join(f"{a} for {n}" for a, n in WEDGE_FIX_ALIASES.items()) + ")"
+    out: dict[str, float] = {}
+    for item in items or []:
+        name, eq, text = str(item).partition("=")
+        name = name.strip()
+        if not eq or not name:
+            raise ExcavsimError(f"--fix {item!r}: give NAME=VALUE; for --model {model}: {allowed}")
+        if model == "wedge":
+            name = WEDGE_FIX_ALIASES.get(name, name)
+        if name not in ranges:
+            raise ExcavsimError(f"--fix {item!r}: {name!r} is not a parameter of the {model} fit; allowed: {allowed}")
+        try:
+            value = float(text)
+        except ValueError:
+            value = math.nan
+        lo, hi = ranges[name]
+        if not (math.isfinite(value) and lo <= value <= hi):
+            raise ExcavsimError(f"--fix {item!r}: {name} must be a number in [{lo:g}, {hi:g}]; allowed: {allowed}")
+        if name in out:
+            raise ExcavsimError(f"--fix {item!r}: {name} is held twice")
+        out[name] = value
+    if model == "wedge" and len(out) == len(WEDGE_FIX):
+        raise ExcavsimError("--fix holds every parameter of the wedge (c_pa, phi_deg, delta_deg, gamma_n_m3): "
+                            "nothing is left to fit; hold at most three")
+    return out
+
+
 def fit_wedge(data: ForceDataset, soil, width: float, *, starts: int = 4, seed: int = 0,
-              profile: bool = True) -> Fit:
+              profile: bool = True, fixed: dict[str, float] | None = None) -> Fit:
     """The wedge model's ``c, phi, delta, gamma`` fitted with bounds to a record
     (:class:`~excavsim.learning.wedge_fit.RecordWedge`, the touch-down samples left out), from
     ``soil`` and random starts; standard errors from the Jacobian, the estimates' correlation and,
     with ``profile``, the range of phi the record supports (:data:`PROFILE_RISE`): a standard
     error of 1-2 deg hides that c and phi trade along a valley whose floor the map's depth error
-    moves (corr(c, phi) -0.8 to -0.9 in the sands)."""
+    moves (corr(c, phi) -0.8 to -0.9 in the sands).
+
+    ``fixed``: parameters held (``{name: value}`` of :data:`WEDGE_FIX`, as :func:`parse_fixes` gives
+    them), the rest fitted; the start takes their values, their standard error is 0 and, unless phi
+    is held, the range of phi is that of the profile with them held."""
     from excavsim.learning.wedge_fit import RecordWedge, advance_speed
+
+    held = {WEDGE_FIX[WEDGE_FIX_ALIASES.get(n, n)][0]: v * WEDGE_FIX[WEDGE_FIX_ALIASES.get(n, n)][1]
+            for n, v in (fixed or {}).items()}
 
     rw = RecordWedge(width)
     x = rw.inputs(data.samples, _loads(data, width), advance_speed(data["x"], data["t"], data["dig"]))
     keep = _used(data)
     start = np.array([soil.cohesion_pa, soil.phi, soil.delta, soil.density_kg_m3 * identify.G_M_S2])
-    theta, se, rms_fit = rw.fit(x[keep], data.forces[keep], start, starts=starts, seed=seed)
+    for i, v in held.items():
+        start[i] = v
+    theta, se, rms_fit = rw.fit(x[keep], data.forces[keep], start, starts=starts, seed=seed, fixed=held)
     pred = rw.forces(theta, x)
     rms, r2 = _score(pred, data.forces, keep)
     corr = rw.correlation(theta, x[keep])
     phi_range = None
-    if profile:
-        prof, _ = rw.profile(x[keep], data.forces[keep], theta, np.radians(PROFILE_PHI_DEG))
+    if profile and 1 not in held:
+        prof, _ = rw.profile(x[keep], data.forces[keep], theta, np.radians(PROFILE_PHI_DEG), fixed=held)
         phi_range = supported_range(PROFILE_PHI_DEG, prof, (1.0 + PROFILE_RISE) * min(float(np.nanmin(prof)), rms_fit))
     c, phi, delta, gamma = theta
     params = {"c_pa": float(c), "phi_deg": math.degrees(phi), "delta_deg": math.degrees(delta),
               "gamma_n_m3": float(gamma)}
     errors = {"c_pa": float(se[0]), "phi_deg": math.degrees(se[1]), "delta_deg": math.degrees(se[2]),
               "gamma_n_m3": float(se[3])}
-    return Fit("wedge", params, errors, pred, rms, r2, corr, phi_range)
+    return Fit("wedge", params, errors, pred, rms, r2, corr, phi_range, fixed=dict(fixed or {}))
 
 
 # What dig records identify of DiMaio's model, with the tolerance measured (README: 12 fits, 4 DiMaio-truth
@@ -270,23 +348,29 @@ DIMAIO_IDENTIFIED = {"rho": 0.10, "mu": 0.20, "eps": 0.35, "S": 0.30, "k*T_rt": 
 
 
 def fit_dimaio(data: ForceDataset, start: dict[str, float], *, s_bucket: float, width: float,
-               factors: tuple[float, ...] = SEARCH_FACTORS) -> Fit:
+               factors: tuple[float, ...] = SEARCH_FACTORS, fixed: dict[str, float] | None = None) -> Fit:
     """DiMaio's eight parameters of Table 5.3 and the shear strength ``S`` (eq. 5.45) fitted to a
     record: a variable-projection search from ``start`` scaled by each of ``factors``
     (:func:`~excavsim.learning.identify.projected_fit`), then the output-error fit (eq. 5.55), the
     model stepped ``SUBSTEPS`` times per sample (the controller's rate); the record's runs are the
     digs, the touch-down samples left out. Of the nine, dig data identify those of
-    :data:`DIMAIO_IDENTIFIED` (the rest trade against each other)."""
+    :data:`DIMAIO_IDENTIFIED` (the rest trade against each other).
+
+    ``fixed``: parameters held at these values in the output-error fit (their standard error 0);
+    the variable-projection search that gives its start does not hold them (it solves the five
+    linear parameters jointly), its values of them are replaced by the held ones."""
+    fixed = dict(fixed or {})
     rec = planar_record(data, s_bucket, width)
     keep = _used(data).astype(float)
     shear = (width, s_bucket)
-    first = identify.projected_fit(rec, start, v_eps=V_EPS, substeps=SUBSTEPS, shear=shear, weights=keep,
-                                   factors=factors)
+    first = identify.projected_fit(rec, dict(start, **fixed), v_eps=V_EPS, substeps=SUBSTEPS, shear=shear,
+                                   weights=keep, factors=factors)
+    first.update(fixed)
     params, errors, _ = identify.output_error_fit(rec, first, v_eps=V_EPS, substeps=SUBSTEPS, shear=shear,
-                                                  weights=keep)
+                                                  weights=keep, fixed=fixed)
     pred = identify.simulate(params, rec, v_eps=V_EPS, substeps=SUBSTEPS, shear=shear)
     rms, r2 = _score(pred, data.forces, keep > 0)
-    return Fit("dimaio", params, errors, pred, rms, r2)
+    return Fit("dimaio", params, errors, pred, rms, r2, fixed=fixed)
 
 
 def dimaio_start(soil) -> dict[str, float]:
@@ -386,7 +470,8 @@ def _aligned(t: np.ndarray, f: np.ndarray, t_again: np.ndarray, f_again: np.ndar
 
 def calibrate(record: str | pathlib.Path | ForceDataset, model: str, out: str | pathlib.Path, *,
               soil: str | None = None, rerun_digs: bool = True, cross_model: bool = True,
-              name: str | None = None, say: Callable[[str], None] = print) -> dict[str, Fit]:
+              name: str | None = None, fixed: dict[str, float] | None = None,
+              say: Callable[[str], None] = print) -> dict[str, Fit]:
     """Fit the ``model`` soil (and, for the cross-model report, the other) to a record; write the
     preset YAML and the predicted-against-measured plot to ``out``; with ``rerun_digs``, dig the
     recorded digs again in simulation with the fitted soil of each model (PNG per dig). Returns the
@@ -394,14 +479,18 @@ def calibrate(record: str | pathlib.Path | ForceDataset, model: str, out: str | 
 
     ``record``: a force data set file (.npz, .parquet, .csv) or a :class:`ForceDataset` (a Rerun
     recording read by the CLI, :func:`~excavsim.loop.calibrate_digs.dataset_from_recording`).
+    ``fixed``: ``model``'s parameters held at given values (``{name: value}``, :func:`parse_fixes`;
+    the other model of the cross-model report is fitted free).
 
     Raises:
-        ExcavsimError: the record cannot be read, has too few samples, or the model is unknown.
+        ExcavsimError: the record cannot be read, has too few samples, the model is unknown, or a
+            held parameter is not one of the model's (:func:`parse_fixes`).
     """
     from excavsim.config import get_soil, load_scene_config
 
     if model not in ("wedge", "dimaio"):
         raise ExcavsimError(f"unknown model {model!r}; allowed: wedge, dimaio")
+    fixed = parse_fixes(model, [f"{k}={v!r}" for k, v in (fixed or {}).items()])
     if isinstance(record, ForceDataset):
         data, label = record, name or "recording"
     else:
@@ -421,20 +510,22 @@ def calibrate(record: str | pathlib.Path | ForceDataset, model: str, out: str | 
     s_bucket = base.dimaio.cutting_surface_m if base.dimaio is not None else 0.3
     fits = {}
     if model == "wedge" or cross_model:
-        fits["wedge"] = fit_wedge(data, base, width)
+        fits["wedge"] = fit_wedge(data, base, width, fixed=fixed if model == "wedge" else None)
     if model == "dimaio" or cross_model:
-        fits["dimaio"] = fit_dimaio(data, dimaio_start(base), s_bucket=s_bucket, width=width)
+        fits["dimaio"] = fit_dimaio(data, dimaio_start(base), s_bucket=s_bucket, width=width,
+                                    fixed=fixed if model == "dimaio" else None)
     fit = fits[model]
     truth = data.meta.get("truth", "unknown")
     measured = "the scans' removed volume" if data.meta.get("removed_m3", "{}") != "{}" else "the swept volume"
     say(f"{label}: {len(data)} samples of {data.n_digs} digs (truth: {truth}; the load from {measured}); "
         f"fitted {model}:")
     for p, v in fit.params.items():
-        say(f"  {p:12s} {v:14.6g} +- {fit.errors[p]:.3g}")
+        say(f"  {p:12s} {v:14.6g} " + ("(held)" if p in fit.fixed else f"+- {fit.errors[p]:.3g}"))
     if fit.phi_range_deg is not None:
         lo, hi = fit.phi_range_deg
+        held = ", ".join(f"{k} {v:g}" for k, v in fit.fixed.items())
         say(f"  the record supports phi {lo:.0f}-{hi:.0f} deg (the cost's profile within {PROFILE_RISE:.0%} of its "
-            f"minimum); correlation of c and phi {fit.correlation[0, 1]:+.2f}")
+            f"minimum" + (f", {held} held)" if held else f"); correlation of c and phi {fit.correlation[0, 1]:+.2f}"))
     if fit.model == "dimaio":
         say(f"  identified by dig data: rho, mu, eps, S and k*T_rt = {fit.params['k'] * fit.params['T_rt']:.4g} N s/m "
             "(within " + ", ".join(f"{k} {v:.0%}" for k, v in DIMAIO_IDENTIFIED.items())
