@@ -363,19 +363,3 @@ def test_a_learned_model_that_forbids_every_dig_hands_the_choice_to_the_nominal_
     rig.planner.predictor = nominal
     assert choice.dig.action == rig.planner.plan(emap).action  # what the nominal model plans alone
     assert learned.active  # answering nominally was for that choice only
-
-
-def test_the_smoothed_peak_is_the_largest_moving_mean():
-    from excavsim.loop.online import OnlineLearning, smoothed_peak
-
-    v = np.array([1.0, 5.0, 1.0, 1.0, 2.0, 2.0, 2.0, 0.0])
-    assert smoothed_peak(v, 1) == 5.0
-    assert smoothed_peak(v, 3) == pytest.approx(7.0 / 3.0)  # 1 + 5 + 1 (a lone spike, averaged)
-    assert smoothed_peak(v, 4) == pytest.approx(9.0 / 4.0)  # 5 + 1 + 1 + 2 beats 2 + 2 + 2 + 0
-    assert smoothed_peak(v[:2], 5) == 5.0  # fewer samples than the window: the largest one
-    # white scatter of 40 % on a steady force: the single largest sample overstates the peak far more
-    rng = np.random.default_rng(0)
-    noisy = 300.0 * (1.0 + 0.4 * rng.standard_normal(100))
-    assert smoothed_peak(noisy, 1) / 300.0 > 1.7 and smoothed_peak(noisy, 8) / 300.0 < 1.5
-    with pytest.raises(ValueError, match="peak_window"):
-        OnlineLearning("global", peak_window=0)

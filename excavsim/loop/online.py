@@ -37,17 +37,6 @@ class DigLearning:
     nominal_mae: float  # of the nominal wedge model
 
 
-def smoothed_peak(values: np.ndarray, window: int) -> float:
-    """The largest mean of ``window`` consecutive values (the largest value for ``window`` 1 or for
-    fewer values than ``window``): a dig's peak force read through a moving average, so that one
-    sample's scatter does not make the peak."""
-    v = np.asarray(values, dtype=float)
-    if window <= 1 or len(v) < window:
-        return float(np.max(v))
-    c = np.cumsum(np.concatenate([[0.0], v]))
-    return float(np.max((c[window:] - c[:-window]) / window))
-
-
 class OnlineLearning(DigSamples):
     """Installs a learned force predictor on the planner and updates it after every dig.
 
@@ -65,25 +54,17 @@ class OnlineLearning(DigSamples):
             :attr:`~excavsim.learning.adapter.LearnedForcePredictor.peak_margin`.
         peak_floor_n: digs whose predicted peak is below this [N] give no ratio (a near-empty skim's
             ratio says nothing about the digs that stall).
-        peak_window: the observed and the predicted peak are each the largest mean of this many
-            consecutive samples (:func:`smoothed_peak`; 1: the largest sample). The F/T reading scatters
-            from sample to sample while digging (the arm's vibration, far more than the soil force
-            changes in a few samples); the largest single sample is then mostly that scatter, and a
-            margin learned from it plans digs smaller than the joints' limits call for.
         progress: called with one line per dig.
     """
 
     def __init__(self, model: ForceModel | str = "global", *, basis: str = "mechanics", forgetting: float = 1.0,
                  prior: ForceDataset | None = None, min_digs: int = 3, peak_quantile: float | None = 0.8,
-                 peak_floor_n: float = 100.0, peak_window: int = 8, progress: Callable[[str], None] | None = None):
+                 peak_floor_n: float = 100.0, progress: Callable[[str], None] | None = None):
         self.model = make_model(model, basis, forgetting=forgetting) if isinstance(model, str) else model
         self.prior = prior
         self.min_digs = int(min_digs)
         self.peak_quantile = peak_quantile
         self.peak_floor_n = float(peak_floor_n)
-        if int(peak_window) < 1:
-            raise ValueError(f"peak_window must be a whole number of samples >= 1, got {peak_window!r}")
-        self.peak_window = int(peak_window)
         self.say = progress or (lambda _s: None)
         self.history: list[DigLearning] = []
         self.data = ForceDataset.empty()
@@ -120,10 +101,9 @@ class OnlineLearning(DigSamples):
         # the nominal model's before (whose peaks the learned predictor corrects until then)
         planned_with = self.model if self.predictor.active else self.nominal
         if planned_with is not None:
-            peak = smoothed_peak(magnitude(planned_with.predict(rows.samples)), self.peak_window)
+            peak = float(np.max(magnitude(planned_with.predict(rows.samples))))
             if peak >= self.peak_floor_n:
-                self.predictor.add_peak_ratio(smoothed_peak(observed, self.peak_window) / peak,
-                                              stalled=record.outcome == "stalled")
+                self.predictor.add_peak_ratio(float(np.max(observed)) / peak, stalled=record.outcome == "stalled")
         self.model.update(rows.samples, rows.forces)
         self.data = ForceDataset.concat([self.data, rows])
         self.predictor.active = self.predictor.active or self.data.n_digs >= self.min_digs
