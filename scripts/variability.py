@@ -33,7 +33,8 @@ Usage::
     python scripts/variability.py drags [--seeds 8] [--truth KEY=VALUE ...]
     python scripts/variability.py table4 [--digs 12] [--seed 0] [--truth KEY=VALUE ...]
 
-``--truth`` overrides fields of scene.yaml's ``truth:`` block (e.g. ``heterogeneity_std=0`` or ``ft_dig_noise_share=0``).
+``--truth`` overrides fields of scene.yaml's ``truth:`` block (e.g. ``heterogeneity_std=0``,
+``ft_dig_noise_share=0``).
 """
 
 from __future__ import annotations
