@@ -35,16 +35,18 @@ def _int_in(lo: int, hi: int):
     return parse
 
 
-def _float_in(lo: float, hi: float, *, low_open: bool = False):
-    """An argparse type: a finite number in [lo, hi] (or (lo, hi] with ``low_open``)."""
+def _float_in(lo: float, hi: float, *, low_open: bool = False, high_open: bool = False):
+    """An argparse type: a finite number in [lo, hi] (``low_open``, ``high_open``: without that end)."""
     def parse(text: str) -> float:
         try:
             value = float(text)
         except ValueError:
             raise argparse.ArgumentTypeError(f"{shorten(repr(text))} is not a number") from None
-        if not (math.isfinite(value) and (value > lo if low_open else value >= lo) and value <= hi):
-            low = ">" if low_open else ">="
-            raise argparse.ArgumentTypeError(f"{shorten(text)} is out of range (allowed: {low} {lo:g} and <= {hi:g})")
+        if not (math.isfinite(value) and (value > lo if low_open else value >= lo)
+                and (value < hi if high_open else value <= hi)):
+            low, high = (">" if low_open else ">="), ("<" if high_open else "<=")
+            raise argparse.ArgumentTypeError(f"{shorten(text)} is out of range (allowed: {low} {lo:g} and "
+                                             f"{high} {hi:g})")
         return value
     return parse
 
@@ -408,6 +410,11 @@ def _cmd_calibrate(args: argparse.Namespace) -> int:
 
     from excavsim.loop import calibrate as cal
 
+    if args.table_5_3 and (args.fix or args.brittleness):
+        raise ExcavsimError("--fix and --brittleness belong to a record's fit; --table-5-3 identifies all of "
+                            "Table 5.3's parameters from DiMaio's own forces")
+    if args.brittleness and args.model != "wedge":
+        raise ExcavsimError("--brittleness is the wedge model's failure cycle; give it with --model wedge")
     if args.table_5_3 and args.fix:
         raise ExcavsimError("--fix holds parameters of a record's fit; --table-5-3 identifies all of Table 5.3's")
     if args.table_5_3:
@@ -446,9 +453,10 @@ def _cmd_calibrate(args: argparse.Namespace) -> int:
 
         data = recording_dataset(read_recording(record))
         cal.calibrate(data, args.model, args.out, soil=args.soil, rerun_digs=not args.no_rerun, name=record.stem,
-                      fixed=fixed)
+                      fixed=fixed, brittleness=args.brittleness)
     else:
-        cal.calibrate(record, args.model, args.out, soil=args.soil, rerun_digs=not args.no_rerun, fixed=fixed)
+        cal.calibrate(record, args.model, args.out, soil=args.soil, rerun_digs=not args.no_rerun, fixed=fixed,
+                      brittleness=args.brittleness)
     return 0
 
 
@@ -1075,8 +1083,13 @@ def build_parser() -> argparse.ArgumentParser:
                        help="first dig N random feasible digs in simulation and save their record as RECORD")
     calib.add_argument("--truth", choices=["wedge", "dimaio"], default="wedge",
                        help="the world's force model for --record-digs (default wedge)")
+    calib.add_argument("--brittleness", type=_float_in(0, 1, high_open=True), default=0.0, metavar="I_B",
+                       help="the wedge's failure cycle: the share of the failure force lost at each failure, "
+                            "which the record model averages over (default 0: eq. 8's crest, a quiet record; "
+                            "0.2 for a record of the default world, scene.yaml truth.brittleness_index)")
     calib.add_argument("--quiet", action="store_true",
-                       help="with --record-digs: the wedge's rate effect, failure-cycle drops and heterogeneity off")
+                       help="with --record-digs: the wedge's rate effect, failure-cycle drops, heterogeneity and "
+                            "the F/T's digging disturbance off")
     calib.add_argument("--seed", type=_seed, default=0, metavar="N", help="seed of --record-digs")
     calib.add_argument("--rrd", metavar="FILE", help="with --record-digs: also record the episode to this Rerun "
                                                      "recording (calibrate it with `excavsim calibrate FILE`)")

@@ -40,8 +40,8 @@ def clay(tmp_path_factory):
 
 def check_recovered(fit, soil, *, c_abs_pa: float, c_rel: float, phi_deg: float | None) -> None:
     """The tolerances stated in the README: gamma within 10 %, delta within 3.5 deg, c within
-    max(c_abs_pa, c_rel * c); phi inside the range the record supports (the cost's profile within
-    PROFILE_RISE of its minimum: 20 of 20 records), and within ``phi_deg`` where the record separates
+    max(c_abs_pa, c_rel * c); phi inside the range the record supports (calibrate.phi_interval: 22 of
+    24 quiet records, 3 soils x seeds 0-7, 3 digs), and within ``phi_deg`` where the record separates
     c from phi (the clay: 8 of 8 records within 3.5 deg; the sands' records do not, see the README)."""
     params = fit.params
     gamma = soil.density_kg_m3 * identify.G_M_S2
@@ -81,17 +81,18 @@ def _true_theta(soil) -> np.ndarray:
 def test_a_sand_record_does_not_separate_cohesion_from_friction(sand):
     """The limit of the data (§5.2.4.1's "many near-equal minima"): in the sand's record c and phi
     trade along a valley (their estimates' correlation below -0.7; measured -0.78 to -0.92 over 8
-    records), the cost's profile over phi stays within PROFILE_RISE of its minimum over more than
-    15 deg, and whatever phi the fit picks, the fitted soil predicts the true soil's forces along the
-    record's digs within 7 % (measured 0.9-6.2 % over 20 records): the force is identified, its split
-    into c and phi is not."""
+    records), the range of phi the record supports (calibrate.phi_interval) is wider than 10 deg
+    (measured 13.7 deg on this 2-dig record; median 19.6 deg over 8 quiet records of 3 digs), and
+    whatever phi the fit picks, the fitted soil predicts the true soil's forces along the record's
+    digs within 7 % (measured 0.9-6.2 % over 20 records): the force is identified, its split into
+    c and phi is not."""
     _, _, data = sand
     soil = get_soil("testbed_sand")
     width = float(data.meta["bucket_width_m"])
     fit = cal.fit_wedge(data, soil, width)
     assert fit.correlation[0, 1] < -0.7
     lo, hi = fit.phi_range_deg
-    assert hi - lo > 15.0
+    assert hi - lo > 10.0
     keep = cal._used(data)
     x = RecordWedge.inputs(data.samples, cal._loads(data, width), advance_speed(data["x"], data["t"], data["dig"]))
     rw = RecordWedge(width)

@@ -183,9 +183,19 @@ class RecordWedge:
       encoders' poses in the record);
     * ``rho``: the rake, held at ``MIN_RAKE_RAD`` below it (the blade slices along itself there).
 
+    The failure cycle (Figs. 53-54): with ``brittleness`` ``I_B`` > 0 the blade force is the cycle's
+    mean, ``(1 - I_B / 2)`` times the force above. After each failure the force drops by the share
+    ``I_B`` and climbs back, linearly in the edge's advance, as the next wedge takes up load, so it
+    runs from ``(1 - I_B)`` of eq. 8's failure force to it: eq. 8 is the crest (the force just before
+    failure, §5.1.2) and a saw-tooth's samples average its midpoint. ``I_B`` is the soil's (Bishop's
+    brittleness index), stated by the user, not fitted: it scales the blade force as c and phi do,
+    so the record cannot tell it from them. Simplified: the cycle's phase is not modelled (a sample
+    is predicted by the mean; the drop within a cycle is left in the residuals), nor the lag while
+    the cut deepens faster than the cycle rebuilds; ``I_B = 0`` is eq. 8 itself (a quiet record's
+    wedge has no drops).
+
     Its simplifications: no rate effect on cohesion (its reference speed is not a soil parameter
-    the fit could know; a quiet record has none) and no failure cycle (eq. 8 is the peak, the force
-    just before failure, §5.1.2; a quiet record's wedge has no drops); the bearing of the bucket's
+    the fit could know; a quiet record has none); the bearing of the bucket's
     bottom at touch-down and the arm's inertia are left as residuals (they show in the first
     samples of a dig); plane strain across the whole width.
 
@@ -193,12 +203,17 @@ class RecordWedge:
         width: bucket width [m].
         surcharge_fraction: ``s`` [-].
         probe_m: where the depth is read ahead of the tip [m].
+        brittleness: ``I_B`` in [0, 1) [-], the share of the failure force lost at each failure.
     """
 
-    def __init__(self, width: float, *, surcharge_fraction: float = 0.0, probe_m: float = PROBE_M):
+    def __init__(self, width: float, *, surcharge_fraction: float = 0.0, probe_m: float = PROBE_M,
+                 brittleness: float = 0.0):
+        if not 0.0 <= brittleness < 1.0:
+            raise ValueError(f"brittleness must be in [0, 1); given {brittleness!r}")
         self.width = float(width)
         self.surcharge_fraction = float(surcharge_fraction)
         self.probe_m = float(probe_m)
+        self.brittleness = float(brittleness)
 
     @staticmethod
     def inputs(samples: Samples, load_m3: np.ndarray, advance_m_s: np.ndarray | None = None) -> np.ndarray:
@@ -238,7 +253,7 @@ class RecordWedge:
         surcharge = gamma * (ahead + self.surcharge_fraction * vol) / big_d
         inertia = np.where(np.isfinite(n_acc), gamma / G_M_S2 * u**2 * d * n_acc * self.width, 0.0)
         blade = (gamma * d**2 * n_gamma + c * d * n_c) * self.width + surcharge + inertia
-        blade = np.where(d > 0, blade, 0.0)
+        blade = np.where(d > 0, blade, 0.0) * (1.0 - 0.5 * self.brittleness)  # the failure cycle's mean
         load = gamma * vol
         return np.stack([-blade * math.sin(delta) + load * np.sin(rho),
                          -blade * math.cos(delta) - load * np.cos(rho)], axis=-1)
@@ -338,6 +353,39 @@ class RecordWedge:
                 params[i] = u * _WEDGE_UNITS
                 rms[i] = math.sqrt(2.0 * float(res.cost) / y.size)
         return rms, params
+
+
+def residual_autocorrelation(res: np.ndarray, dig: np.ndarray, max_lag: int) -> np.ndarray:
+    """The autocorrelation (max_lag + 1,) of residuals (n, m) at lags 0..max_lag samples, pooled over
+    their m columns and over the digs, lag pairs taken within a dig only (1 at lag 0; zeros for
+    residuals that are all equal)."""
+    r = np.asarray(res, dtype=float)
+    r = r.reshape(len(r), -1) - r.reshape(len(r), -1).mean(axis=0)
+    dig = np.asarray(dig)
+    num = np.zeros(max_lag + 1)
+    count = np.zeros(max_lag + 1)
+    for k in np.unique(dig):
+        e = r[dig == k]
+        for lag in range(min(max_lag, len(e) - 1) + 1):
+            num[lag] += float((e[lag:] * e[:len(e) - lag]).sum())
+            count[lag] += (len(e) - lag) * e.shape[1]
+    if count[0] == 0 or num[0] <= 0.0:
+        return np.zeros(max_lag + 1)
+    cov = np.divide(num, count, out=np.zeros_like(num), where=count > 0)
+    return cov / cov[0]
+
+
+def residual_inflation(res: np.ndarray, dig: np.ndarray, max_lag: int) -> float:
+    """How much the residuals' correlation along each dig inflates the variance of a sum of them
+    (>= 1): ``1 + 2 sum_k (1 - k / (L + 1)) r_k`` over lags ``k = 1..L`` (``L = max_lag`` samples;
+    the Bartlett window of Newey and West 1987, which keeps the estimate from over-counting noisy
+    long lags), ``r_k`` of :func:`residual_autocorrelation`. White residuals give 1; an AR(1)
+    series of coefficient ``a`` tends to ``(1 + a) / (1 - a)`` as ``L`` grows. A likelihood-ratio
+    interval from correlated residuals is too narrow by its square root unless its level is scaled
+    by it."""
+    rho = residual_autocorrelation(res, dig, max_lag)
+    lags = np.arange(1, max_lag + 1)
+    return max(1.0, 1.0 + 2.0 * float(((1.0 - lags / (max_lag + 1)) * rho[1:]).sum()))
 
 
 def advance_speed(x: np.ndarray, t: np.ndarray, dig: np.ndarray) -> np.ndarray:

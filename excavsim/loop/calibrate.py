@@ -186,10 +186,13 @@ class Fit:
     rms_n: float
     r2: float
     # (wedge) the correlation of the estimates (c, phi, delta, gamma), and the range of phi the record
-    # supports: the values whose profile of the cost stays within PROFILE_RISE of the best fit [deg]
+    # supports: its profile-likelihood interval at CONFIDENCE [deg], and the residuals' inflation tau
     correlation: np.ndarray | None = None
     phi_range_deg: tuple[float, float] | None = None
     fixed: dict[str, float] = dataclasses.field(default_factory=dict)  # the parameters held, not fitted
+    brittleness: float = 0.0  # (wedge) I_B of the failure cycle the record model averages
+    inflation: float = 1.0  # (wedge) residual_inflation of the fit's residuals
+    smooth_share: float = 0.0  # (wedge) their lag-1 autocorrelation: the share of the model's error in them
 
 
 def _score(pred: np.ndarray, meas: np.ndarray, keep: np.ndarray | None = None) -> tuple[float, float]:
@@ -208,11 +211,18 @@ def _used(data: ForceDataset) -> np.ndarray:
 
 
 PROFILE_PHI_DEG = np.arange(10.0, 45.01, 2.5)  # the profile of the cost over phi: the fit's bounds, 2.5 deg steps
-# The range of phi a record supports: where the profile of the cost (c, delta, gamma fitted again at
-# each phi) misses the record by at most this much more RMS than the best fit. Measured on 12 quiet
-# records (3 soils x seeds 0-3, 3 digs): at the true phi the profile is 0.1-9.5 % above its minimum
-# (the map's depth error moves the minimum along the c-phi valley; with the world's depth it does not),
-# so the range at 10 % holds the true phi in all 12 (README, "Calibrating a soil").
+# The range of phi a record supports: where the profile of the cost (c, delta, gamma fitted again at each
+# phi) stays below a level above the best fit's (phi_interval) made of two allowances:
+# * the noise's: the profile-likelihood interval at CONFIDENCE, chi2_1 s^2 tau (s^2 the residuals'
+#   variance, tau their correlation's inflation within digs, wedge_fit.residual_inflation over
+#   CORRELATION_WINDOW_S: the soil's strength varies over 0.3 m and the blade advances 0.1-0.15 m/s);
+# * the model's: the map's depth error (3.6-7.5 mm RMS over ground already dug) slides the minimum along
+#   the c-phi valley, a systematic error no noise level describes. Measured on 12 quiet records (3 soils x
+#   seeds 0-3, 3 digs), the profile at the true phi is 0.1-9.5 % above its minimum (RMS), so the smooth
+#   part of the residuals (their lag-1 autocorrelation's share of the variance: 0.3-0.95 in quiet records,
+#   near 0 where the F/T's digging scatter dominates) is allowed a rise of PROFILE_RISE in RMS.
+CONFIDENCE = 0.95
+CORRELATION_WINDOW_S = 3.0
 PROFILE_RISE = 0.10
 
 
@@ -301,23 +311,26 @@ def parse_fixes(model: str, items: list[str] | None) -> dict[str, float]:
 
 
 def fit_wedge(data: ForceDataset, soil, width: float, *, starts: int = 4, seed: int = 0,
-              profile: bool = True, fixed: dict[str, float] | None = None) -> Fit:
+              profile: bool = True, fixed: dict[str, float] | None = None, brittleness: float = 0.0) -> Fit:
     """The wedge model's ``c, phi, delta, gamma`` fitted with bounds to a record
     (:class:`~excavsim.learning.wedge_fit.RecordWedge`, the touch-down samples left out), from
     ``soil`` and random starts; standard errors from the Jacobian, the estimates' correlation and,
-    with ``profile``, the range of phi the record supports (:data:`PROFILE_RISE`): a standard
-    error of 1-2 deg hides that c and phi trade along a valley whose floor the map's depth error
-    moves (corr(c, phi) -0.8 to -0.9 in the sands).
+    with ``profile``, the range of phi the record supports: the profile-likelihood interval at
+    :data:`CONFIDENCE` (:func:`phi_interval`). A standard error of 1-2 deg hides that c and phi
+    trade along a valley whose floor the map's depth error moves (corr(c, phi) -0.8 to -0.9 in the
+    sands); the interval follows the valley.
 
     ``fixed``: parameters held (``{name: value}`` of :data:`WEDGE_FIX`, as :func:`parse_fixes` gives
     them), the rest fitted; the start takes their values, their standard error is 0 and, unless phi
-    is held, the range of phi is that of the profile with them held."""
-    from excavsim.learning.wedge_fit import RecordWedge, advance_speed
+    is held, the range of phi is that of the profile with them held. ``brittleness``: the failure
+    cycle's ``I_B`` the record model averages over (0: eq. 8's crest; the default world's soil has
+    0.2, ``truth.brittleness_index``)."""
+    from excavsim.learning.wedge_fit import RecordWedge, advance_speed, residual_autocorrelation, residual_inflation
 
     held = {WEDGE_FIX[WEDGE_FIX_ALIASES.get(n, n)][0]: v * WEDGE_FIX[WEDGE_FIX_ALIASES.get(n, n)][1]
             for n, v in (fixed or {}).items()}
 
-    rw = RecordWedge(width)
+    rw = RecordWedge(width, brittleness=brittleness)
     x = rw.inputs(data.samples, _loads(data, width), advance_speed(data["x"], data["t"], data["dig"]))
     keep = _used(data)
     start = np.array([soil.cohesion_pa, soil.phi, soil.delta, soil.density_kg_m3 * identify.G_M_S2])
@@ -327,16 +340,53 @@ def fit_wedge(data: ForceDataset, soil, width: float, *, starts: int = 4, seed: 
     pred = rw.forces(theta, x)
     rms, r2 = _score(pred, data.forces, keep)
     corr = rw.correlation(theta, x[keep])
+    window = max(1, int(round(CORRELATION_WINDOW_S / _sample_period(data))))
+    res, dig = pred[keep] - data.forces[keep], np.asarray(data["dig"])[keep]
+    tau = residual_inflation(res, dig, window)
+    smooth = float(np.clip(residual_autocorrelation(res, dig, 1)[1], 0.0, 1.0))
     phi_range = None
     if profile and 1 not in held:
-        prof, _ = rw.profile(x[keep], data.forces[keep], theta, np.radians(PROFILE_PHI_DEG), fixed=held)
-        phi_range = supported_range(PROFILE_PHI_DEG, prof, (1.0 + PROFILE_RISE) * min(float(np.nanmin(prof)), rms_fit))
+        # the grid and the fit's own phi, so that the profile's minimum is the fit's
+        values = np.unique(np.append(PROFILE_PHI_DEG, math.degrees(theta[1])))
+        prof, _ = rw.profile(x[keep], data.forces[keep], theta, np.radians(values), fixed=held)
+        phi_range = phi_interval(prof, rms_fit, data.forces[keep].size, 4 - len(held), tau, smooth, values=values)
     c, phi, delta, gamma = theta
     params = {"c_pa": float(c), "phi_deg": math.degrees(phi), "delta_deg": math.degrees(delta),
               "gamma_n_m3": float(gamma)}
     errors = {"c_pa": float(se[0]), "phi_deg": math.degrees(se[1]), "delta_deg": math.degrees(se[2]),
               "gamma_n_m3": float(se[3])}
-    return Fit("wedge", params, errors, pred, rms, r2, corr, phi_range, fixed=dict(fixed or {}))
+    return Fit("wedge", params, errors, pred, rms, r2, corr, phi_range, fixed=dict(fixed or {}),
+               brittleness=float(brittleness), inflation=tau, smooth_share=smooth)
+
+
+def _sample_period(data: ForceDataset) -> float:
+    """The record's F/T sample period [s] (the median step within a dig; 0.1 s if it has none)."""
+    same = np.diff(np.asarray(data["dig"])) == 0
+    return float(np.median(np.diff(np.asarray(data["t"], dtype=float))[same])) if same.any() else 0.1
+
+
+def phi_interval(profile_rms: np.ndarray, rms_fit: float, n: int, n_params: int, tau: float, smooth: float, *,
+                 values: np.ndarray = PROFILE_PHI_DEG, confidence: float = CONFIDENCE,
+                 rise: float = PROFILE_RISE) -> tuple[float, float]:
+    """The range of phi a record supports [deg]: the values (``values``, increasing, the profile's
+    grid) at which the profile's sum of squares ``n rms^2`` exceeds the best fit's ``S_min`` by at most
+
+        chi2_1(confidence) s^2 tau  +  ((1 + rise)^2 - 1) smooth S_min
+
+    the first the likelihood-ratio test of phi (Wilks' theorem for Gaussian residuals; correlated
+    ones count ``tau`` times less), ``s^2 = n rms_fit^2 / (n - n_params)``; the second the model's
+    systematic error, the share ``smooth`` of the residuals' variance that is correlated from one
+    sample to the next (their lag-1 autocorrelation), allowed to rise by ``rise`` in RMS (see
+    :data:`PROFILE_RISE`). ``n``: the residuals (samples times axes). White residuals give the
+    likelihood-ratio interval; a quiet record's smooth ones, the 10 % rule it was measured with."""
+    from scipy.stats import chi2
+
+    ssr = np.asarray(profile_rms, dtype=float) ** 2 * n
+    ssr_min = min(float(np.nanmin(ssr)), rms_fit ** 2 * n)
+    s2 = rms_fit ** 2 * n / max(n - n_params, 1)
+    level = (ssr_min + float(chi2.ppf(confidence, 1)) * s2 * max(tau, 1.0)
+             + ((1.0 + rise) ** 2 - 1.0) * float(np.clip(smooth, 0.0, 1.0)) * ssr_min)
+    return supported_range(np.asarray(values, dtype=float), ssr, level)
 
 
 # What dig records identify of DiMaio's model, with the tolerance measured (README: 12 fits, 4 DiMaio-truth
@@ -470,7 +520,7 @@ def _aligned(t: np.ndarray, f: np.ndarray, t_again: np.ndarray, f_again: np.ndar
 
 def calibrate(record: str | pathlib.Path | ForceDataset, model: str, out: str | pathlib.Path, *,
               soil: str | None = None, rerun_digs: bool = True, cross_model: bool = True,
-              name: str | None = None, fixed: dict[str, float] | None = None,
+              name: str | None = None, fixed: dict[str, float] | None = None, brittleness: float = 0.0,
               say: Callable[[str], None] = print) -> dict[str, Fit]:
     """Fit the ``model`` soil (and, for the cross-model report, the other) to a record; write the
     preset YAML and the predicted-against-measured plot to ``out``; with ``rerun_digs``, dig the
@@ -480,17 +530,23 @@ def calibrate(record: str | pathlib.Path | ForceDataset, model: str, out: str | 
     ``record``: a force data set file (.npz, .parquet, .csv) or a :class:`ForceDataset` (a Rerun
     recording read by the CLI, :func:`~excavsim.loop.calibrate_digs.dataset_from_recording`).
     ``fixed``: ``model``'s parameters held at given values (``{name: value}``, :func:`parse_fixes`;
-    the other model of the cross-model report is fitted free).
+    the other model of the cross-model report is fitted free). ``brittleness``: the failure
+    cycle's ``I_B`` the wedge's record model averages over (:class:`~excavsim.learning.wedge_fit.RecordWedge`;
+    0, eq. 8's crest, for a quiet record; the default world's 0.2 for a record of it).
 
     Raises:
-        ExcavsimError: the record cannot be read, has too few samples, the model is unknown, or a
-            held parameter is not one of the model's (:func:`parse_fixes`).
+        ExcavsimError: the record cannot be read, has too few samples, the model is unknown, a
+            held parameter is not one of the model's (:func:`parse_fixes`), or ``brittleness`` is
+            not in [0, 1).
     """
     from excavsim.config import get_soil, load_scene_config
 
     if model not in ("wedge", "dimaio"):
         raise ExcavsimError(f"unknown model {model!r}; allowed: wedge, dimaio")
     fixed = parse_fixes(model, [f"{k}={v!r}" for k, v in (fixed or {}).items()])
+    if not (isinstance(brittleness, (int, float)) and 0.0 <= brittleness < 1.0):
+        raise ExcavsimError(f"brittleness must be a number in [0, 1) (the share of the failure force lost at "
+                            f"each failure; 0: eq. 8's crest); given {brittleness!r}")
     if isinstance(record, ForceDataset):
         data, label = record, name or "recording"
     else:
@@ -510,7 +566,8 @@ def calibrate(record: str | pathlib.Path | ForceDataset, model: str, out: str | 
     s_bucket = base.dimaio.cutting_surface_m if base.dimaio is not None else 0.3
     fits = {}
     if model == "wedge" or cross_model:
-        fits["wedge"] = fit_wedge(data, base, width, fixed=fixed if model == "wedge" else None)
+        fits["wedge"] = fit_wedge(data, base, width, fixed=fixed if model == "wedge" else None,
+                                  brittleness=brittleness)
     if model == "dimaio" or cross_model:
         fits["dimaio"] = fit_dimaio(data, dimaio_start(base), s_bucket=s_bucket, width=width,
                                     fixed=fixed if model == "dimaio" else None)
@@ -524,8 +581,13 @@ def calibrate(record: str | pathlib.Path | ForceDataset, model: str, out: str | 
     if fit.phi_range_deg is not None:
         lo, hi = fit.phi_range_deg
         held = ", ".join(f"{k} {v:g}" for k, v in fit.fixed.items())
-        say(f"  the record supports phi {lo:.0f}-{hi:.0f} deg (the cost's profile within {PROFILE_RISE:.0%} of its "
-            f"minimum" + (f", {held} held)" if held else f"); correlation of c and phi {fit.correlation[0, 1]:+.2f}"))
+        say(f"  the record supports phi {lo:.0f}-{hi:.0f} deg (the {CONFIDENCE:.0%} profile-likelihood interval, the "
+            f"residuals' correlation inflating it {fit.inflation:.1f} times, and {PROFILE_RISE:.0%} in RMS for the "
+            f"{fit.smooth_share:.0%} of their variance that is smooth, the model's error"
+            + (f", {held} held)" if held else f"); correlation of c and phi {fit.correlation[0, 1]:+.2f}"))
+    if fit.model == "wedge":
+        say(f"  failure cycle: the blade force averaged over drops of {fit.brittleness:g} of eq. 8's crest"
+            + (" (none: eq. 8 itself, as in a quiet record)" if fit.brittleness == 0 else ""))
     if fit.model == "dimaio":
         say(f"  identified by dig data: rho, mu, eps, S and k*T_rt = {fit.params['k'] * fit.params['T_rt']:.4g} N s/m "
             "(within " + ", ".join(f"{k} {v:.0%}" for k, v in DIMAIO_IDENTIFIED.items())
