@@ -2,19 +2,19 @@
 
 For each soil and seed: a record of ``--digs`` random feasible digs in a fresh box (``excavsim
 calibrate --record-digs``), quiet (``--quiet``: the wedge's rate effect, failure-cycle drops,
-heterogeneity and the F/T's digging disturbance off, so that the soil is exactly the preset) or
-with the world's full variability (the default). Each record is fitted as ``excavsim calibrate``
-fits it (the touch-down samples left out, the scans' load), free and, for soils with c < 5 kPa,
-with c held at its truth (``--fix c_pa=...``), with the failure cycle's ``--brittleness`` in the
-record model. Printed per record: the errors of c, phi, delta and gamma, the range of phi the
-record supports (the profile-likelihood interval, ``loop/calibrate.phi_interval``) and whether
-it holds the true phi, and the force error (the RMS difference of the record model's forces
-along the record with the fitted and with the true soil, over the true soil's RMS force: the
-force is identified even where its split into c and phi is not), and, from the world (the truth,
-which the fit never sees), the mean strength factor of the soil's heterogeneity under the record's
-cuts (``truth.heterogeneity_std``: 1 is the preset; the record measures the soil it dug). Then per
-soil and fit, the counts within the stated tolerances, and the correlations of the phi and c errors
-with that strength factor.
+heterogeneity and the F/T's digging disturbance off, so that the soil is exactly the preset) or with
+the world's full variability (the default). Each record is fitted as ``excavsim calibrate`` fits it
+(the touch-down samples left out, the scans' load), free and, for soils with c < 5 kPa, with c held
+at its truth (``--fix c_pa=...``; for the others gamma, their density), with the failure cycle's
+``--brittleness`` in the record model. Printed per record: the errors of c, phi, delta and gamma,
+the range of phi the record supports (the profile-likelihood interval,
+``loop/calibrate.phi_interval``) and whether it holds the true phi, and the force error (the RMS
+difference of the record model's forces along the record with the fitted and with the true soil,
+over the true soil's RMS force: the force is identified even where its split into c and phi is not),
+and, from the world (the truth, which the fit never sees), the mean strength factor of the soil's
+heterogeneity under the record's cuts (``truth.heterogeneity_std``: 1 is the preset; the record
+measures the soil it dug). Then per soil and fit, the counts within the stated tolerances, and the
+correlations of the phi and c errors with that strength factor.
 
 Usage::
 
@@ -79,12 +79,16 @@ def main(argv: list[str] | None = None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     ap.add_argument("--soils", default="testbed_sand,sandy_loam,lean_clay")
     ap.add_argument("--seeds", default="0-7", type=_seeds)
-    ap.add_argument("--digs", type=int, default=3)
+    ap.add_argument("--digs", type=int, default=3, help="digs per record (>= 1)")
     ap.add_argument("--quiet", action="store_true")
     ap.add_argument("--brittleness", type=float, default=None,
                     help="I_B of the record model (default: 0 for --quiet, 0.2, the scene's, otherwise)")
     ap.add_argument("--records", metavar="DIR", help="where the records are kept (default: a temporary directory)")
     args = ap.parse_args(argv)
+    if args.digs < 1:
+        ap.error(f"--digs must be at least 1; given {args.digs}")
+    if args.brittleness is not None and not 0.0 <= args.brittleness < 1.0:
+        ap.error(f"--brittleness must be in [0, 1); given {args.brittleness}")
 
     from excavsim.config import get_soil
     from excavsim.learning import identify
@@ -97,7 +101,7 @@ def main(argv: list[str] | None = None) -> int:
     where.mkdir(parents=True, exist_ok=True)
     print(f"records of {args.digs} digs, {'quiet' if args.quiet else 'the world full variability'}; the record model's "
           f"brittleness {ib:g}; records in {where}", flush=True)
-    head = (f"{'soil':13s} {'seed':>4s} {'fit':5s} {'c kPa':>6s} {'dphi':>6s} {'ddelta':>6s} {'dgamma':>6s} "
+    head = (f"{'soil':13s} {'seed':>4s} {'fit':6s} {'c kPa':>6s} {'dphi':>6s} {'ddelta':>6s} {'dgamma':>6s} "
             f"{'phi range':>11s} {'in':>3s} {'tau':>5s} {'force err':>9s} {'strength':>8s}")
     print(head)
     rows = []
@@ -122,6 +126,8 @@ def main(argv: list[str] | None = None) -> int:
             fits = {"free": None}
             if soil.cohesion_pa < 5000.0:
                 fits["c held"] = {"c_pa": soil.cohesion_pa}
+            else:  # a clay: its density is what a soil engineer knows (a weighed sample)
+                fits["gamma held"] = {"gamma_n_m3": float(truth[3])}
             for label, fixed in fits.items():
                 fit = cal.fit_wedge(data, soil, width, fixed=fixed, brittleness=ib)
                 p = fit.params
@@ -134,17 +140,17 @@ def main(argv: list[str] | None = None) -> int:
                            lo=lo, hi=hi, inside=lo <= tphi <= hi, tau=fit.inflation, ferr=ferr,
                            dc=p["c_pa"] - soil.cohesion_pa, strength=local)
                 rows.append(row)
-                print(f"{soil_name:13s} {seed:4d} {label[:5]:5s} {row['c']:6.2f} {row['dphi']:+6.1f} "
+                print(f"{soil_name:13s} {seed:4d} {label[:6]:6s} {row['c']:6.2f} {row['dphi']:+6.1f} "
                       f"{row['ddelta']:+6.1f} {row['dgamma'] * 100:+5.1f}% {lo:5.1f}-{hi:4.1f} "
                       f"{'yes' if row['inside'] else 'no':>3s} {fit.inflation:5.1f} {ferr * 100:8.1f}% {local:8.3f}",
                       flush=True)
     print()
-    print(f"{'soil':13s} {'fit':6s} {'records':>7s} {'phi 3 deg':>9s} {'phi 5 deg':>9s} {'in range':>8s} "
+    print(f"{'soil':13s} {'fit':10s} {'records':>7s} {'phi 3 deg':>9s} {'phi 5 deg':>9s} {'in range':>8s} "
           f"{'range width':>11s} {'delta 3.5':>9s} {'gamma 10%':>9s} {'c 1 kPa/10%':>11s} {'force err':>13s} "
           f"{'corr(dphi, strength)':>20s} {'corr(dc, strength)':>18s}")
     for soil_name in args.soils.split(","):
         c_true = get_soil(soil_name).cohesion_pa
-        for label in ("free", "c held"):
+        for label in ("free", "c held", "gamma held"):
             sel = [r for r in rows if r["soil"] == soil_name and r["fit"] == label]
             if not sel:
                 continue
@@ -155,7 +161,7 @@ def main(argv: list[str] | None = None) -> int:
 
             widths = np.array([r["hi"] - r["lo"] for r in sel])
             ferr = np.array([r["ferr"] for r in sel])
-            print(f"{soil_name:13s} {label:6s} {n:7d} {count(lambda r: abs(r['dphi']) < 3):>9s} "
+            print(f"{soil_name:13s} {label:10s} {n:7d} {count(lambda r: abs(r['dphi']) < 3):>9s} "
                   f"{count(lambda r: abs(r['dphi']) < 5):>9s} {count(lambda r: r['inside']):>8s} "
                   f"{np.median(widths):8.1f} deg {count(lambda r: abs(r['ddelta']) < 3.5):>9s} "
                   f"{count(lambda r: abs(r['dgamma']) < 0.10):>9s} "
@@ -167,4 +173,10 @@ def main(argv: list[str] | None = None) -> int:
 
 
 if __name__ == "__main__":
-    sys.exit(main())
+    from excavsim.errors import ExcavsimError
+
+    try:
+        sys.exit(main())
+    except ExcavsimError as exc:  # an unknown soil, a record that cannot be made
+        print(f"calibrate_coverage: {exc}", file=sys.stderr)
+        sys.exit(2)
