@@ -14,7 +14,8 @@ over the true soil's RMS force: the force is identified even where its split int
 and, from the world (the truth, which the fit never sees), the mean strength factor of the soil's
 heterogeneity under the record's cuts (``truth.heterogeneity_std``: 1 is the preset; the record
 measures the soil it dug). Then per soil and fit, the counts within the stated tolerances, and the
-correlations of the phi and c errors with that strength factor.
+correlations of the phi and c errors with that strength factor, and the force error against the dug
+soil (the preset's blade force times that factor, the load's weight unchanged).
 
 Usage::
 
@@ -102,7 +103,7 @@ def main(argv: list[str] | None = None) -> int:
     print(f"records of {args.digs} digs, {'quiet' if args.quiet else 'the world full variability'}; the record model's "
           f"brittleness {ib:g}; records in {where}", flush=True)
     head = (f"{'soil':13s} {'seed':>4s} {'fit':6s} {'c kPa':>6s} {'dphi':>6s} {'ddelta':>6s} {'dgamma':>6s} "
-            f"{'phi range':>11s} {'in':>3s} {'tau':>5s} {'force err':>9s} {'strength':>8s}")
+            f"{'phi range':>11s} {'in':>3s} {'tau':>5s} {'force err':>9s} {'strength':>8s} {'vs dug':>7s}")
     print(head)
     rows = []
     for soil_name in args.soils.split(","):
@@ -123,6 +124,9 @@ def main(argv: list[str] | None = None) -> int:
             x = rw.inputs(data.samples, cal._loads(data, width), advance_speed(data["x"], data["t"], data["dig"]))
             f_true = rw.forces(truth, x[keep])
             local = _strength_under_cuts(data, soil_name, seed)
+            rho, vol = x[keep, 5], np.maximum(x[keep, 6], 0.0)
+            load = truth[3] * vol[:, None] * np.stack([np.sin(rho), -np.cos(rho)], axis=-1)
+            f_dug = load + local * (f_true - load)  # the preset's blade force times the dug soil's strength
             fits = {"free": None}
             if soil.cohesion_pa < 5000.0:
                 fits["c held"] = {"c_pa": soil.cohesion_pa}
@@ -134,20 +138,22 @@ def main(argv: list[str] | None = None) -> int:
                 th = np.array([p["c_pa"], math.radians(p["phi_deg"]), math.radians(p["delta_deg"]), p["gamma_n_m3"]])
                 f_fit = rw.forces(th, x[keep])
                 ferr = math.sqrt(((f_fit - f_true) ** 2).sum(1).mean() / (f_true ** 2).sum(1).mean())
+                ferr_dug = math.sqrt(((f_fit - f_dug) ** 2).sum(1).mean() / (f_dug ** 2).sum(1).mean())
                 lo, hi = fit.phi_range_deg
                 row = dict(soil=soil_name, seed=seed, fit=label, c=p["c_pa"] / 1e3, dphi=p["phi_deg"] - tphi,
                            ddelta=p["delta_deg"] - math.degrees(soil.delta), dgamma=p["gamma_n_m3"] / truth[3] - 1,
                            lo=lo, hi=hi, inside=lo <= tphi <= hi, tau=fit.inflation, ferr=ferr,
-                           dc=p["c_pa"] - soil.cohesion_pa, strength=local)
+                           dc=p["c_pa"] - soil.cohesion_pa, strength=local, ferr_dug=ferr_dug)
                 rows.append(row)
                 print(f"{soil_name:13s} {seed:4d} {label[:6]:6s} {row['c']:6.2f} {row['dphi']:+6.1f} "
                       f"{row['ddelta']:+6.1f} {row['dgamma'] * 100:+5.1f}% {lo:5.1f}-{hi:4.1f} "
-                      f"{'yes' if row['inside'] else 'no':>3s} {fit.inflation:5.1f} {ferr * 100:8.1f}% {local:8.3f}",
+                      f"{'yes' if row['inside'] else 'no':>3s} {fit.inflation:5.1f} {ferr * 100:8.1f}% {local:8.3f} "
+                      f"{ferr_dug * 100:6.1f}%",
                       flush=True)
     print()
     print(f"{'soil':13s} {'fit':10s} {'records':>7s} {'phi 3 deg':>9s} {'phi 5 deg':>9s} {'in range':>8s} "
           f"{'range width':>11s} {'delta 3.5':>9s} {'gamma 10%':>9s} {'c 1 kPa/10%':>11s} {'force err':>13s} "
-          f"{'corr(dphi, strength)':>20s} {'corr(dc, strength)':>18s}")
+          f"{'corr(dphi, strength)':>20s} {'corr(dc, strength)':>18s} {'force err vs dug soil':>21s}")
     for soil_name in args.soils.split(","):
         c_true = get_soil(soil_name).cohesion_pa
         for label in ("free", "c held", "gamma held"):
@@ -168,7 +174,8 @@ def main(argv: list[str] | None = None) -> int:
                   f"{count(lambda r: abs(r['dc']) < max(1000.0, 0.1 * c_true)):>11s} "
                   f"{ferr.min() * 100:4.1f}-{ferr.max() * 100:4.1f} % "
                   f"{_corr([r['dphi'] for r in sel], [r['strength'] for r in sel]):+20.2f} "
-                  f"{_corr([r['dc'] for r in sel], [r['strength'] for r in sel]):+18.2f}")
+                  f"{_corr([r['dc'] for r in sel], [r['strength'] for r in sel]):+18.2f} "
+                  f"{min(r['ferr_dug'] for r in sel) * 100:14.1f}-{max(r['ferr_dug'] for r in sel) * 100:4.1f} %")
     return 0
 
 
