@@ -410,11 +410,13 @@ def _cmd_calibrate(args: argparse.Namespace) -> int:
 
     from excavsim.loop import calibrate as cal
 
-    if args.table_5_3 and (args.fix or args.brittleness):
-        raise ExcavsimError("--fix and --brittleness belong to a record's fit; --table-5-3 identifies all of "
-                            "Table 5.3's parameters from DiMaio's own forces")
+    if args.table_5_3 and (args.fix or args.brittleness or args.rate_effect):
+        raise ExcavsimError("--fix, --brittleness and --rate-effect belong to a record's fit; --table-5-3 identifies "
+                            "all of Table 5.3's parameters from DiMaio's own forces")
     if args.brittleness and args.model != "wedge":
         raise ExcavsimError("--brittleness is the wedge model's failure cycle; give it with --model wedge")
+    if args.rate_effect and args.model != "wedge":
+        raise ExcavsimError("--rate-effect is the wedge model's rate effect on cohesion; give it with --model wedge")
     if args.table_5_3 and args.fix:
         raise ExcavsimError("--fix holds parameters of a record's fit; --table-5-3 identifies all of Table 5.3's")
     if args.table_5_3:
@@ -453,10 +455,10 @@ def _cmd_calibrate(args: argparse.Namespace) -> int:
 
         data = recording_dataset(read_recording(record))
         cal.calibrate(data, args.model, args.out, soil=args.soil, rerun_digs=not args.no_rerun, name=record.stem,
-                      fixed=fixed, brittleness=args.brittleness)
+                      fixed=fixed, brittleness=args.brittleness, rate_per_decade=args.rate_effect)
     else:
         cal.calibrate(record, args.model, args.out, soil=args.soil, rerun_digs=not args.no_rerun, fixed=fixed,
-                      brittleness=args.brittleness)
+                      brittleness=args.brittleness, rate_per_decade=args.rate_effect)
     return 0
 
 
@@ -1087,6 +1089,11 @@ def build_parser() -> argparse.ArgumentParser:
                        help="the wedge's failure cycle: the share of the failure force lost at each failure, "
                             "which the record model averages over (default 0: eq. 8's crest, a quiet record; "
                             "0.2 for a record of the default world, scene.yaml truth.brittleness_index)")
+    calib.add_argument("--rate-effect", type=_float_in(0, 1), default=0.0, metavar="A",
+                       help="the wedge's rate effect on cohesion: c rises by A per tenfold advance speed above "
+                            "0.01 m/s, so that the fitted c is the strength at 0.01 m/s as a preset's (default 0: "
+                            "the strength at the digs' rate; 0.1 for a clay of the default world, scene.yaml "
+                            "truth.cohesion_rate_per_decade)")
     calib.add_argument("--quiet", action="store_true",
                        help="with --record-digs: the wedge's rate effect, failure-cycle drops, heterogeneity and "
                             "the F/T's digging disturbance off")

@@ -20,7 +20,7 @@ soil (the preset's blade force times that factor, the load's weight unchanged).
 Usage::
 
     python scripts/calibrate_coverage.py [--soils testbed_sand,sandy_loam,lean_clay] [--seeds 0-7]
-        [--digs 3] [--quiet] [--brittleness 0.2] [--records DIR]
+        [--digs 3] [--quiet] [--brittleness 0.2] [--rate-effect 0.1] [--records DIR]
 
 ``--records DIR`` keeps the records there and reuses those already made (named
 ``SOIL_sSEED_dDIGS[_quiet].npz``). About 3 s per record of 3 digs and 10 s per fit here.
@@ -84,12 +84,17 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--quiet", action="store_true")
     ap.add_argument("--brittleness", type=float, default=None,
                     help="I_B of the record model (default: 0 for --quiet, 0.2, the scene's, otherwise)")
+    ap.add_argument("--rate-effect", type=float, default=None,
+                    help="the record model's rate effect on cohesion per decade (default 0: c at the digs' rate; "
+                         "the scene's is 0.1)")
     ap.add_argument("--records", metavar="DIR", help="where the records are kept (default: a temporary directory)")
     args = ap.parse_args(argv)
     if args.digs < 1:
         ap.error(f"--digs must be at least 1; given {args.digs}")
     if args.brittleness is not None and not 0.0 <= args.brittleness < 1.0:
         ap.error(f"--brittleness must be in [0, 1); given {args.brittleness}")
+    if args.rate_effect is not None and not 0.0 <= args.rate_effect <= 1.0:
+        ap.error(f"--rate-effect must be in [0, 1]; given {args.rate_effect}")
 
     from excavsim.config import get_soil
     from excavsim.learning import identify
@@ -98,10 +103,11 @@ def main(argv: list[str] | None = None) -> int:
     from excavsim.loop.calibrate_digs import record_digs
 
     ib = args.brittleness if args.brittleness is not None else (0.0 if args.quiet else 0.2)
+    rate = args.rate_effect if args.rate_effect is not None else 0.0
     where = pathlib.Path(args.records) if args.records else pathlib.Path(tempfile.mkdtemp(prefix="calcov-"))
     where.mkdir(parents=True, exist_ok=True)
     print(f"records of {args.digs} digs, {'quiet' if args.quiet else 'the world full variability'}; the record model's "
-          f"brittleness {ib:g}; records in {where}", flush=True)
+          f"brittleness {ib:g}, rate effect {rate:g}; records in {where}", flush=True)
     head = (f"{'soil':13s} {'seed':>4s} {'fit':6s} {'c kPa':>6s} {'dphi':>6s} {'ddelta':>6s} {'dgamma':>6s} "
             f"{'phi range':>11s} {'in':>3s} {'tau':>5s} {'force err':>9s} {'strength':>8s} {'vs dug':>7s}")
     print(head)
@@ -120,7 +126,7 @@ def main(argv: list[str] | None = None) -> int:
                 data = record_digs(path, soil=soil_name, digs=args.digs, seed=seed, quiet=args.quiet)
             width = float(data.meta.get("bucket_width_m", 0.0)) or cal._bucket_width()
             keep = cal._used(data)
-            rw = RecordWedge(width, brittleness=ib)
+            rw = RecordWedge(width, brittleness=ib, rate_per_decade=rate)
             x = rw.inputs(data.samples, cal._loads(data, width), advance_speed(data["x"], data["t"], data["dig"]))
             f_true = rw.forces(truth, x[keep])
             local = _strength_under_cuts(data, soil_name, seed)
@@ -133,7 +139,7 @@ def main(argv: list[str] | None = None) -> int:
             else:  # a clay: its density is what a soil engineer knows (a weighed sample)
                 fits["gamma held"] = {"gamma_n_m3": float(truth[3])}
             for label, fixed in fits.items():
-                fit = cal.fit_wedge(data, soil, width, fixed=fixed, brittleness=ib)
+                fit = cal.fit_wedge(data, soil, width, fixed=fixed, brittleness=ib, rate_per_decade=rate)
                 p = fit.params
                 th = np.array([p["c_pa"], math.radians(p["phi_deg"]), math.radians(p["delta_deg"]), p["gamma_n_m3"]])
                 f_fit = rw.forces(th, x[keep])

@@ -50,6 +50,30 @@ def test_the_failure_cycles_mean_scales_the_blade_force_only(noisy_sand):
             RecordWedge(width, brittleness=bad)
 
 
+def test_the_rate_effect_scales_the_cohesive_force_only(noisy_sand):
+    """With the rate effect ``a`` the cohesion term is ``c (1 + a log10(u / 0.01))`` above 0.01 m/s, by
+    hand from the record model's own forces with c and with c = 0; a cohesionless soil is unchanged;
+    at or below the reference speed nothing changes; a negative ``a`` is refused."""
+    _, data = noisy_sand
+    width = cal._bucket_width()
+    x = _inputs(data, width)
+    clay = _theta(get_soil("lean_clay"))
+    no_c = clay.copy()
+    no_c[0] = 0.0
+    plain, rated = RecordWedge(width), RecordWedge(width, rate_per_decade=0.1)
+    u = np.maximum(x[:, 7], 0.0)
+    assert (u > 0.05).sum() > 20  # the record's drags advance faster than the reference
+    factor = 1.0 + 0.1 * np.log10(np.maximum(u, 0.01) / 0.01)
+    cohesive = plain.forces(clay, x) - plain.forces(no_c, x)
+    np.testing.assert_allclose(rated.forces(clay, x), plain.forces(no_c, x) + factor[:, None] * cohesive, atol=1e-6)
+    np.testing.assert_allclose(rated.forces(no_c, x), plain.forces(no_c, x), atol=1e-9)
+    slow = x.copy()
+    slow[:, 7] = 0.01
+    np.testing.assert_allclose(rated.forces(clay, slow), plain.forces(clay, slow), atol=1e-9)
+    with pytest.raises(ValueError, match="rate_per_decade must be >= 0"):
+        RecordWedge(width, rate_per_decade=-0.1)
+
+
 def test_residual_inflation_of_white_and_ar1_residuals():
     """White residuals: about 1; AR(1) of coefficient 0.6 over a long window: near (1 + a) / (1 - a) = 4
     (the Bartlett window shrinks it by about 2 a / (1 - a)^2 / (L + 1)); a dig's constant offset
@@ -144,11 +168,17 @@ def test_a_record_of_the_full_world_is_recovered_within_the_noisy_tolerances(noi
     assert main(["calibrate", str(path), "--brittleness", "0.2", "--no-rerun", "--out", str(tmp_path)]) == 0
     out = capsys.readouterr().out
     assert "drops of 0.2 of eq. 8's crest" in out and "profile-likelihood interval" in out
+    assert main(["calibrate", str(path), "--rate-effect", "0.1", "--no-rerun", "--out", str(tmp_path)]) == 0
+    assert "cohesion 0.1 higher per tenfold advance speed" in capsys.readouterr().out
     for extra, msg in ((["--brittleness", "1"], "out of range (allowed: >= 0 and < 1)"),
+                       (["--rate-effect", "2"], "out of range (allowed: >= 0 and <= 1)"),
+                       (["--rate-effect", "0.1", "--model", "dimaio"], "--rate-effect is the wedge model's"),
                        (["--brittleness", "0.2", "--model", "dimaio"], "--brittleness is the wedge model's"),
                        (["--brittleness", "x"], "is not a number")):
         assert main(["calibrate", str(path), *extra, "--out", str(tmp_path)]) == 2
         assert msg in capsys.readouterr().err
     with pytest.raises(Exception, match="brittleness must be a number in"):
         cal.calibrate(path, "wedge", tmp_path, brittleness=1.2, say=lambda s: None)
+    with pytest.raises(Exception, match="rate_per_decade must be a number in"):
+        cal.calibrate(path, "wedge", tmp_path, rate_per_decade=-1.0, say=lambda s: None)
 

@@ -126,6 +126,7 @@ _N_WEDGE_SAMPLES = 24  # points along the failure wedge at which the surcharge a
 # over 12 records of 3 quiet digs, 3 soils x seeds 0-3: the load's RMS error lower than without a lead
 # in 9 of them, 0.25-0.96 l against 0.31-1.06 l; a lead of 2.5 cm is worse than 1.25 cm in 11).
 LEAD_M = 0.0125
+RATE_REFERENCE_M_S = 0.01  # the advance speed at which a preset's cohesion holds (scene.yaml, assumed)
 
 
 def load_profile(swept_m3: np.ndarray, dig: np.ndarray, measured_m3: dict[int, float] | None = None, *,
@@ -194,8 +195,14 @@ class RecordWedge:
     the cut deepens faster than the cycle rebuilds; ``I_B = 0`` is eq. 8 itself (a quiet record's
     wedge has no drops).
 
-    Its simplifications: no rate effect on cohesion (its reference speed is not a soil parameter
-    the fit could know; a quiet record has none); the bearing of the bucket's
+    The rate effect on cohesion: with ``rate_per_decade`` ``a`` > 0 the cohesion acts as
+    ``c (1 + a log10(u / u_ref))`` while the edge advances faster than ``u_ref`` (a clay's undrained
+    strength rises about 10 % per tenfold strain rate, Kulhawy & Mayne 1990); ``c`` is then the
+    strength at ``u_ref``, as a soil preset states it (the world's ``truth.cohesion_rate_per_decade``
+    and ``rate_reference_speed_m_s``). Like ``I_B`` it is stated, not fitted; without it (``a = 0``)
+    the fitted ``c`` is the strength at the record's digging rate.
+
+    Its simplifications: no adhesion term (the world's is zero for every preset); the bearing of the bucket's
     bottom at touch-down and the arm's inertia are left as residuals (they show in the first
     samples of a dig); plane strain across the whole width.
 
@@ -204,12 +211,20 @@ class RecordWedge:
         surcharge_fraction: ``s`` [-].
         probe_m: where the depth is read ahead of the tip [m].
         brittleness: ``I_B`` in [0, 1) [-], the share of the failure force lost at each failure.
+        rate_per_decade: ``a`` >= 0 [-], the cohesion's rise per tenfold advance speed above
+            ``rate_reference_m_s`` [m/s].
     """
 
     def __init__(self, width: float, *, surcharge_fraction: float = 0.0, probe_m: float = PROBE_M,
-                 brittleness: float = 0.0):
+                 brittleness: float = 0.0, rate_per_decade: float = 0.0,
+                 rate_reference_m_s: float = RATE_REFERENCE_M_S):
         if not 0.0 <= brittleness < 1.0:
             raise ValueError(f"brittleness must be in [0, 1); given {brittleness!r}")
+        if not (rate_per_decade >= 0.0 and rate_reference_m_s > 0.0):
+            raise ValueError(f"rate_per_decade must be >= 0 and rate_reference_m_s > 0; given {rate_per_decade!r}, "
+                             f"{rate_reference_m_s!r}")
+        self.rate_per_decade = float(rate_per_decade)
+        self.rate_reference_m_s = float(rate_reference_m_s)
         self.width = float(width)
         self.surcharge_fraction = float(surcharge_fraction)
         self.probe_m = float(probe_m)
@@ -252,7 +267,8 @@ class RecordWedge:
         ahead = self.width * np.maximum(prof - d[:, None], 0.0).mean(axis=1) * length
         surcharge = gamma * (ahead + self.surcharge_fraction * vol) / big_d
         inertia = np.where(np.isfinite(n_acc), gamma / G_M_S2 * u**2 * d * n_acc * self.width, 0.0)
-        blade = (gamma * d**2 * n_gamma + c * d * n_c) * self.width + surcharge + inertia
+        rate = 1.0 + self.rate_per_decade * np.log10(np.maximum(u, self.rate_reference_m_s) / self.rate_reference_m_s)
+        blade = (gamma * d**2 * n_gamma + rate * c * d * n_c) * self.width + surcharge + inertia
         blade = np.where(d > 0, blade, 0.0) * (1.0 - 0.5 * self.brittleness)  # the failure cycle's mean
         load = gamma * vol
         return np.stack([-blade * math.sin(delta) + load * np.sin(rho),

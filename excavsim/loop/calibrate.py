@@ -191,6 +191,7 @@ class Fit:
     phi_range_deg: tuple[float, float] | None = None
     fixed: dict[str, float] = dataclasses.field(default_factory=dict)  # the parameters held, not fitted
     brittleness: float = 0.0  # (wedge) I_B of the failure cycle the record model averages
+    rate_per_decade: float = 0.0  # (wedge) the rate effect on cohesion the record model applies
     inflation: float = 1.0  # (wedge) residual_inflation of the fit's residuals
     smooth_share: float = 0.0  # (wedge) their lag-1 autocorrelation: the share of the model's error in them
 
@@ -311,7 +312,8 @@ def parse_fixes(model: str, items: list[str] | None) -> dict[str, float]:
 
 
 def fit_wedge(data: ForceDataset, soil, width: float, *, starts: int = 4, seed: int = 0,
-              profile: bool = True, fixed: dict[str, float] | None = None, brittleness: float = 0.0) -> Fit:
+              profile: bool = True, fixed: dict[str, float] | None = None, brittleness: float = 0.0,
+              rate_per_decade: float = 0.0) -> Fit:
     """The wedge model's ``c, phi, delta, gamma`` fitted with bounds to a record
     (:class:`~excavsim.learning.wedge_fit.RecordWedge`, the touch-down samples left out), from
     ``soil`` and random starts; standard errors from the Jacobian, the estimates' correlation and,
@@ -324,13 +326,15 @@ def fit_wedge(data: ForceDataset, soil, width: float, *, starts: int = 4, seed: 
     them), the rest fitted; the start takes their values, their standard error is 0 and, unless phi
     is held, the range of phi is that of the profile with them held. ``brittleness``: the failure
     cycle's ``I_B`` the record model averages over (0: eq. 8's crest; the default world's soil has
-    0.2, ``truth.brittleness_index``)."""
+    0.2, ``truth.brittleness_index``). ``rate_per_decade``: the rate effect on cohesion the record
+    model applies above 0.01 m/s (0: c is the strength at the digs' rate; the default world's clays
+    have 0.1, ``truth.cohesion_rate_per_decade``)."""
     from excavsim.learning.wedge_fit import RecordWedge, advance_speed, residual_autocorrelation, residual_inflation
 
     held = {WEDGE_FIX[WEDGE_FIX_ALIASES.get(n, n)][0]: v * WEDGE_FIX[WEDGE_FIX_ALIASES.get(n, n)][1]
             for n, v in (fixed or {}).items()}
 
-    rw = RecordWedge(width, brittleness=brittleness)
+    rw = RecordWedge(width, brittleness=brittleness, rate_per_decade=rate_per_decade)
     x = rw.inputs(data.samples, _loads(data, width), advance_speed(data["x"], data["t"], data["dig"]))
     keep = _used(data)
     start = np.array([soil.cohesion_pa, soil.phi, soil.delta, soil.density_kg_m3 * identify.G_M_S2])
@@ -356,7 +360,8 @@ def fit_wedge(data: ForceDataset, soil, width: float, *, starts: int = 4, seed: 
     errors = {"c_pa": float(se[0]), "phi_deg": math.degrees(se[1]), "delta_deg": math.degrees(se[2]),
               "gamma_n_m3": float(se[3])}
     return Fit("wedge", params, errors, pred, rms, r2, corr, phi_range, fixed=dict(fixed or {}),
-               brittleness=float(brittleness), inflation=tau, smooth_share=smooth)
+               brittleness=float(brittleness), rate_per_decade=float(rate_per_decade), inflation=tau,
+               smooth_share=smooth)
 
 
 def _sample_period(data: ForceDataset) -> float:
@@ -521,7 +526,7 @@ def _aligned(t: np.ndarray, f: np.ndarray, t_again: np.ndarray, f_again: np.ndar
 def calibrate(record: str | pathlib.Path | ForceDataset, model: str, out: str | pathlib.Path, *,
               soil: str | None = None, rerun_digs: bool = True, cross_model: bool = True,
               name: str | None = None, fixed: dict[str, float] | None = None, brittleness: float = 0.0,
-              say: Callable[[str], None] = print) -> dict[str, Fit]:
+              rate_per_decade: float = 0.0, say: Callable[[str], None] = print) -> dict[str, Fit]:
     """Fit the ``model`` soil (and, for the cross-model report, the other) to a record; write the
     preset YAML and the predicted-against-measured plot to ``out``; with ``rerun_digs``, dig the
     recorded digs again in simulation with the fitted soil of each model (PNG per dig). Returns the
@@ -533,11 +538,13 @@ def calibrate(record: str | pathlib.Path | ForceDataset, model: str, out: str | 
     the other model of the cross-model report is fitted free). ``brittleness``: the failure
     cycle's ``I_B`` the wedge's record model averages over (:class:`~excavsim.learning.wedge_fit.RecordWedge`;
     0, eq. 8's crest, for a quiet record; the default world's 0.2 for a record of it).
+    ``rate_per_decade``: the rate effect on cohesion the wedge's record model applies (0, or the
+    default world's 0.1 for a clay: the fitted c is then the strength at 0.01 m/s, as the presets').
 
     Raises:
         ExcavsimError: the record cannot be read, has too few samples, the model is unknown, a
-            held parameter is not one of the model's (:func:`parse_fixes`), or ``brittleness`` is
-            not in [0, 1).
+            held parameter is not one of the model's (:func:`parse_fixes`), ``brittleness`` is
+            not in [0, 1) or ``rate_per_decade`` not in [0, 1].
     """
     from excavsim.config import get_soil, load_scene_config
 
@@ -547,6 +554,9 @@ def calibrate(record: str | pathlib.Path | ForceDataset, model: str, out: str | 
     if not (isinstance(brittleness, (int, float)) and 0.0 <= brittleness < 1.0):
         raise ExcavsimError(f"brittleness must be a number in [0, 1) (the share of the failure force lost at "
                             f"each failure; 0: eq. 8's crest); given {brittleness!r}")
+    if not (isinstance(rate_per_decade, (int, float)) and 0.0 <= rate_per_decade <= 1.0):
+        raise ExcavsimError(f"rate_per_decade must be a number in [0, 1] (the cohesion's rise per tenfold digging "
+                            f"speed; 0: none); given {rate_per_decade!r}")
     if isinstance(record, ForceDataset):
         data, label = record, name or "recording"
     else:
@@ -567,7 +577,7 @@ def calibrate(record: str | pathlib.Path | ForceDataset, model: str, out: str | 
     fits = {}
     if model == "wedge" or cross_model:
         fits["wedge"] = fit_wedge(data, base, width, fixed=fixed if model == "wedge" else None,
-                                  brittleness=brittleness)
+                                  brittleness=brittleness, rate_per_decade=rate_per_decade)
     if model == "dimaio" or cross_model:
         fits["dimaio"] = fit_dimaio(data, dimaio_start(base), s_bucket=s_bucket, width=width,
                                     fixed=fixed if model == "dimaio" else None)
@@ -588,6 +598,9 @@ def calibrate(record: str | pathlib.Path | ForceDataset, model: str, out: str | 
     if fit.model == "wedge":
         say(f"  failure cycle: the blade force averaged over drops of {fit.brittleness:g} of eq. 8's crest"
             + (" (none: eq. 8 itself, as in a quiet record)" if fit.brittleness == 0 else ""))
+        say("  rate effect: " + (f"cohesion {fit.rate_per_decade:g} higher per tenfold advance speed above 0.01 m/s "
+                                 "(c is the strength at 0.01 m/s)" if fit.rate_per_decade > 0
+                                 else "none (c is the strength at the digs' rate)"))
     if fit.model == "dimaio":
         say(f"  identified by dig data: rho, mu, eps, S and k*T_rt = {fit.params['k'] * fit.params['T_rt']:.4g} N s/m "
             "(within " + ", ".join(f"{k} {v:.0%}" for k, v in DIMAIO_IDENTIFIED.items())
