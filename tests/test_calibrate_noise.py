@@ -169,7 +169,9 @@ def test_a_record_of_the_full_world_is_recovered_within_the_noisy_tolerances(noi
     out = capsys.readouterr().out
     assert "drops of 0.2 of eq. 8's crest" in out and "profile-likelihood interval" in out
     assert main(["calibrate", str(path), "--rate-effect", "0.1", "--no-rerun", "--out", str(tmp_path)]) == 0
-    assert "cohesion 0.1 higher per tenfold advance speed" in capsys.readouterr().out
+    out = capsys.readouterr().out
+    assert "cohesion 0.1 higher per tenfold advance speed" in out
+    assert "--brittleness 0.2 (the default world's) models them" in out  # a full-world record fitted without it
     for extra, msg in ((["--brittleness", "1"], "out of range (allowed: >= 0 and < 1)"),
                        (["--rate-effect", "2"], "out of range (allowed: >= 0 and <= 1)"),
                        (["--rate-effect", "0.1", "--model", "dimaio"], "--rate-effect is the wedge model's"),

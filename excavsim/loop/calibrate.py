@@ -601,6 +601,9 @@ def calibrate(record: str | pathlib.Path | ForceDataset, model: str, out: str | 
         say("  rate effect: " + (f"cohesion {fit.rate_per_decade:g} higher per tenfold advance speed above 0.01 m/s "
                                  "(c is the strength at 0.01 m/s)" if fit.rate_per_decade > 0
                                  else "none (c is the strength at the digs' rate)"))
+        if data.meta.get("quiet") == "false" and fit.brittleness == 0:
+            say("  note: the record was made with the world's truth terms on (not --quiet): its failure cycle's "
+                "drops lower the mean force below eq. 8's crest; --brittleness 0.2 (the default world's) models them")
     if fit.model == "dimaio":
         say(f"  identified by dig data: rho, mu, eps, S and k*T_rt = {fit.params['k'] * fit.params['T_rt']:.4g} N s/m "
             "(within " + ", ".join(f"{k} {v:.0%}" for k, v in DIMAIO_IDENTIFIED.items())
