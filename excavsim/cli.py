@@ -417,8 +417,6 @@ def _cmd_calibrate(args: argparse.Namespace) -> int:
         raise ExcavsimError("--brittleness is the wedge model's failure cycle; give it with --model wedge")
     if args.rate_effect and args.model != "wedge":
         raise ExcavsimError("--rate-effect is the wedge model's rate effect on cohesion; give it with --model wedge")
-    if args.table_5_3 and args.fix:
-        raise ExcavsimError("--fix holds parameters of a record's fit; --table-5-3 identifies all of Table 5.3's")
     if args.table_5_3:
         print(f"excavsim calibrate --table-5-3: DiMaio's model identified from its own forces (Table 5.3, Fig. 5.40); "
               f"results in {args.out}")

@@ -63,13 +63,12 @@ def _strength_under_cuts(data, soil: str, seed: int) -> float:
     arm = arm_from_model(sim.model)
     waist = math.radians(cfg.goal.waist_deg)
     half = 0.5 * float(data.meta.get("bucket_width_m", 0.3))
-    pts = []
-    for across in np.linspace(-half, half, 5):
-        xz = np.stack([np.asarray(data["x"], dtype=float), np.asarray(data["z"], dtype=float)], axis=-1)
-        w = arm.plane_to_world(waist, xz)
-        normal = np.array([-math.sin(waist), math.cos(waist)])
-        pts.append(w[:, :2] + across * normal)
-    pts = np.concatenate(pts)
+    xz = np.stack([np.asarray(data["x"], dtype=float), np.asarray(data["z"], dtype=float)], axis=-1)
+    path = arm.plane_to_world(waist, xz)[:, :2]
+    o, e1 = arm.plane_to_world(waist, np.array([[0.0, 0.0], [1.0, 0.0]]))[:, :2]  # the plane's direction
+    along = (e1 - o) / np.linalg.norm(e1 - o)
+    normal = np.array([-along[1], along[0]])
+    pts = (path[None, :, :] + np.linspace(-half, half, 5)[:, None, None] * normal).reshape(-1, 2)
     g, st = sim.soil.grid, sim.soil.strength
     ix = np.clip(((pts[:, 0] - g.x0) / g.cell).round().astype(int), 0, st.shape[1] - 1)
     iy = np.clip(((pts[:, 1] - g.y0) / g.cell).round().astype(int), 0, st.shape[0] - 1)
