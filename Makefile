@@ -27,10 +27,12 @@ $(STAMP_DEV): pyproject.toml | $(PY)
 demo: $(STAMP_RUN)
 	$(VENV)/bin/excavsim trench --record runs/demo.rrd
 
-# the layer contracts of pyproject.toml (import-linter), then the tests
+# the layer contracts of pyproject.toml (import-linter), then the tests on every core (pytest-xdist);
+# the slow tier (campaigns, fits, whole studies: `-m slow`) runs only with EXCAVSIM_SLOW=1, as CI sets it
+PYTEST_TIER := $(if $(EXCAVSIM_SLOW),,-m "not slow")
 test: $(STAMP_DEV)
 	$(VENV)/bin/lint-imports
-	$(PY) -m pytest -q
+	$(PY) -m pytest -q -n auto --dist loadscope $(PYTEST_TIER)
 
 # the README's pictures (docs/images/): the demo episode in the headless Rerun viewer (needs Vulkan: Debian's
 # mesa-vulkan-drivers without a GPU), the plan's figures and a campaign plot
