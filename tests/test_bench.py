@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import numpy as np
+import pytest
 
 from excavsim import bench
 from excavsim.bench import Row, Timing, run_benchmarks
@@ -41,6 +42,7 @@ def test_the_table_says_which_targets_are_missed(monkeypatch):
     assert "targets: 1 of 2 met; missed: slow thing (90 ms, target <= 50)" in text
 
 
+@pytest.mark.slow
 def test_warm_up_runs_an_episode_and_the_reference_planner():
     from excavsim.loop.warmup import warm_up
 

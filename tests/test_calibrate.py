@@ -279,6 +279,7 @@ def test_a_recording_without_ft_data_is_refused(tmp_path):
         read_recording(tmp_path / "missing.rrd")
 
 
+@pytest.mark.slow
 def test_calibrate_a_recording_re_runs_the_digs_with_the_fitted_soils(sand, tmp_path, capsys):
     """`excavsim calibrate RECORDING.rrd`: fits both models, re-runs the digs in MuJoCo with each
     fitted soil; the wedge's re-run on its own truth explains the record (measured R^2 0.996), and
@@ -321,6 +322,7 @@ def dimaio_record(tmp_path_factory):
     return cd.record_digs(path, truth="dimaio", digs=2, seed=0)
 
 
+@pytest.mark.slow
 def test_dimaio_fit_on_a_dimaio_record_from_a_start_twice_the_truth(dimaio_record):
     """From every parameter at twice its value, the fitted DiMaio model recovers what dig data
     identify (the README's tolerances, from 12 fits: 4 records of 3 digs, starts twice, half and at
@@ -390,6 +392,7 @@ def test_parse_fixes_takes_the_printed_and_the_presets_names():
             cal.parse_fixes("wedge", bad)
 
 
+@pytest.mark.slow
 def test_calibrate_fix_on_the_command_line(sand, tmp_path, capsys):
     """``--fix`` holds the parameter in the printed fit; a bad NAME or VALUE exits 2 naming the
     allowed names and ranges, before any recording or fit."""

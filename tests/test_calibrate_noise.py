@@ -141,6 +141,7 @@ def test_the_range_holds_phi_in_synthetic_records_of_known_noise(noisy_sand):
     assert np.median(widths) < 35.0
 
 
+@pytest.mark.slow
 def test_a_record_of_the_full_world_is_recovered_within_the_noisy_tolerances(noisy_sand, tmp_path, capsys):
     """`excavsim calibrate RECORD --brittleness 0.2` on a record with the world's truth terms: the
     true phi inside the range the record supports, delta within 3.5 deg, gamma within 10 %, and the

@@ -214,6 +214,7 @@ def test_grouped_tables_pool_the_other_keys_and_count_repeated_failures(tmp_path
     assert by["False"][1:] == ["2", "1/2", "2.50", "7.5", "4.0", "62.5", "0"]
 
 
+@pytest.mark.slow
 def test_a_killed_campaign_resumes_without_duplicates_or_gaps(tmp_path):
     """Four tiny episodes on two processes, killed (SIGKILL, whole process group) after the first
     result is written, then resumed: every episode ends with exactly one result, and the results
@@ -260,6 +261,7 @@ def test_without_ray_the_error_names_the_extra(monkeypatch, tmp_path):
     assert not (tmp_path / "episodes").exists()
 
 
+@pytest.mark.slow
 def test_a_campaign_runs_on_ray(tmp_path):
     if os.environ.get("EXCAVSIM_REQUIRE_RAY"):  # CI installs the extra: a missing Ray fails, not skips
         import ray

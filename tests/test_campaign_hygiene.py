@@ -70,6 +70,7 @@ def descendants(pid: int) -> list[int]:
     return out
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("sig", [signal.SIGKILL, signal.SIGTERM], ids=["SIGKILL", "SIGTERM"])
 def test_workers_exit_when_the_main_process_is_killed_or_terminated(tmp_path, sig):
     """SIGKILL (no cleanup possible: the workers see the main process's sentinel close) or SIGTERM (the
@@ -142,6 +143,7 @@ def test_a_valid_result_file_has_no_problem(tmp_path):
     assert cmp.result_problem(path, "e") is None
 
 
+@pytest.mark.slow
 def test_a_resumed_campaign_reruns_corrupt_results_and_survives_a_worker_killed_mid_episode(tmp_path):
     """Two episodes, resumed over a result file ``{}`` (seed 0) and a truncated one (seed 1): both are
     moved aside and run again; the seed-0 episode's worker is killed mid-episode on both attempts, so

@@ -56,6 +56,7 @@ def short_demo(tmp_path_factory):
     return short.save(tmp_path_factory.mktemp("demo") / "short.json")
 
 
+@pytest.mark.slow
 def test_playback_over_seeds_prints_each_seed_and_the_mean_and_writes_them(short_demo, tmp_path, capsys,
                                                                           monkeypatch):
     from excavsim.loop import playback

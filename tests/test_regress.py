@@ -145,6 +145,7 @@ def test_seeds_come_from_the_file_or_the_command_line(tmp_path):
 
 
 # -- the two modes on a tiny scenario --------------------------------------------------------------------
+@pytest.mark.slow
 def test_baseline_mode_passes_an_unchanged_planner_and_flags_a_worsened_one(tmp_path, capsys):
     good = _scenario_dir(tmp_path / "good", tiny=TINY)
     assert main(["regress", "--dir", str(good), "--update"]) == 0
@@ -166,6 +167,7 @@ def test_baseline_mode_passes_an_unchanged_planner_and_flags_a_worsened_one(tmp_
     assert {"scenario": "tiny", "metric": "dug_l_per_dig", "verdict": "regression"} in doc["failed"]
 
 
+@pytest.mark.slow
 def test_ab_mode_flags_a_worsened_planner_configuration_paired_by_seed(tmp_path, capsys):
     good = _scenario_dir(tmp_path / "good", tiny=TINY)
     bad = _scenario_dir(tmp_path / "bad", tiny=WORSE)
@@ -194,6 +196,7 @@ def _our_worktrees() -> set[str]:
     return {line.split()[0] for line in out.splitlines() if "excavsim-against-" in line}
 
 
+@pytest.mark.slow
 def test_against_head_runs_a_temporary_worktree_and_gives_identical_paired_results(tmp_path, capsys):
     d = _scenario_dir(tmp_path / "s", tiny=TINY)
     before = _our_worktrees()  # others' runs may have some

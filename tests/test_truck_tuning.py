@@ -31,6 +31,7 @@ def base(cfg):
     return truck.nominal_params(cfg, seed=0)
 
 
+@pytest.mark.slow
 def test_every_tuned_parameter_changes_the_trial(cfg, base):
     """§6.2 tunes "the most relevant" parameters: each of the seven, moved by 8 deg (0.15 for a fraction)
     from the computed value, changes the script's time or where the pile lands. (``open_lead``, tuned
@@ -149,6 +150,7 @@ def test_a_recorded_tuning_run_passes_rerun_verify_and_holds_its_entities(tmp_pa
         TruckRecorder(tmp_path / "x.txt")
 
 
+@pytest.mark.slow
 def test_the_campaign_table_on_a_tiny_case(tmp_path, cfg):
     from excavsim.loop.truck_campaign import format_table, run_campaign
 
