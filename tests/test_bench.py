@@ -4,8 +4,8 @@ from __future__ import annotations
 
 import numpy as np
 
-from excavsim import bench
-from excavsim.bench import Row, Timing, run_benchmarks
+from excavsim.studies import bench
+from excavsim.studies.bench import Row, Timing, run_benchmarks
 
 
 def test_rows_judge_their_targets_in_both_senses():

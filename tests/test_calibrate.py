@@ -16,8 +16,8 @@ from excavsim.errors import ExcavsimError
 from excavsim.handoff.maps import ElevationMap
 from excavsim.learning import identify
 from excavsim.learning.wedge_fit import LEAD_M, RecordWedge, advance_speed, load_profile, touchdown_samples
-from excavsim.loop import calibrate as cal
-from excavsim.loop import calibrate_digs as cd
+from excavsim.apps.calibrate import fit as cal
+from excavsim.apps.calibrate import digs as cd
 from excavsim.mechanics.wedge import wedge_force
 from excavsim.mechanics.wedge_inertia import inertial_force
 from excavsim.record import RerunRecorder

@@ -15,8 +15,8 @@ import pytest
 from excavsim.config import get_soil
 from excavsim.learning import identify
 from excavsim.learning.wedge_fit import RecordWedge, advance_speed, residual_autocorrelation, residual_inflation
-from excavsim.loop import calibrate as cal
-from excavsim.loop import calibrate_digs as cd
+from excavsim.apps.calibrate import fit as cal
+from excavsim.apps.calibrate import digs as cd
 
 
 @pytest.fixture(scope="module")

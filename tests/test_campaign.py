@@ -17,7 +17,7 @@ import yaml
 from excavsim import constants
 from excavsim.cli import main
 from excavsim.errors import ConfigError, ExcavsimError
-from excavsim.loop import campaign as cmp
+from excavsim.studies.campaign import runner as cmp
 from excavsim.loop.scenario import ResolvedSpec, resolve_goal
 
 TINY_YAML = constants.CONFIGS_DIR / "campaigns" / "tiny.yaml"
@@ -180,7 +180,7 @@ def test_a_complete_out_dir_is_summarized_without_running_anything(tmp_path):
 
 
 def test_grouped_tables_pool_the_other_keys_and_count_repeated_failures(tmp_path):
-    from excavsim.loop.campaign_report import repeated_failures
+    from excavsim.studies.campaign.report import repeated_failures
 
     # a dig one grid cell (k 0.1 m, alpha 5 deg, d1 0.01 m) from a failed one repeats it; two cells away
     # or before any failure does not; a fallback dig (no action) is never a repeat
@@ -285,7 +285,7 @@ def test_progress_lines_count_and_tolerate_numbers_that_were_not_finite():
 
 
 def test_workers_share_the_cores_out_as_numba_threads():
-    from excavsim.loop.campaign import threads_per_worker
+    from excavsim.studies.campaign.runner import threads_per_worker
 
     assert threads_per_worker(2, 8, cores=2) == 1  # two busy workers on two cores: one thread each
     assert threads_per_worker(1, 8, cores=2) == 2  # one worker may use both

@@ -18,7 +18,7 @@ from test_campaign import TINY_BASE
 
 from excavsim import constants
 from excavsim.handoff.episode import EpisodeObserver
-from excavsim.loop import campaign as cmp
+from excavsim.studies.campaign import runner as cmp
 
 
 class KillsItsWorker(EpisodeObserver):

@@ -8,7 +8,7 @@ import pytest
 
 from excavsim.cli import main
 from excavsim.config import ConfigError
-from excavsim.loop.experiment import (ExperimentSpec, experiment_names, format_comparison, load_experiment,
+from excavsim.studies.experiment import (ExperimentSpec, experiment_names, format_comparison, load_experiment,
                                       run_experiment)
 from excavsim.loop.scenario import EpisodeSpec, ResolvedSpec
 
@@ -60,7 +60,7 @@ def test_an_experiment_writes_its_sections_table_and_summary(tmp_path):
 def test_seeds_never_repeat_an_episode_of_a_two_run_experiment(monkeypatch, tmp_path):
     """fig114's two runs start from seeds 0 and 1; with --seeds 3 they get 0, 2, 4 and 1, 3, 5 (a
     stride of 1 ran seeds 1 and 2 twice each)."""
-    import excavsim.loop.experiment as experiment
+    import excavsim.studies.experiment as experiment
 
     seen = []
 

@@ -9,8 +9,8 @@ import pytest
 
 from excavsim.cli import main
 from excavsim.errors import ExcavsimError
-from excavsim.loop import drags
-from excavsim.loop.figures import check_names, figures, write_figures
+from excavsim.studies.figures import drags
+from excavsim.studies.figures.thesis import check_names, figures, write_figures
 from excavsim.planning.rotation import closest_admissible_radius, drag_rotation_radius, minimum_drag_rake
 from excavsim.world.simulation import Simulation
 

@@ -8,7 +8,7 @@ import numpy as np
 import pytest
 
 from excavsim.learning import identify
-from excavsim.loop import calibrate as cal
+from excavsim.apps.calibrate import fit as cal
 from excavsim.world import dimaio, soil_records
 
 TRUE = cal.TABLE_5_3

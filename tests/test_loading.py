@@ -8,7 +8,7 @@ import numpy as np
 import pytest
 
 from excavsim.errors import ExcavsimError
-from excavsim.loop import loading as L
+from excavsim.tasks.load import planar as L
 from excavsim.planning import loading as lp
 from excavsim.robot.loaders import FrontLoader, dh_transform
 from excavsim.world.pile2d import Pile2D, random_pile, trapezoid_pile

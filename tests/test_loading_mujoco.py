@@ -13,8 +13,8 @@ from dm_control import mjcf
 
 from excavsim import cli, constants
 from excavsim.errors import ExcavsimError
-from excavsim.loop import loading as ld
-from excavsim.loop import loading_mujoco as lm
+from excavsim.tasks.load import planar as ld
+from excavsim.tasks.load import in_mujoco as lm
 from excavsim.planning import loading as lp
 from excavsim.world import loading_scene as ls
 from excavsim.world.pile2d import trapezoid_pile

@@ -113,13 +113,13 @@ def test_a_demonstration_round_trips_and_a_bad_file_is_refused(tmp_path):
 
 @pytest.fixture(scope="module")
 def recorded():
-    from excavsim.loop.playback import record_demonstration
+    from excavsim.apps.playback.play import record_demonstration
     return record_demonstration(0)
 
 
 def test_playback_in_the_demonstration_soil_reproduces_it(recorded):
     from excavsim.config import get_soil
-    from excavsim.loop.playback import DEMO_SOIL, MASS, K_MAX, play
+    from excavsim.apps.playback.play import DEMO_SOIL, MASS, K_MAX, play
     d = recorded.with_approach(0.10, 1.0)
     assert len(recorded.times) > 300 and "completed" in recorded.source
     run = play(d, get_soil(DEMO_SOIL), "same", FixedImpedance("position", MASS, K_MAX))
@@ -137,7 +137,7 @@ def test_the_variable_controller_reproduces_the_demonstration_in_its_own_soil(re
     # it missed by 1.5 cm / 183 N (seed 0; 161-199 N on seeds 0-7: r = |fe| / (G |v|) ~ 9 softened it in its own
     # soil); with the chapter's G = 2000 1.5 cm / 109 N (95-120 N on seeds 0-7; position control 86-112 N).
     from excavsim.config import get_soil
-    from excavsim.loop.playback import DEMO_SOIL, G_VARIABLE, K_MAX, K_MIN, MASS, W, play
+    from excavsim.apps.playback.play import DEMO_SOIL, G_VARIABLE, K_MAX, K_MIN, MASS, W, play
     d = recorded.with_approach(0.10, 1.0)
     run = play(d, get_soil(DEMO_SOIL), "same", VariableImpedance("variable", MASS, K_MIN, K_MAX, G_VARIABLE,
                                                                  depth=DepthDual(w=W)))
@@ -184,7 +184,7 @@ def test_the_depth_law_is_the_static_minimiser_of_eq_3_14_in_the_depth():
 
 
 def test_position_control_fails_in_the_changed_soils_and_variable_impedance_beats_both_fixed_ones(recorded):
-    from excavsim.loop.playback import DEMO_SOIL, G_VARIABLE, K_MAX, K_MIN, MASS, SOFTER, STIFFER, W, play, scaled_soil
+    from excavsim.apps.playback.play import DEMO_SOIL, G_VARIABLE, K_MAX, K_MIN, MASS, SOFTER, STIFFER, W, play, scaled_soil
     d = recorded.with_approach(0.10, 1.0)
     soils = {"stiffer": scaled_soil(DEMO_SOIL, STIFFER), "softer": scaled_soil(DEMO_SOIL, SOFTER)}
     e = {}

@@ -32,7 +32,7 @@ def test_each_key_moves_the_commanded_tip_one_step_in_the_arm_plane():
 
 
 def test_a_teleoperated_key_sequence_writes_a_demonstration_that_validates(tmp_path):
-    from excavsim.loop.teleop import teleoperate
+    from excavsim.apps.playback.teleop import teleoperate
     keys = "s" * 12 + "a" * 15 + "w" * 8 + FINISH + "ssss"  # down into the soil, drag toward the base, up; x ends
     seen = []
     demo = teleoperate(keys, on_key=lambda k, p, f: seen.append(k))
@@ -45,7 +45,7 @@ def test_a_teleoperated_key_sequence_writes_a_demonstration_that_validates(tmp_p
     assert demo.pose[0, 0] - demo.pose[-1, 0] == pytest.approx(0.30, abs=0.06)
     assert np.linalg.norm(demo.force, axis=1).max() > 100.0  # the drag was in the soil and the F/T felt it
     # the file plays back (what `excavsim playback --demo FILE` runs, here without the figures)
-    from excavsim.loop.playback import run_playback
+    from excavsim.apps.playback.play import run_playback
     lines = []
     table = run_playback(None, demo=load_demonstration(tmp_path / "teleop.json"), sweep=False, progress=lines.append)
     assert len(table) == 12 and {s for s, _ in table} == {"same", "stiffer x3", "softer x0.3"}
@@ -68,7 +68,7 @@ def test_conflicting_or_bad_playback_arguments_exit_2_naming_the_fix(tmp_path, c
 
 
 def test_teleop_without_a_terminal_is_refused_clearly(capsys):
-    from excavsim.loop.teleop import tty_keys
+    from excavsim.apps.playback.teleop import tty_keys
     with pytest.raises(ExcavsimError, match="not a terminal"):
         next(tty_keys(io.StringIO("ssss")))
     assert main(["playback", "--keys", "ss"]) == 2
@@ -95,7 +95,7 @@ class Capture:
 
 def test_a_dig_read_back_from_a_rerun_recording_is_the_executed_cut(tmp_path):
     from excavsim.handoff.episode import ObserverGroup
-    from excavsim.loop.playback import demonstration_from_signals
+    from excavsim.apps.playback.play import demonstration_from_signals
     from excavsim.loop.scenario import EpisodeSpec, run_spec
     from excavsim.record import RerunRecorder
     from excavsim.record.demo_reading import read_dig
@@ -129,7 +129,7 @@ def test_a_dig_read_back_from_a_rerun_recording_is_the_executed_cut(tmp_path):
 def test_a_teleoperation_session_can_be_recorded_with_its_force_plot(tmp_path):
     from rerun.chunk import RrdReader
 
-    from excavsim.loop.teleop import teleoperate
+    from excavsim.apps.playback.teleop import teleoperate
     from excavsim.record import RerunRecorder
     path = tmp_path / "teleop.rrd"
     demo = teleoperate("s" * 12 + "a" * 6, observer=RerunRecorder(path))
@@ -149,7 +149,7 @@ def test_the_terminal_reader_gives_single_key_presses_from_a_pseudo_terminal():
     import threading
     import time
 
-    from excavsim.loop.teleop import tty_keys
+    from excavsim.apps.playback.teleop import tty_keys
     master, slave = pty.openpty()
     stream = io.TextIOWrapper(io.BufferedReader(io.FileIO(slave, "r", closefd=False)), encoding="utf-8")
     before = termios.tcgetattr(slave)

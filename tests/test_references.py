@@ -21,7 +21,7 @@ import numpy as np
 import pytest
 
 from excavsim.config import get_soil
-from excavsim.loop.drags import inclined_penetration, scene_with_truth
+from excavsim.studies.figures.drags import inclined_penetration, scene_with_truth
 from excavsim.mechanics.earth_pressure import coulomb_passive_coefficient, rankine_passive_coefficient
 from excavsim.mechanics.wedge import critical_beta, n_factors, wedge_force
 from excavsim.mechanics.wedge_inertia import acceleration_factor, inertial_force

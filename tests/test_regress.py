@@ -14,8 +14,8 @@ from excavsim import constants
 from excavsim.cli import main
 from excavsim.config import ConfigError
 from excavsim.errors import ExcavsimError
-from excavsim.loop import regress_stats as rs
-from excavsim.loop.regress import (BASELINE_FORMAT, METRICS, Sample, compare, load_baseline, load_scenarios,
+from excavsim.studies.regress import stats as rs
+from excavsim.studies.regress.suite import (BASELINE_FORMAT, METRICS, Sample, compare, load_baseline, load_scenarios,
                                    parse_seeds, write_baseline)
 
 # one dig of the small trench, a coarse planner grid, a small scanner: about half a second an episode
@@ -182,8 +182,8 @@ def _episode_code_is_committed() -> bool:
     """Whether the code and configuration episodes run are as in HEAD (the regression suite's own
     files aside): only then must ``--against HEAD`` give identical results."""
     done = subprocess.run(["git", "-C", str(constants.REPO_ROOT), "status", "--porcelain", "--", "excavsim",
-                           "configs", "models", ":!excavsim/cli.py", ":!excavsim/loop/regress*.py",
-                           ":!excavsim/loop/against.py", ":!configs/regress"], capture_output=True, text=True)
+                           "configs", "models", ":!excavsim/cli.py", ":!excavsim/studies/regress",
+                           ":!excavsim/studies/regress/against.py", ":!configs/regress"], capture_output=True, text=True)
     return done.returncode == 0 and not done.stdout.strip()
 
 
@@ -210,7 +210,7 @@ def test_against_head_runs_a_temporary_worktree_and_gives_identical_paired_resul
 
 
 def test_the_run_at_a_ref_must_import_the_package_from_its_checkout(tmp_path):
-    from excavsim.loop.against import CheckoutRun
+    from excavsim.studies.regress.against import CheckoutRun
 
     with pytest.raises(ExcavsimError, match="imported excavsim from"):  # tmp_path has no excavsim/
         with CheckoutRun(tmp_path, [{"name": "x", "spec": {}}], label="nothing") as run:

@@ -7,7 +7,7 @@ import math
 import numpy as np
 import pytest
 
-from excavsim.bench import bench_settle
+from excavsim.studies.bench import bench_settle
 from excavsim.world.settle import max_slope_excess, settle
 
 CELL = 0.025  # [m], the soil grid of configs/scene.yaml

@@ -4,7 +4,7 @@ Speed from the dynamic earthmoving equation (McKyes 1985) and the rate effect on
 saw-tooth from the wedge's failure cycle, spaced ``d cot beta*`` and scaled by the local strength;
 the surcharge from soil heaped ahead, so that drags in cohesionless sand scale as ``d^2``; no
 bearing spike from the entry; volume conservation and determinism with every term on.
-Drags are the kinematic drives of :mod:`excavsim.loop.drags` (the soil model alone, no servo).
+Drags are the kinematic drives of :mod:`excavsim.studies.figures.drags` (the soil model alone, no servo).
 """
 
 from __future__ import annotations
@@ -15,7 +15,7 @@ import numpy as np
 import pytest
 
 from excavsim.config import get_soil
-from excavsim.loop import drags
+from excavsim.studies.figures import drags
 from excavsim.mechanics.wedge import critical_beta, wedge_denominator, wedge_force
 from excavsim.mechanics.wedge_inertia import inertial_force
 from excavsim.world.simulation import Simulation

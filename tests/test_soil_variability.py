@@ -13,7 +13,7 @@ import numpy as np
 import pytest
 
 from excavsim.config import load_scene_config
-from excavsim.loop import drags
+from excavsim.studies.figures import drags
 from excavsim.world.simulation import DIG_ADVANCE_M_S, Simulation
 
 RAKE = math.radians(30)

@@ -122,7 +122,7 @@ def test_the_swing_starts_when_the_boom_passes_its_angle(sim):
 
 
 def test_the_measured_pile_is_the_true_peak_within_a_cell():
-    from excavsim.loop.truck import Scanner, pile_position, true_pile
+    from excavsim.tasks.truck.trial import Scanner, pile_position, true_pile
     from excavsim.world.simulation import Simulation
     world = Simulation(seed=2)
     scanner = Scanner(world, 2)
@@ -141,7 +141,7 @@ def test_the_measured_pile_is_the_true_peak_within_a_cell():
 def test_the_pile_position_moves_below_the_cell_size():
     """The weighted centre of the deposit's peak region follows a pile moved by a fraction of a cell
     (the highest cell alone would move in whole 5 cm steps)."""
-    from excavsim.loop.truck import deposit_peak
+    from excavsim.tasks.truck.trial import deposit_peak
     cell = 0.05
     x = np.arange(0.5, 2.5, cell) + cell / 2
     y = np.arange(0.0, 1.5, cell) + cell / 2

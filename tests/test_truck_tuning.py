@@ -18,7 +18,7 @@ from excavsim import cli
 from excavsim.errors import ExcavsimError
 from excavsim.execution.mass_script import FRACTIONS, TUNED
 from excavsim.learning.lwr_tuning import Memory, Objective, select_action
-from excavsim.loop import truck
+from excavsim.tasks.truck import trial as truck
 
 
 @pytest.fixture(scope="module")
@@ -150,7 +150,7 @@ def test_a_recorded_tuning_run_passes_rerun_verify_and_holds_its_entities(tmp_pa
 
 
 def test_the_campaign_table_on_a_tiny_case(tmp_path, cfg):
-    from excavsim.loop.truck_campaign import format_table, run_campaign
+    from excavsim.tasks.truck.campaign import format_table, run_campaign
 
     small = dataclasses.replace(cfg, initial_trials=1)
     runs = run_campaign(seeds=[0], soils=["testbed_sand", "sandy_loam"], trials=2,

@@ -54,7 +54,7 @@ from excavsim.errors import ExcavsimError
 from excavsim.execution import loading_script as ls
 from excavsim.handoff.maps import ElevationMap
 from excavsim.handoff.observation import Diverged
-from excavsim.loop import loading as ld
+from excavsim.tasks.load import planar as ld
 from excavsim.planning import loading as lp
 from excavsim.sensing.elevation import build_map
 from excavsim.world.loading_scene import MACHINES, LoadingWorld
@@ -539,7 +539,7 @@ def load_campaign(path: str | pathlib.Path) -> LoadingCampaign:
 
 
 def same_pile_2d(name: str, cfg: LoadingMujocoConfig, cfg2d: ld.LoadingConfig) -> ld.Run:
-    """The 2-D simulation of §7.2.1 (:func:`excavsim.loop.loading.simulate`: exact terrain, the swept area removed,
+    """The 2-D simulation of §7.2.1 (:func:`excavsim.tasks.load.planar.simulate`: exact terrain, the swept area removed,
     settlement) on the episode's pile: the lane's length, 5 cm columns, faces at the world soil's repose."""
     from excavsim.config import get_soil
     from excavsim.world.pile2d import trapezoid_pile

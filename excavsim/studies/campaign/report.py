@@ -13,7 +13,7 @@ from collections.abc import Callable
 from typing import Any
 
 from excavsim.config import load_planner_config
-from excavsim.loop.campaign_grid import CampaignSpec, Episode, slug
+from excavsim.studies.campaign.grid import CampaignSpec, Episode, slug
 
 # how an episode ended, in the order plots stack them ("error": it raised, or its worker died)
 ENDS = ("done", "no_dig", "budget", "diverged", "timeout", "error")

@@ -1,7 +1,7 @@
 """The truck-loading campaign: tuned against untuned over seeds and soils, and a target moved mid-run.
 
 001_0de172b0d6b3614b.txt §6.2 (Fig. 12). For every soil and seed, three runs of ``trials`` trials
-(:func:`excavsim.loop.truck.tune`): **tuned** (the online learner), **untuned** (every trial from the
+(:func:`excavsim.tasks.truck.trial.tune`): **tuned** (the online learner), **untuned** (every trial from the
 computed parameters plus the same small noise, ``learn=False``: what the script does without
 learning) and, with ``retarget``, **moved** (tuned, the target moved before trial ``retarget[0]``:
 does it re-learn?). The table gives, per run, the mean cost, time and squared placement error of the
@@ -23,7 +23,7 @@ import numpy as np
 
 from excavsim.config import get_soil
 from excavsim.errors import ExcavsimError
-from excavsim.loop import truck
+from excavsim.tasks.truck import trial as truck
 
 
 @dataclasses.dataclass(frozen=True)

@@ -5,7 +5,7 @@ two similar paths, eqs. 28-31), 85-88 (the force constraint in the action space 
 objectives; 87 is ``excavsim plan``'s limits figure) and 91 (planning time per dig over an episode).
 They plan on the flat 0.5 m fill of the soil box, as ``excavsim plan`` does by default, with the
 straight trench of ``configs/trenches``; Figs. 82-84 measure the tip forces by driving the planned
-path through the world's soil model (:mod:`excavsim.loop.drags`). Figure code reused from
+path through the world's soil model (:mod:`excavsim.studies.figures.drags`). Figure code reused from
 :mod:`excavsim.planning.figures`.
 """
 
@@ -22,7 +22,7 @@ from excavsim.config import PlannerConfig, load_planner_config, load_robot_confi
 from excavsim.handoff.episode import EpisodeObserver
 from excavsim.handoff.goal import SurfaceProfile, goal_profile
 from excavsim.handoff.maps import ElevationMap
-from excavsim.loop import drags
+from excavsim.studies.figures import drags
 from excavsim.planning import figures as plan_figures
 from excavsim.planning.figures import _cubes, _edges, _figure, _save
 from excavsim.planning.objectives import cumulative_torque

@@ -52,9 +52,9 @@ import yaml
 
 from excavsim.errors import ExcavsimError
 from excavsim.handoff.episode import EpisodeObserver
-from excavsim.loop.campaign_grid import (OVERRIDE_SECTIONS, CampaignSpec, Episode, check_campaign, episode_id,
+from excavsim.studies.campaign.grid import (OVERRIDE_SECTIONS, CampaignSpec, Episode, check_campaign, episode_id,
                                          expand_grid, load_campaign, parse_campaign)
-from excavsim.loop.campaign_report import (format_table, group_table, plot_campaign, summary_rows, write_atomic,
+from excavsim.studies.campaign.report import (format_table, group_table, plot_campaign, summary_rows, write_atomic,
                                            write_tables)
 from excavsim.loop.scenario import EpisodeSpec, dig_rows, episode_summary, run_spec
 

@@ -3,10 +3,10 @@
 Each figure of 000_a3ca905d8c6d92bf.txt listed by :func:`figures` is redrawn from this project's
 world and mind, beside the static wedge model (eq. 8, :mod:`excavsim.mechanics.wedge`) where the
 thesis compares with it. The force figures (20, 54, 59, 61, 63) drive the bucket through the
-world's soil model as it is (:mod:`excavsim.loop.drags`): they show that model's behaviour (the
+world's soil model as it is (:mod:`excavsim.studies.figures.drags`): they show that model's behaviour (the
 dynamic earthmoving equation's inertial term, the wedge's failure cycle, the heterogeneity of
 ``configs/scene.yaml``'s ``truth``), not the testbed's. The planner figures live in
-:mod:`excavsim.loop.figures_plan`.
+:mod:`excavsim.studies.figures.plan`.
 
 Every figure returns a one-line summary of the numbers it shows, which the command prints.
 Forces from the kinematic drives are bit-reproducible for a seed on one machine; the planning
@@ -25,7 +25,7 @@ import numpy as np
 
 from excavsim.config import SoilParams, get_soil, load_planner_config, load_scene_config
 from excavsim.errors import ExcavsimError
-from excavsim.loop import drags
+from excavsim.studies.figures import drags
 from excavsim.mechanics.wedge import critical_beta, wedge_factors, wedge_force
 from excavsim.mechanics.wedge_inertia import inertial_force
 from excavsim.planning.figures import _figure, _save
@@ -57,7 +57,7 @@ class FigureContext:
     def __init__(self, seed: int = 0):
         self.seed = seed
         self.soil: SoilParams = get_soil(load_scene_config().soil)
-        self.cache: dict = {}  # planners, plans and measured paths shared by figures (excavsim.loop.figures_plan)
+        self.cache: dict = {}  # planners, plans and measured paths shared by figures (excavsim.studies.figures.plan)
 
     @functools.cached_property
     def _bucket(self):
@@ -292,7 +292,7 @@ def fig20(ctx: FigureContext, path: pathlib.Path) -> str:
 
 
 def _planner_figures() -> list[Figure]:
-    from excavsim.loop import figures_plan as fp
+    from excavsim.studies.figures import plan as fp
 
     return [Figure("fig22", "rotation centres against pitch for several rates of rotation (bucket geometry)", fp.fig22),
             Figure("fig82", "two similar tip paths A and B (a planned dig and a shifted copy)", fp.fig82),

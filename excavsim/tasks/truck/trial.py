@@ -18,7 +18,7 @@ small noise, then each from :func:`~excavsim.learning.lwr_tuning.select_action` 
 :func:`tuned_bounds`; the expected cost is off by default, see ``configs/truck.yaml``), optionally
 with the target moved mid-run, and hands every trial to an observer (a recording); :func:`write_results`
 writes the learning curve (Fig. 12) and a CSV table. The campaign over seeds and soils is
-:mod:`excavsim.loop.truck_campaign`.
+:mod:`excavsim.tasks.truck.campaign`.
 """
 
 from __future__ import annotations

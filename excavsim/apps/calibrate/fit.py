@@ -10,7 +10,7 @@ least squares with forgetting and, with noise, the output-error fit of eq. 5.55
 trace in the tip frame with the tip pose from the encoders, the scanned surface ahead of the tip
 and the swept volume, at the F/T rate: ``excavsim calibrate --record-digs N``, ``excavsim learn
 --dataset FILE``, or a Rerun recording read by :mod:`excavsim.record.reading` and
-:func:`~excavsim.loop.calibrate_digs.dataset_from_recording`). What the fits model of the record
+:func:`~excavsim.apps.calibrate.digs.dataset_from_recording`). What the fits model of the record
 (measured against the world's force components, the README's calibration section):
 
 * the load in the bucket is the swept volume, led by the soil just ahead of the tip, scaled per dig
@@ -32,7 +32,7 @@ known value (a sand's c = 0: its records do not separate c from phi, the c-phi v
 Singh's §5.2.4.1 along which the map's depth error slides the free fit) and fits the rest.
 It prints them with standard errors, writes a soil preset YAML,
 re-runs the recorded digs in MuJoCo with the fitted soil of each model
-(:func:`~excavsim.loop.calibrate_digs.rerun_digs`) and plots, per dig, measured, fitted and re-run
+(:func:`~excavsim.apps.calibrate.digs.rerun_digs`) and plots, per dig, measured, fitted and re-run
 forces; the report says how well each model (fitted to the same record: cross-model) and each
 re-run explains the record.
 """
@@ -152,7 +152,7 @@ SUBSTEPS = 10  # DiMaio's model is stepped at the controller's rate (100 Hz) bet
 
 def _loads(data: ForceDataset, width: float) -> np.ndarray:
     from excavsim.learning.wedge_fit import load_profile
-    from excavsim.loop.calibrate_digs import removed_volumes
+    from excavsim.apps.calibrate.digs import removed_volumes
 
     return load_profile(data["v"], data["dig"], removed_volumes(data), tip_depth_m=data["l1"], width_m=width)
 
@@ -485,10 +485,10 @@ class Rerun:
 
 def rerun(data: ForceDataset, fit: Fit, soil, *, say: Callable[[str], None] | None = None) -> Rerun:
     """Dig the record's actions again in MuJoCo with the fitted soil on the fitted model's truth
-    (:func:`~excavsim.loop.calibrate_digs.rerun_digs`) and compare, dig by dig, the re-run's forces
+    (:func:`~excavsim.apps.calibrate.digs.rerun_digs`) and compare, dig by dig, the re-run's forces
     with the measured ones at the same time since the dig's first sample, up to a common lag
     (:func:`_aligned`)."""
-    from excavsim.loop.calibrate_digs import rerun_digs
+    from excavsim.apps.calibrate.digs import rerun_digs
 
     quiet = data.meta.get("quiet", "true") == "true"
     again = rerun_digs(data, fitted_soil(fit, soil), truth=fit.model, quiet=quiet, seed=int(data.meta.get("seed", 0)),
@@ -533,7 +533,7 @@ def calibrate(record: str | pathlib.Path | ForceDataset, model: str, out: str | 
     fits by model (only ``model``'s without ``cross_model``).
 
     ``record``: a force data set file (.npz, .parquet, .csv) or a :class:`ForceDataset` (a Rerun
-    recording read by the CLI, :func:`~excavsim.loop.calibrate_digs.dataset_from_recording`).
+    recording read by the CLI, :func:`~excavsim.apps.calibrate.digs.dataset_from_recording`).
     ``fixed``: ``model``'s parameters held at given values (``{name: value}``, :func:`parse_fixes`;
     the other model of the cross-model report is fitted free). ``brittleness``: the failure
     cycle's ``I_B`` the wedge's record model averages over (:class:`~excavsim.learning.wedge_fit.RecordWedge`;
@@ -563,7 +563,7 @@ def calibrate(record: str | pathlib.Path | ForceDataset, model: str, out: str | 
         record = pathlib.Path(record)
         if record.suffix == ".rrd":
             raise ExcavsimError(f"{record}: a Rerun recording is read by the command line (`excavsim calibrate "
-                                f"{record.name}`), or pass the data set excavsim.loop.calibrate_digs."
+                                f"{record.name}`), or pass the data set excavsim.apps.calibrate.digs."
                                 "dataset_from_recording made of it")
         data, label = ForceDataset.load(record), name or record.stem
     if len(data) < 10:
@@ -609,7 +609,7 @@ def calibrate(record: str | pathlib.Path | ForceDataset, model: str, out: str | 
             "(within " + ", ".join(f"{k} {v:.0%}" for k, v in DIMAIO_IDENTIFIED.items())
             + " on DiMaio-truth records); k, T_rt, T_rn, b_t0 and b_n0 apart are not")
     reruns: dict[str, Rerun] = {}
-    one_episode = data.meta.get("source") == "excavsim.loop.calibrate_digs"
+    one_episode = data.meta.get("source") == "excavsim.apps.calibrate.digs"
     if rerun_digs and not one_episode:
         say("  (no re-run: the record is not the digs of one episode, as --record-digs or a recording gives)")
     if rerun_digs and one_episode:
@@ -680,7 +680,7 @@ def _plot_fit(path: pathlib.Path, data: ForceDataset, fits: dict[str, Fit], reru
 def record_digs(path: str | pathlib.Path, *, truth: str = "wedge", soil: str | None = None, digs: int = 3,
                 seed: int = 0, quiet: bool = False, observer=None,
                 say: Callable[[str], None] | None = None) -> ForceDataset:
-    """:func:`excavsim.loop.calibrate_digs.record_digs` (kept here for the command)."""
-    from excavsim.loop.calibrate_digs import record_digs as _record
+    """:func:`excavsim.apps.calibrate.digs.record_digs` (kept here for the command)."""
+    from excavsim.apps.calibrate.digs import record_digs as _record
 
     return _record(path, truth=truth, soil=soil, digs=digs, seed=seed, quiet=quiet, observer=observer, say=say)

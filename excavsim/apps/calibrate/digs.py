@@ -134,7 +134,7 @@ def record_digs(path, *, truth: str = "wedge", soil: str | None = None, digs: in
 
 def _meta(truth: str, soil: str, seed: int, quiet: bool, width: float, actions: dict, volumes: dict) -> dict[str, str]:
     return {"truth": truth, "soil": soil, "seed": str(seed), "quiet": str(bool(quiet)).lower(),
-            "bucket_width_m": repr(float(width)), "source": "excavsim.loop.calibrate_digs",
+            "bucket_width_m": repr(float(width)), "source": "excavsim.apps.calibrate.digs",
             "actions": json.dumps({str(k): v for k, v in actions.items()}),
             "removed_m3": json.dumps({str(k): v for k, v in volumes.items()})}
 
@@ -177,7 +177,7 @@ def rerun_digs(data: ForceDataset, soil_params, *, truth: str, quiet: bool, seed
     rec = _DigRecorder(say or (lambda _s: None))
     run_episode(sim, seed=seed, goal=cfg.goal, dig_budget=len(actions), done_fraction=None, planner_cfg=cfg.planner,
                 executor_cfg=cfg.executor, sensing_cfg=cfg.sensing, digs=ScriptedDigs(actions), observer=rec)
-    return ForceDataset.concat(rec.parts, meta={"source": "excavsim.loop.calibrate_digs.rerun_digs"})
+    return ForceDataset.concat(rec.parts, meta={"source": "excavsim.apps.calibrate.digs.rerun_digs"})
 
 
 # -- a Rerun recording as a record ----------------------------------------------------------------

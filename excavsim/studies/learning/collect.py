@@ -93,4 +93,4 @@ def collect_dataset(*, soil: str | None = None, digs: int = 30, seed: int = 0, g
         bed += 1
     return ForceDataset.concat(parts, meta={"soil": sim.scene.soil, "seed": str(seed), "goal": goal,
                                             "digs": str(len(parts)), "bucket_width_m": repr(collector.rig.width),
-                                            "source": "excavsim.loop.collect"})
+                                            "source": "excavsim.studies.learning.collect"})

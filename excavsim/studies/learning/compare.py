@@ -98,7 +98,7 @@ def run_learn(*, soil: str | None = None, digs: int = 30, seed: int = 0, out: st
             raise ExcavsimError(f"{path} holds data of soil {data.meta['soil']!r}, not {soil!r}: drop --soil or "
                                 f"--dataset")
     else:
-        from excavsim.loop.collect import collect_dataset
+        from excavsim.studies.learning.collect import collect_dataset
 
         say(f"collecting force data: {digs} random feasible digs (seed {seed})")
         data = collect_dataset(soil=soil, digs=digs, seed=seed, progress=say)

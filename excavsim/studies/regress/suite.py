@@ -8,7 +8,7 @@ is a sample of per-seed values. Episodes are deterministic for a seed on one mac
 floating-point differences between CPUs grow over an episode into different digs, so one episode's
 numbers cannot tell a regression from chaos; a sample can.
 
-Two modes (:mod:`excavsim.loop.regress_stats` states the tests):
+Two modes (:mod:`excavsim.studies.regress.stats` states the tests):
 
 * **baseline** (:func:`run_regress`): ``configs/regress/baseline.json`` stores, per scenario and
   metric, the mean, spread, quantiles and per-seed values of a committed run; now's sample is
@@ -16,7 +16,7 @@ Two modes (:mod:`excavsim.loop.regress_stats` states the tests):
   interval of the difference of the means), so it stays valid on another machine or other seeds.
   ``--update`` rewrites the baseline.
 * **A/B** (:func:`run_against`): the same scenarios and seeds run with the code at a git ref (in a
-  temporary worktree, :mod:`excavsim.loop.against`) or with the scenarios of another directory, and
+  temporary worktree, :mod:`excavsim.studies.regress.against`) or with the scenarios of another directory, and
   with the working tree, side by side on this machine; compared paired by seed (one-sided Wilcoxon
   signed-rank beyond the tolerance, and a bootstrap interval of the mean per-seed difference). No
   baseline is needed, and machine differences cancel.
@@ -43,7 +43,7 @@ from pydantic import Field, field_validator
 from excavsim import constants
 from excavsim.config import load_config, read_text_file
 from excavsim.errors import ExcavsimError
-from excavsim.loop import regress_stats as rs
+from excavsim.studies.regress import stats as rs
 from excavsim.loop.scenario import EpisodeSpec, episode_summary, run_spec
 
 REGRESS_DIR = constants.CONFIGS_DIR / "regress"
@@ -108,7 +108,7 @@ class Golden:
     fields: dict[str, Any]
 
     def job(self, seed: int) -> dict[str, Any]:
-        """The JSON-ready job of one seed for :mod:`excavsim.loop.against`."""
+        """The JSON-ready job of one seed for :mod:`excavsim.studies.regress.against`."""
         return {"name": self.name, "spec": {**self.fields, "seed": seed}}
 
 
@@ -220,7 +220,7 @@ def write_baseline(path: pathlib.Path, samples: dict[str, Sample]) -> None:
     """Write the baseline atomically (a temporary file renamed over the old one): per scenario its
     seeds, each seed's end and simulated time, and per metric :func:`~regress_stats.summarize`."""
     doc = {"format": BASELINE_FORMAT,
-           "written_by": "excavsim regress --update (per-seed values; see excavsim.loop.regress)",
+           "written_by": "excavsim regress --update (per-seed values; see excavsim.studies.regress.suite)",
            "scenarios": {}}
     for name, sample in sorted(samples.items()):
         doc["scenarios"][name] = {
@@ -505,7 +505,7 @@ def run_against(directory: pathlib.Path = REGRESS_DIR, *, ref: str | None = None
         now = run_goldens(goldens, label="now ", progress=progress)
         return Report("against", f"the scenarios of {against_dir}", reference, now,
                       compare(reference, now, paired=True))
-    from excavsim.loop.against import CheckoutRun, ref_checkout, resolve_ref
+    from excavsim.studies.regress.against import CheckoutRun, ref_checkout, resolve_ref
 
     commit = resolve_ref(ref)
     jobs = [g.job(s) for g in goldens.values() for s in g.seeds]
