@@ -56,6 +56,35 @@ MODULES: dict[str, str] = {
     "excavsim.bench": "excavsim.studies.bench",
 }
 
+# Tests mirror the package tree: test module -> its folder under tests/ (issue 32, deliverable 7).
+TESTS: dict[str, str] = {
+    **dict.fromkeys(["test_action", "test_anneal", "test_constraints", "test_experience", "test_fallback",
+                     "test_feasibility", "test_objectives", "test_plan_figures", "test_planner_kernel",
+                     "test_search"], "planning"),
+    **dict.fromkeys(["test_fast", "test_kinematics", "test_reachability", "test_statics"], "robot"),
+    **dict.fromkeys(["test_dimaio", "test_models", "test_references", "test_settle", "test_soil",
+                     "test_soil_mechanics", "test_soil_perf", "test_soil_variability"], "world"),
+    "test_wedge": "mechanics",
+    **dict.fromkeys(["test_ft", "test_sensing"], "sensing"),
+    **dict.fromkeys(["test_compiled_executor", "test_execution", "test_watchdog"], "execution"),
+    "test_learning": "learning",
+    **dict.fromkeys(["test_record", "test_viewer"], "record"),
+    "test_config": "config",
+    **dict.fromkeys(["test_cycle", "test_demo", "test_episode"], "loop"),
+    "test_envs": "envs",
+    "test_cli_errors": "cli",
+    **dict.fromkeys(["test_loading", "test_loading_mujoco"], "tasks/load"),
+    **dict.fromkeys(["test_truck", "test_truck_tuning"], "tasks/truck"),
+    **dict.fromkeys(["test_calibrate", "test_calibrate_noise", "test_identify"], "apps/calibrate"),
+    **dict.fromkeys(["test_playback", "test_playback_duality", "test_playback_seeds", "test_playback_sources"],
+                    "apps/playback"),
+    **dict.fromkeys(["test_bench", "test_experiment"], "studies"),
+    **dict.fromkeys(["test_campaign", "test_campaign_hygiene"], "studies/campaign"),
+    "test_regress": "studies/regress",
+    "test_figures": "studies/figures",
+}
+MODULES.update({f"tests.{name}": f"tests.{folder.replace('/', '.')}.{name}" for name, folder in TESTS.items()})
+
 # Literal strings that are neither module names nor module paths (git pathspecs in tests).
 LITERALS: dict[str, str] = {
     "excavsim/loop/regress*.py": "excavsim/studies/regress",
@@ -64,7 +93,7 @@ LITERALS: dict[str, str] = {
 
 SUFFIXES = {".py", ".md", ".toml", ".yaml", ".yml", ".txt", ".cfg", ".rst", ".ini"}
 DEFAULT_TARGETS = ["excavsim", "tests", "scripts", "examples", "docs", "configs", "README.md", "pyproject.toml",
-                   "Makefile", ".ci"]
+                   "Makefile", ".ci", "models"]
 SKIP_DIRS = {".git", ".venv", "__pycache__", "node_modules", "build", "dist", ".mypy_cache", ".pytest_cache"}
 
 
@@ -84,6 +113,21 @@ _DOTTED = re.compile(r"(?<![\w.])(" + "|".join(re.escape(k) for k in sorted(MODU
 _PATHS = re.compile(r"(?<![\w/.])(" + "|".join(re.escape(k) for k in sorted(PATHS, key=len, reverse=True)) + r")")
 _FROM = re.compile(r"^(?P<indent>[ \t]*)from[ \t]+(?P<pkg>" + _NAME + r")[ \t]+import[ \t]+"
                    r"(?P<names>\([^)]*\)|[^\n#;]*?)(?P<tail>[ \t]*(#[^\n]*)?)$", re.MULTILINE)
+
+
+# tests that imported each other by bare name (tests/ on sys.path): ``import test_execution as te``
+_BARE_TEST = re.compile(r"^(?P<indent>[ \t]*)(?:import (?P<mod>test_\w+)(?P<alias> as \w+)?|from (?P<frm>test_\w+) import)",
+                        re.MULTILINE)
+
+
+def _rewrite_bare_test(match: re.Match[str]) -> str:
+    name = match["mod"] or match["frm"]
+    if name not in TESTS:
+        return match.group(0)
+    package = "tests." + TESTS[name].replace("/", ".")
+    if match["mod"]:
+        return f"{match['indent']}from {package} import {name}" + (match["alias"] or "")
+    return f"{match['indent']}from {package}.{name} import"
 
 
 def _rewrite_from(match: re.Match[str]) -> str:
@@ -116,6 +160,7 @@ def _rewrite_from(match: re.Match[str]) -> str:
 def rewrite(text: str) -> str:
     """The text with every old module name, import and path replaced by the new one."""
     text = _FROM.sub(_rewrite_from, text)
+    text = _BARE_TEST.sub(_rewrite_bare_test, text)
     text = _DOTTED.sub(lambda m: MODULES[m.group(1)], text)
     text = _PATHS.sub(lambda m: PATHS[m.group(1)], text)
     for old, new in LITERALS.items():

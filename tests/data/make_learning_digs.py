@@ -1,4 +1,4 @@
-"""Regenerate tests/data/learning_digs.npz: force samples of 12 simulated digs for tests/test_learning.py.
+"""Regenerate tests/data/learning_digs.npz: force samples of 12 simulated digs for tests/learning/test_learning.py.
 
 Run from the repository root: ``python tests/data/make_learning_digs.py``. Random feasible digs in
 the straight trench of testbed sand (excavsim.studies.learning.collect), with a quick scanner (two scans of

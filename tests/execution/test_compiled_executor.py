@@ -14,7 +14,7 @@ import math
 import numpy as np
 import pytest
 
-import test_execution as te
+from tests.execution import test_execution as te
 from excavsim import constants
 from excavsim.config import load_executor_config
 from excavsim.errors import ExcavsimError
@@ -118,7 +118,7 @@ def test_the_compiled_tip_pose_equals_the_planar_arm(arm, rng):
 # -- the script engine ------------------------------------------------------------------------------
 
 def test_the_engine_tests_pass_on_the_compiled_engine(monkeypatch):
-    """tests/test_execution.py's engine tests, run again with CompiledEngine in place of ScriptEngine."""
+    """tests/execution/test_execution.py's engine tests, run again with CompiledEngine in place of ScriptEngine."""
     monkeypatch.setattr(te, "ScriptEngine", CompiledEngine)
     ran = []
     for name, fn in vars(te).items():

@@ -14,7 +14,7 @@ import time
 import pytest
 import yaml
 
-from test_campaign import TINY_BASE
+from tests.studies.campaign.test_campaign import TINY_BASE
 
 from excavsim import constants
 from excavsim.handoff.episode import EpisodeObserver

@@ -25,7 +25,7 @@ from excavsim.loop.scenario import EpisodeSpec, dig_rows, episode_summary, run_s
 from excavsim.record import RerunRecorder
 from excavsim.sensing.ft import ForceSensor
 from excavsim.world.simulation import Simulation
-from test_execution import flat_map, planned_dig, run_dig
+from tests.execution.test_execution import flat_map, planned_dig, run_dig
 
 HUGE_GRAVITY = -1e12  # [m/s^2]
 TINY = {"goal": "small", "dig_budget": 2,

@@ -29,7 +29,7 @@ from excavsim.mechanics.wedge import G_M_S2, tip_to_plane
 from excavsim.planning.predictor import WedgePredictor
 from excavsim.planning.search import TrenchPlanner
 
-DATA = pathlib.Path(__file__).parent / "data" / "learning_digs.npz"
+DATA = constants.REPO_ROOT / "tests" / "data" / "learning_digs.npz"  # the shared data folder, not this test's
 SAND = get_soil("testbed_sand")
 WIDTH, CAPACITY = 0.3, 0.0203981  # models/t3/t3.xml numerics
 LIMITS = np.array([25000.0, 12000.0, 1000.0])

@@ -15,7 +15,7 @@ import pytest
 from excavsim.config import load_executor_config
 from excavsim.world import kernels, soil_records
 from excavsim.world.simulation import Simulation
-from tests.test_execution import flat_map, planned_dig, run_dig
+from tests.execution.test_execution import flat_map, planned_dig, run_dig
 
 
 def _bits(a: np.ndarray) -> np.ndarray:

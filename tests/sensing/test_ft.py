@@ -26,7 +26,7 @@ SURFACE = 0.5  # configs/scene.yaml initial fill [m]
 
 
 def quiet_scene() -> SceneConfig:
-    """The default scene without the truth terms and without F/T noise (as tests/test_soil.py)."""
+    """The default scene without the truth terms and without F/T noise (as tests/world/test_soil.py)."""
     base = load_scene_config()
     t = {"cohesion_rate_per_decade": 0.0, "brittleness_index": 0.0, "heterogeneity_std": 0.0,
          "ft_force_noise_n": 0.0, "ft_torque_noise_nm": 0.0, "ft_dig_noise_share": 0.0}
