@@ -150,7 +150,7 @@ def _rewrite_from(match: re.Match[str]) -> str:
         return match.group(0)
     lines = []
     if kept:
-        lines.append(f"{indent}from {pkg} import " + (f"({', '.join(kept)})" if parens else ", ".join(kept))
+        lines.append(f"{indent}from {pkg} import " + (f"({', '.join(kept)})" if parens and len(kept) > 1 else ", ".join(kept))
                      + match["tail"])
     elif match["tail"].strip():
         moved[0] += match["tail"]
