@@ -116,8 +116,8 @@ _FROM = re.compile(r"^(?P<indent>[ \t]*)from[ \t]+(?P<pkg>" + _NAME + r")[ \t]+i
 
 
 # tests that imported each other by bare name (tests/ on sys.path): ``import test_execution as te``
-_BARE_TEST = re.compile(r"^(?P<indent>[ \t]*)(?:import (?P<mod>test_\w+)(?P<alias> as \w+)?|from (?P<frm>test_\w+) import)",
-                        re.MULTILINE)
+_BARE_TEST = re.compile(r"^(?P<indent>[ \t]*)"
+                        r"(?:import (?P<mod>test_\w+)(?P<alias> as \w+)?|from (?P<frm>test_\w+) import)", re.MULTILINE)
 
 
 def _rewrite_bare_test(match: re.Match[str]) -> str:
@@ -150,7 +150,8 @@ def _rewrite_from(match: re.Match[str]) -> str:
         return match.group(0)
     lines = []
     if kept:
-        lines.append(f"{indent}from {pkg} import " + (f"({', '.join(kept)})" if parens and len(kept) > 1 else ", ".join(kept))
+        names = ", ".join(kept)
+        lines.append(f"{indent}from {pkg} import " + (f"({names})" if parens and len(kept) > 1 else names)
                      + match["tail"])
     elif match["tail"].strip():
         moved[0] += match["tail"]
