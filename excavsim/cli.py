@@ -306,7 +306,7 @@ def _cmd_regress(args: argparse.Namespace) -> int:
     import json
     import pathlib
 
-    from excavsim.loop.regress import REGRESS_DIR, parse_seeds, run_against, run_regress
+    from excavsim.studies.regress.suite import REGRESS_DIR, parse_seeds, run_against, run_regress
 
     directory = pathlib.Path(args.dir or REGRESS_DIR)
     if args.update and (args.against or args.against_dir):
@@ -355,7 +355,7 @@ def _cmd_warmup(args: argparse.Namespace) -> int:
 
 
 def _cmd_bench(args: argparse.Namespace) -> int:
-    from excavsim.bench import BENCHMARKS, run_benchmarks
+    from excavsim.studies.bench import BENCHMARKS, run_benchmarks
 
     unknown = [n for n in args.names if n not in BENCHMARKS]
     if unknown:
@@ -365,7 +365,7 @@ def _cmd_bench(args: argparse.Namespace) -> int:
 
 
 def _cmd_campaign(args: argparse.Namespace) -> int:
-    from excavsim.loop.campaign import load_campaign, run_campaign
+    from excavsim.studies.campaign.runner import load_campaign, run_campaign
 
     spec = load_campaign(args.campaign)
     out = args.out or f"runs/campaigns/{spec.name}"
@@ -376,7 +376,7 @@ def _cmd_campaign(args: argparse.Namespace) -> int:
             raise ExcavsimError(f"--out (default): {exc}") from None
     recorder = None
     if args.live is not None:  # records every episode, streams the first of the grid
-        from excavsim.loop.campaign import check_campaign
+        from excavsim.studies.campaign.runner import check_campaign
         from excavsim.record.live import LiveRecorders, viewer_url
 
         first = check_campaign(spec, source=f"campaign {spec.name}")[0].id
@@ -396,7 +396,7 @@ def _cmd_campaign(args: argparse.Namespace) -> int:
 
 
 def _cmd_learn(args: argparse.Namespace) -> int:
-    from excavsim.loop.learn import run_learn
+    from excavsim.studies.learning.compare import run_learn
 
     print(f"excavsim learn: force predictors learned from simulated digs (§5.2); results in {args.out}")
     run_learn(soil=args.soil, digs=args.digs, seed=args.seed, out=args.out, dataset=args.dataset, folds=args.folds,
@@ -408,7 +408,7 @@ def _cmd_learn(args: argparse.Namespace) -> int:
 def _cmd_calibrate(args: argparse.Namespace) -> int:
     import pathlib
 
-    from excavsim.loop import calibrate as cal
+    from excavsim.apps.calibrate import fit as cal
 
     if args.table_5_3 and (args.fix or args.brittleness or args.rate_effect):
         raise ExcavsimError("--fix, --brittleness and --rate-effect belong to a record's fit; --table-5-3 identifies "
@@ -448,7 +448,7 @@ def _cmd_calibrate(args: argparse.Namespace) -> int:
         cal.record_digs(record, truth=args.truth, soil=args.soil, digs=args.record_digs, seed=args.seed,
                         quiet=args.quiet, observer=observer, say=print)
     if record.suffix == ".rrd":
-        from excavsim.loop.calibrate_digs import recording_dataset
+        from excavsim.apps.calibrate.digs import recording_dataset
         from excavsim.record.reading import read_recording
 
         data = recording_dataset(read_recording(record))
@@ -479,7 +479,7 @@ def _validate_file(kind: str, path: str) -> str:
         c.check_goal(c.load_trench_goal(path), c.load_scene_config(), source=c.display_path(path))
         return "TrenchGoal"
     if kind == "campaign":
-        from excavsim.loop.campaign import load_campaign
+        from excavsim.studies.campaign.runner import load_campaign
 
         return f"CampaignSpec ({len(load_campaign(path).grid)} grid keys, every value checked)"
     from excavsim.loop.scenario import ResolvedSpec, load_spec
@@ -491,7 +491,7 @@ def _validate_file(kind: str, path: str) -> str:
         except c.ConfigError as exc:
             raise c.ConfigError(f"{c.display_path(path)}: {exc}") from None
         return "EpisodeSpec"
-    from excavsim.loop.experiment import ExperimentSpec
+    from excavsim.studies.experiment import ExperimentSpec
 
     exp = c.load_config(path, ExperimentSpec)
     for run in exp.runs:
@@ -605,7 +605,7 @@ def _cmd_plan(args: argparse.Namespace) -> int:
 def _cmd_experiment(args: argparse.Namespace) -> int:
     import pathlib
 
-    from excavsim.loop.experiment import (experiment_names, format_comparison, format_means, load_experiment,
+    from excavsim.studies.experiment import (experiment_names, format_comparison, format_means, load_experiment,
                                           run_experiment)
 
     if args.list or not args.names:
@@ -646,7 +646,7 @@ def _cmd_tune(args: argparse.Namespace) -> int:
     import pathlib
 
     from excavsim.config import get_soil
-    from excavsim.loop import truck
+    from excavsim.tasks.truck import trial as truck
 
     cfg = truck.load_truck_config(args.config)
     retarget = None
@@ -659,7 +659,7 @@ def _cmd_tune(args: argparse.Namespace) -> int:
         if args.record:
             raise ExcavsimError("--record writes one run: leave it out with --compare")
         from excavsim.config import load_scene_config
-        from excavsim.loop.truck_campaign import format_table, run_campaign
+        from excavsim.tasks.truck.campaign import format_table, run_campaign
 
         soils = args.soils or [args.soil or load_scene_config().soil]
         print(f"excavsim tune --compare: tuned vs untuned{' and a moved target' if retarget else ''}, "
@@ -703,7 +703,7 @@ def _cmd_playback(args: argparse.Namespace) -> int:
     import pathlib
 
     from excavsim.execution.demonstration import load_demonstration
-    from excavsim.loop import playback
+    from excavsim.apps.playback import play as playback
 
     out = pathlib.Path(args.out)
     modes = [name for name, on in (("--teleop", args.teleop), ("--from-rrd", args.from_rrd), ("--demo", args.demo))
@@ -728,7 +728,7 @@ def _cmd_playback(args: argparse.Namespace) -> int:
     seed = args.seed if args.seed is not None else 0
     if args.teleop:
         from excavsim.execution.teleop import HELP
-        from excavsim.loop import teleop
+        from excavsim.apps.playback import teleop
 
         keys = args.keys if args.keys is not None else teleop.tty_keys()
         observer = None
@@ -777,7 +777,7 @@ def _cmd_playback(args: argparse.Namespace) -> int:
 def _cmd_load(args: argparse.Namespace) -> int:
     import pathlib
 
-    from excavsim.loop import loading as ld
+    from excavsim.tasks.load import planar as ld
 
     cfg = ld.load_loading_config(args.config)
     if args.mujoco or args.campaign:
@@ -829,8 +829,8 @@ def _cmd_load(args: argparse.Namespace) -> int:
 
 
 def _load_mujoco(args: argparse.Namespace, cfg) -> int:
-    """``excavsim load --mujoco``: a loading episode per machine in MuJoCo (excavsim.loop.loading_mujoco)."""
-    from excavsim.loop import loading_mujoco as lm
+    """``excavsim load --mujoco``: a loading episode per machine in MuJoCo (excavsim.tasks.load.in_mujoco)."""
+    from excavsim.tasks.load import in_mujoco as lm
 
     if args.study:
         raise ExcavsimError("--study is the 2-D simulation's (Fig. 112); --mujoco runs single episodes")
@@ -879,7 +879,7 @@ def _load_mujoco(args: argparse.Namespace, cfg) -> int:
 
 
 def _cmd_figures(args: argparse.Namespace) -> int:
-    from excavsim.loop import figures
+    from excavsim.studies.figures import thesis as figures
 
     table = figures.figures()
     if args.list:

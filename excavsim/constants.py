@@ -1,6 +1,6 @@
 """One home for model paths and the MJCF names the code refers to.
 
-A test checks that every name here exists in the compiled scene (tests/test_models.py).
+A test checks that every name here exists in the compiled scene (tests/world/test_models.py).
 """
 
 from __future__ import annotations

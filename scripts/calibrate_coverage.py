@@ -98,8 +98,8 @@ def main(argv: list[str] | None = None) -> int:
     from excavsim.config import get_soil
     from excavsim.learning import identify
     from excavsim.learning.wedge_fit import RecordWedge, advance_speed
-    from excavsim.loop import calibrate as cal
-    from excavsim.loop.calibrate_digs import record_digs
+    from excavsim.apps.calibrate import fit as cal
+    from excavsim.apps.calibrate.digs import record_digs
 
     ib = args.brittleness if args.brittleness is not None else (0.0 if args.quiet else 0.2)
     rate = args.rate_effect if args.rate_effect is not None else 0.0

@@ -21,7 +21,7 @@ import numpy as np
 
 from excavsim import constants
 from excavsim.config import load_scene_config
-from excavsim.loop.loading import load_loading_config
+from excavsim.tasks.load.planar import load_loading_config
 
 BUCKET_WIDTH_M = 0.95  # the pile lane's width (models/pile_box): the bucket spans it
 HEEL_RADIUS_FRACTION = 0.2  # heel corner radius over the floor length (assumed)

@@ -47,13 +47,13 @@ import time
 import numpy as np
 
 from excavsim.config import SoilTruthConfig, load_scene_config
-from excavsim.loop import drags
+from excavsim.studies.figures import drags
 
 THESIS_3NN_SHUFFLED_N = 72.37  # Table 4, 3 nearest neighbours, mechanics basis (eq. 16)
 THESIS_GLOBAL_SHUFFLED_N = 69.52  # Table 4, global regression, mechanics basis
 THESIS_LWR_SHUFFLED_N = 65.37  # Table 4, LWR (default), mechanics basis
 THESIS_WEDGE_FIT_N = 100.0  # §5.2.4.1: "approximately 100 newtons", the fit's residual on all data
-ENTRY_M = 0.08  # as excavsim.loop.figures: the first wedge failures while it is first loaded
+ENTRY_M = 0.08  # as excavsim.studies.figures.thesis: the first wedge failures while it is first loaded
 SAMPLE_HZ = 10.0  # the testbed's force process (§7.1.3); the world steps at the control rate
 
 
@@ -101,7 +101,7 @@ def table4_stats(truth: dict[str, float], digs: int, seed: int):
     the mean observed |F| and the number of samples."""
     from excavsim.config import get_soil
     from excavsim.learning.evaluate import cross_validate, magnitude
-    from excavsim.loop.collect import collect_dataset
+    from excavsim.studies.learning.collect import collect_dataset
 
     data = collect_dataset(digs=digs, seed=seed, overrides={"scene": {"truth": truth}} if truth else None)
     width = float(data.meta["bucket_width_m"])

@@ -223,18 +223,18 @@ def stubbed(monkeypatch):
     def would_run(*args, **kwargs):
         raise WouldRun
 
-    import excavsim.loop.campaign
-    import excavsim.loop.experiment
+    import excavsim.studies.campaign.runner
+    import excavsim.studies.experiment
     import excavsim.record
-    import excavsim.loop.learn
+    import excavsim.studies.learning.compare
     import excavsim.loop.scenario
     import excavsim.robot.reachability
     import excavsim.world.simulation
 
     monkeypatch.setattr(excavsim.loop.scenario, "run_spec", would_run)
-    monkeypatch.setattr(excavsim.loop.campaign, "run_campaign", would_run)
-    monkeypatch.setattr(excavsim.loop.experiment, "run_experiment", would_run)
-    monkeypatch.setattr(excavsim.loop.learn, "run_learn", would_run)
+    monkeypatch.setattr(excavsim.studies.campaign.runner, "run_campaign", would_run)
+    monkeypatch.setattr(excavsim.studies.experiment, "run_experiment", would_run)
+    monkeypatch.setattr(excavsim.studies.learning.compare, "run_learn", would_run)
     monkeypatch.setattr(excavsim.robot.reachability, "load_or_build", would_run)
     monkeypatch.setattr(excavsim.world.simulation, "Simulation", would_run)
     monkeypatch.setattr(excavsim.record, "RerunRecorder", would_run)

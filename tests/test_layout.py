@@ -44,6 +44,10 @@ def test_the_package_keeps_every_contract():
     ("world/__init__.py", "import excavsim.planning.predictor", "Layers"),
     ("learning/__init__.py", "import mujoco", "no MuJoCo"),
     ("loop/rig.py", "import excavsim.loop.episode", "No import cycles"),
+    ("loop/scenario.py", "import excavsim.studies.campaign.runner", "Layers"),
+    ("tasks/truck/trial.py", "import excavsim.tasks.load.planar", "No task imports another"),
+    ("apps/calibrate/fit.py", "import excavsim.apps.playback.play", "No application imports another"),
+    ("studies/bench.py", "import excavsim.studies.regress.suite", "No study imports another"),
 ])
 def test_a_planted_import_breaks_its_contract(tmp_path, module, planted, contract):
     """A copy of the package with one import that the architecture forbids fails the check."""

@@ -5,7 +5,7 @@ A :class:`Demonstration` is a time series, uniform at the control period, of the
 (x, z, pitch) and the environment's force on the bucket (radial, vertical) in the arm plane. It is
 taken from an executor record (:func:`demonstration_from_record`), from sampled joints and F/T readings
 such as a Rerun recording holds (:func:`demonstration_from_joints`), or made by teleoperation
-(:mod:`excavsim.execution.teleop`, driven by :mod:`excavsim.loop.teleop`). Files are JSON with a schema
+(:mod:`excavsim.execution.teleop`, driven by :mod:`excavsim.apps.playback.teleop`). Files are JSON with a schema
 (:data:`SCHEMA`) that :func:`load_demonstration` checks on load. Played back by
 :mod:`excavsim.execution.playback`.
 """

@@ -2,7 +2,7 @@
 "manipulation of the ... joystick results in velocity commands which drive the bucket endpoint").
 
 A key press moves the commanded tip pose (x radial, z up, pitch) by one step; the driver
-(:func:`excavsim.loop.teleop.teleoperate`) ramps the servo target to it over ``ticks_per_key`` control
+(:func:`excavsim.apps.playback.teleop.teleoperate`) ramps the servo target to it over ``ticks_per_key`` control
 steps and records the measured tip pose and F/T force at every step, which makes the
 :class:`~excavsim.execution.demonstration.Demonstration`. The terminal is not the thesis' MagLev joystick
 with force feedback: the force is only printed (and seen on the F/T plot when a recording is watched).

@@ -13,7 +13,7 @@ volume from the tip's path so far over the mapped surface before the dig (as the
 constraint counts it). A :class:`ForceDataset` is a table of such rows, saved as Parquet (through
 pyarrow, which rerun-sdk already requires), CSV or ``.npz``.
 
-The builder that runs digs in the simulator is :mod:`excavsim.loop.collect`; this module is numpy
+The builder that runs digs in the simulator is :mod:`excavsim.studies.learning.collect`; this module is numpy
 only.
 """
 

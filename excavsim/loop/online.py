@@ -8,7 +8,7 @@ record into force samples (the same encoding as the training data) and ``update`
 with them. Its ``history`` logs, per dig, the learned and the nominal prediction errors on that
 dig before the update: the learning curve.
 
-:func:`~excavsim.loop.learn.compare_predictors` runs the same episodes with the nominal wedge
+:func:`~excavsim.studies.learning.compare.compare_predictors` runs the same episodes with the nominal wedge
 model and with learned predictors and reports stalls and the soil dug per dig.
 """
 

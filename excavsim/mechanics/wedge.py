@@ -192,7 +192,7 @@ class WedgeTable:
     ``u = (rake - rake_min) / rake_step``, ``i = floor(u)``, linear between ``i`` and ``i + 1``.
     With the default 0.01 deg step linear interpolation is within ``1e-4`` relative of the exact
     ``beta``, ``N_gamma``, ``N_c``, ``N_q`` and ``D`` over the whole valid range, the worst at its ends;
-    ``N_a``, which changes sign, within ``3e-4 max(|N_a|, N_c)`` (tests/test_wedge.py).
+    ``N_a``, which changes sign, within ``3e-4 max(|N_a|, N_c)`` (tests/mechanics/test_wedge.py).
 
     Attributes:
         phi, delta: the soil's friction angles the table was built for [rad].

@@ -24,7 +24,7 @@ Each pose's IK is solved once for both its reachability and its torques
 (:func:`~excavsim.robot.fast.solve_pose`, :func:`~excavsim.robot.fast.pose_torques`). Every
 formula repeats the reference's floating-point operations in the same order (numpy's pairwise sum
 included), so that verdicts and numbers agree bit for bit wherever the transcendental functions
-of numpy and of the compiled code agree (tests/test_planner_kernel.py holds them equal). What the
+of numpy and of the compiled code agree (tests/planning/test_planner_kernel.py holds them equal). What the
 kernel does not do: learned predictors (Python), ``prune=False`` (every constraint on every
 sample, for figures), ``classify_limits`` (the search without the force constraint, Fig. 87);
 ``TrenchPlanner.plan`` uses the reference there.

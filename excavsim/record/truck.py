@@ -1,8 +1,8 @@
 """Rerun recording of a self-tuned truck-loading run (``excavsim tune --record FILE.rrd``).
 
-001_0de172b0d6b3614b.txt §4.3, §6.2. An observer of :func:`excavsim.loop.truck.tune` (the loop never
+001_0de172b0d6b3614b.txt §4.3, §6.2. An observer of :func:`excavsim.tasks.truck.trial.tune` (the loop never
 imports it): ``started(cfg, base)``, ``trial(trial, cfg, cost=, sq_error=)`` after every trial (with its
-:class:`~excavsim.loop.truck.TrialTrace` and the loop's cost and squared placement error),
+:class:`~excavsim.tasks.truck.trial.TrialTrace` and the loop's cost and squared placement error),
 ``finished(trials, cfg)``. Everything shown is the mind's
 (sensed joints, the robot's own kinematics, scanned maps, the measured pile) except
 ``world/pile/true``, the true pile's peak from the world's heights, for comparison.
@@ -92,7 +92,7 @@ def _polar(r: float, theta: float, z: float) -> list[float]:
 
 
 class TruckRecorder:
-    """Records one :func:`~excavsim.loop.truck.tune` run to ``path`` (see the module docstring).
+    """Records one :func:`~excavsim.tasks.truck.trial.tune` run to ``path`` (see the module docstring).
 
     Args:
         path: the ``.rrd`` file to write.

@@ -1,7 +1,7 @@
-"""Regenerate tests/data/learning_digs.npz: force samples of 12 simulated digs for tests/test_learning.py.
+"""Regenerate tests/data/learning_digs.npz: force samples of 12 simulated digs for tests/learning/test_learning.py.
 
 Run from the repository root: ``python tests/data/make_learning_digs.py``. Random feasible digs in
-the straight trench of testbed sand (excavsim.loop.collect), with a quick scanner (two scans of
+the straight trench of testbed sand (excavsim.studies.learning.collect), with a quick scanner (two scans of
 100 x 100 rays) so that it takes about half a minute.
 """
 
@@ -9,7 +9,7 @@ from __future__ import annotations
 
 import pathlib
 
-from excavsim.loop.collect import collect_dataset
+from excavsim.studies.learning.collect import collect_dataset
 
 OUT = pathlib.Path(__file__).with_name("learning_digs.npz")
 QUICK_SCANS = {"sensing": {"map": {"n_scans": 2}, "scanner": {"n_azimuth": 100, "n_elevation": 100}}}

@@ -1,0 +1,603 @@
+"""Loading from a pile in MuJoCo (000_a3ca905d8c6d92bf.txt §3.5, §4.1-4.2, §7.2.1, Fig. 107's cycle).
+
+The world is :class:`~excavsim.world.loading_scene.LoadingWorld`: the front loader or the front shovel
+(MJCF models with the sizes of :mod:`excavsim.robot.loaders`, ``configs/loading.yaml``) beside a pile in
+a lane one bucket wide, with the world's soil model (cutting, the wedge-model forces of eq. 8 with its
+truth terms, bearing, filling, pouring, settlement) and laser scanner. One episode repeats the cycle:
+
+1. **scan**: ``n_scans`` range images of the world's scanner, calibrated, median-filtered and binned into
+   the elevation map (:func:`~excavsim.sensing.elevation.build_map`); the map gives three 2-D sections
+   (:func:`map_sections`): per column the median across the lane's middle (``|y| < section_half_width``),
+   and across each side band beyond it;
+2. **plan**: :func:`excavsim.planning.loading.plan` on the middle section: the loading action (k, alpha)
+   with d1 maximized and the smallest reachable radius, all of §4.1-4.2's constraints, the shovel's base
+   placed between digs; when the middle holds no dig of minimal utility, on the side bands, and the one
+   whose dig is the largest is dug (:func:`choose_section`: soil left along a kerb is still the pile's);
+3. **execute by script** (:mod:`excavsim.execution.loading_script`): the shovel's base drives to its
+   planned place; the bucket goes to the pre-entry pose (the approach line's backward extension of the
+   floor's length, which the collision constraint keeps above the surface); the planned path (approach,
+   arc, lift-out), sampled every ``path_step`` and turned into joint set-points by the machine's inverse
+   kinematics, is played at ``tip_speed``; the base backs off, carries the load to the truck's place
+   behind the lane (the ``carry`` keyframe) and dumps it there (``dump``);
+4. **settle** the whole lane (the world's settlement to the angle of repose).
+
+The episode ends when the planner finds no dig of minimal utility on any section of the map (the reason
+gives the map's soil left above the ground, :func:`map_soil_m3`), after ``max_digs``, when the physics
+diverges or a planned pose is out of the machine's reach (the reason says which); the pile counts as
+removed when the lane holds at most ``tolerance_fraction`` of it (privileged truth, for the report).
+
+The volume account (privileged truth, :class:`SoilAccount`): soil leaves the lane either in the bucket,
+poured at the truck during the dump (**delivered**), or any other way, chiefly cut soil that a full bucket
+pushes ahead (the world's surcharge spill) over the lane's ends or sides (**spilled**). The world keeps
+both in one spoil account; the loop splits it by the phase in which it grew, so lane + bucket + delivered +
+spilled stays the pile's volume to round-off. Units per dig and the efficiency count the delivered soil only.
+
+Simplifications (stated): the lane is one bucket wide, so the world is the thesis' 2-D section extruded
+across it; the servos are position servos; the script is open loop in time (no touch-down, no force
+conditions); the loader dumps by backing off and tipping behind the lane rather than into a raised truck,
+and the shovel drives back to the same place instead of swinging (the models have no swing joint).
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import math
+import pathlib
+from typing import Protocol
+
+import numpy as np
+from pydantic import Field
+
+from excavsim import constants
+from excavsim.config import StrictModel, load_config, load_sensing_config
+from excavsim.errors import ExcavsimError
+from excavsim.execution import loading_script as ls
+from excavsim.handoff.maps import ElevationMap
+from excavsim.handoff.observation import Diverged
+from excavsim.tasks.load import planar as ld
+from excavsim.planning import loading as lp
+from excavsim.sensing.elevation import build_map
+from excavsim.world.loading_scene import MACHINES, LoadingWorld
+from excavsim.world.scanner import LaserScanner
+
+CONFIG_PATH = constants.CONFIGS_DIR / "loading_mujoco.yaml"
+
+
+# ---------------------------------------------------------------------------------------------- configuration
+class PileLane(StrictModel):
+    height: float = Field(gt=0.0, le=2.2)
+    top: float = Field(ge=0.0, le=8.0)
+    foot: float = Field(ge=0.5, le=8.0)
+
+
+class ScannerOverrides(StrictModel):
+    n_azimuth: int = Field(ge=4, le=4000)
+    n_elevation: int = Field(ge=4, le=4000)
+    max_range_m: float = Field(gt=0.0, le=100.0)
+
+
+class MachineScript(StrictModel):
+    joint_speed: list[float] = Field(min_length=3, max_length=4)
+    tolerance: list[float] = Field(min_length=3, max_length=4)
+
+
+class ScriptSpec(StrictModel):
+    tip_speed: float = Field(gt=0.0, le=5.0)
+    path_step: float = Field(gt=0.001, le=0.5)
+    lift_extra: float = Field(ge=0.0, le=3.0)
+    back_off: float = Field(ge=0.0, le=10.0)
+    dump_hold_s: float = Field(gt=0.0, le=30.0)
+    loader: MachineScript
+    shovel: MachineScript
+
+
+class LoadingMujocoConfig(StrictModel):
+    """``configs/loading_mujoco.yaml``: see the file's comments."""
+
+    soil: str
+    pile: PileLane
+    tolerance_fraction: float = Field(gt=0.0, lt=1.0)
+    max_digs: int = Field(ge=1, le=1000)
+    section_half_width: float = Field(gt=0.0, le=0.45)
+    scanner: ScannerOverrides
+    n_scans: int = Field(ge=1, le=50)
+    script: ScriptSpec
+
+
+def load_mujoco_config(path: str | pathlib.Path | None = None) -> LoadingMujocoConfig:
+    """The MuJoCo loading configuration (default ``configs/loading_mujoco.yaml``), validated."""
+    cfg = load_config(CONFIG_PATH if path is None else path, LoadingMujocoConfig)
+    for name, n in (("loader", 3), ("shovel", 4)):
+        s = getattr(cfg.script, name)
+        if len(s.joint_speed) != n or len(s.tolerance) != n or min(s.joint_speed + s.tolerance) <= 0:
+            raise ExcavsimError(f"{path or CONFIG_PATH}: script.{name}: joint_speed and tolerance need {n} values "
+                                f"> 0 (one per joint); given {s.joint_speed}, {s.tolerance}")
+    return cfg
+
+
+# ---------------------------------------------------------------------------------------------- observers
+class LoadingObserver(Protocol):
+    """What a recorder sees of an episode (the loop never imports the recorder)."""
+
+    def started(self, world: LoadingWorld, machine: str) -> None: ...
+    def scanned(self, index: int, emap: ElevationMap, terrain: lp.Terrain) -> None: ...
+    def planned(self, index: int, plan: lp.LoadingPlan, poses: np.ndarray) -> None: ...
+    def stepped(self, world: LoadingWorld) -> None: ...
+    def dug(self, index: int, dig: MujocoDig) -> None: ...
+    def finished(self, run: MujocoRun) -> None: ...
+
+
+# ---------------------------------------------------------------------------------------------- results
+@dataclasses.dataclass
+class MujocoDig:
+    """One dig in MuJoCo: the plan, what the planner predicted and what the world did [m^3].
+
+    ``planned_m3`` is the planner's swept area times the lane's width, ``section`` the map section it was
+    planned on; ``bucket_m3`` the soil in the bucket at the end of the lift-out, ``delivered_m3`` what the
+    bucket poured at the truck, ``spilled_m3`` what left the lane otherwise during this cycle (see the module
+    docstring), ``peak_force_n`` the largest soil force on the bucket during the dig (the wedge model's cutting
+    force with bearing, friction and the load's weight), all privileged truth but the plan.
+    """
+
+    action: lp.LoadingAction
+    base_x: float
+    planned_m3: float
+    bucket_m3: float
+    delivered_m3: float
+    spilled_m3: float
+    lane_m3: float
+    scripts: list[ls.ScriptResult]
+    tip_path: np.ndarray
+    planned_path: np.ndarray
+    peak_force_n: float
+    section: str = "middle"
+
+
+@dataclasses.dataclass
+class MujocoRun:
+    """An episode: its digs, why it ended, the lane's soil at the start and the end [m^3], the drift of the volume
+    account (lane + bucket + delivered + spilled minus the start's [m^3]), the bucket's heaped capacity [m^3] and
+    width [m], and the soil the last map showed above the ground (the mind's view of what is left) [m^3]."""
+
+    machine: str
+    capacity_m3: float
+    width_m: float
+    digs: list[MujocoDig]
+    reason: str
+    start_m3: float
+    end_m3: float
+    total_drift_m3: float
+    tolerance_fraction: float
+    sim_time_s: float
+    map_end_m3: float = math.nan
+
+    @property
+    def delivered_m3(self) -> float:
+        return float(sum(d.delivered_m3 for d in self.digs))
+
+    @property
+    def spilled_m3(self) -> float:
+        return float(sum(d.spilled_m3 for d in self.digs))
+
+    @property
+    def removed_fraction(self) -> float:
+        return 1.0 - self.end_m3 / self.start_m3
+
+    @property
+    def done(self) -> bool:
+        """Whether the lane holds at most ``tolerance_fraction`` of the pile."""
+        return self.end_m3 <= self.tolerance_fraction * self.start_m3
+
+    def per_dig(self) -> float:
+        """Delivered soil per dig [m^3]."""
+        return self.delivered_m3 / len(self.digs) if self.digs else 0.0
+
+    def efficiency(self) -> float:
+        """Delivered soil per dig over the bucket's heaped capacity (§7.2.1)."""
+        return self.per_dig() / self.capacity_m3
+
+
+class SoilAccount:
+    """The world's spoil split into delivered and spilled (privileged truth; see the module docstring).
+
+    A world step hook: the spoil's growth during a step is delivered while ``dumping`` (the bucket over the
+    truck, pouring) and spilled otherwise. ``delivered + spilled`` equals the world's spoil at every step.
+    """
+
+    def __init__(self) -> None:
+        self.delivered = 0.0
+        self.spilled = 0.0
+        self.dumping = False
+        self._spoil = 0.0
+
+    def reset(self, world: LoadingWorld) -> None:
+        self.delivered = self.spilled = 0.0
+        self._spoil = world.volumes().spoil
+
+    def __call__(self, world: LoadingWorld) -> None:
+        spoil = world.volumes().spoil
+        grown, self._spoil = spoil - self._spoil, spoil
+        if self.dumping:
+            self.delivered += grown
+        else:
+            self.spilled += grown
+
+
+# ---------------------------------------------------------------------------------------------- the pieces
+def pile_section(world: LoadingWorld, pile: PileLane) -> tuple[np.ndarray, np.ndarray]:
+    """A trapezoid (x, z) with faces at the world soil's angle of repose."""
+    run = pile.height / math.tan(world.soil.soil.repose)
+    x = np.array([pile.foot, pile.foot + run, pile.foot + run + pile.top, pile.foot + 2 * run + pile.top])
+    g = world.soil.grid
+    if x[-1] > g.x1 - 0.1:
+        raise ExcavsimError(f"a pile {pile.height} m high with a {pile.top} m top from x = {pile.foot} m ends at "
+                            f"x = {x[-1]:.2f} m, beyond the lane's end at {g.x1 - 0.1:.2f} m")
+    return x, np.array([0.0, pile.height, pile.height, 0.0])
+
+
+def make_scanner(world: LoadingWorld, cfg: LoadingMujocoConfig, seed: int) -> LaserScanner:
+    base = load_sensing_config().scanner
+    scfg = base.model_copy(update=cfg.scanner.model_dump())
+    return LaserScanner(world.model, world.soil.grid, scfg, np.random.default_rng((seed, 7)))
+
+
+def scan_section(world: LoadingWorld, scanner: LaserScanner, cfg: LoadingMujocoConfig
+                 ) -> tuple[ElevationMap, lp.Terrain]:
+    """Scan, build the map, and the planner's middle section (:func:`map_sections`)."""
+    emap = scan_map(world, scanner, cfg)
+    return emap, map_sections(emap, cfg.section_half_width)["middle"]
+
+
+def scan_map(world: LoadingWorld, scanner: LaserScanner, cfg: LoadingMujocoConfig) -> ElevationMap:
+    """``n_scans`` range images of the lane, calibrated, median-filtered and binned into the elevation map."""
+    images = [scanner.scan(world.time) for _ in range(cfg.n_scans)]
+    emap, _ = build_map(images, scanner.geometry, load_sensing_config().map)
+    return emap
+
+
+SECTIONS = ("middle", "near side", "far side")
+
+
+def map_sections(emap: ElevationMap, half_width: float) -> dict[str, lp.Terrain]:
+    """The map's 2-D sections (:data:`SECTIONS`): per column the median height over the rows with
+    ``|y| < half_width`` (the middle), ``y <= -half_width`` (the near side) and ``y >= half_width`` (the far
+    side); a side with no row is left out. Negative heights (map noise) are the ground."""
+    xs, ys = emap.centres()
+    bands = {"middle": np.abs(ys) < half_width, "near side": ys <= -half_width, "far side": ys >= half_width}
+    return {name: lp.Terrain(xs, np.maximum(np.median(emap.heights[rows], axis=0), 0.0), emap.cell)
+            for name, rows in bands.items() if rows.any()}
+
+
+def map_soil_m3(emap: ElevationMap, width: float, ground: float) -> float:
+    """The soil the map shows more than ``ground`` [m] above the ground (a thinner layer is ground, as the
+    planner's ``LoadingRules.ground``), over the lane's ``width`` [m]: per column the mean over the rows."""
+    excess = np.maximum(emap.heights - ground, 0.0)
+    return float(excess.mean(axis=0).sum() * emap.cell * width)
+
+
+def choose_section(machine, sections: dict[str, lp.Terrain], rules: lp.LoadingRules
+                   ) -> tuple[str, lp.Terrain, lp.LoadingPlan]:
+    """The section to dig and its plan: the middle's when it holds a dig of minimal utility, else the side
+    band's whose dig is the largest; when no section has one, the middle's plan (no action) with a reason
+    that names every section's."""
+    plans = {"middle": lp.plan(machine, sections["middle"], rules)}
+    if plans["middle"].action is not None:
+        return "middle", sections["middle"], plans["middle"]
+    for name in SECTIONS[1:]:
+        if name in sections:
+            plans[name] = lp.plan(machine, sections[name], rules)
+    dug = [n for n, p in plans.items() if p.action is not None]
+    if dug:
+        best = max(dug, key=lambda n: plans[n].volume)
+        return best, sections[best], plans[best]
+    plan = plans["middle"]
+    if any(p.reason != "no pile left" for p in plans.values()):
+        def best(p: lp.LoadingPlan) -> str:
+            v = p.cell_volume[np.isfinite(p.cell_volume)]
+            return "no pile" if p.reason == "no pile left" else f"best {v.max() if v.size else 0.0:.3f} m^2"
+        plan.reason = (f"no dig of minimal utility ({100 * rules.min_fraction:.0f} % of capacity) on any section ("
+                       + ", ".join(f"{n}: {best(p)}" for n, p in plans.items()) + ")")
+    return "middle", sections["middle"], plan
+
+
+def dig_poses(action: lp.LoadingAction, terrain: lp.Terrain, rules: lp.LoadingRules, floor: float, *,
+              step: float, lift_extra: float) -> tuple[np.ndarray, np.ndarray]:
+    """Tip poses (N, 3) of one planned dig, dense, and their phase (N,): -1 pre-entry (the approach line's
+    backward extension of the floor's length), 0 approach, 1 arc, 2 lift-out; the attitude is the planner's
+    (:func:`~excavsim.planning.loading.floor_angle`)."""
+    a = action
+    ca, sa = math.cos(a.alpha), math.sin(a.alpha)
+    s = np.concatenate([np.arange(-floor, 0.0, step), np.arange(0.0, a.d1, step), [a.d1]])
+    line = np.stack([a.entry_x + s * ca, a.h - s * sa, np.full(s.size, -a.alpha)], axis=1)
+    phase = [np.where(s < 0, -1, 0)]
+    _, _, cx, cz = lp.arc_centre(a.entry_x, a.h, a.alpha, a.d1, a.r)
+    total = rules.exit_heading + a.alpha
+    turn = np.linspace(0.0, total, max(2, int(math.ceil(a.r * total / step)) + 1))[1:]
+    psi = -a.alpha + turn
+    arc = np.stack([cx + a.r * np.sin(psi), cz - a.r * np.cos(psi), lp.floor_angle(a.alpha, turn, a.r, floor)], 1)
+    ex, ez = arc[-1, 0], arc[-1, 1]
+    top = max(float(terrain.surface(ex)) + rules.lift_clearance, ez) + lift_extra
+    zl = np.arange(ez + step, top + 1e-9, step)
+    lift = np.stack([np.full(zl.size, ex), zl, np.full(zl.size, arc[-1, 2])], axis=1)
+    poses = np.concatenate([line, arc, lift])
+    phase = np.concatenate(phase + [np.ones(len(arc), int), np.full(len(lift), 2)])
+    return poses, phase
+
+
+def joint_path(machine, poses: np.ndarray, base_x: float) -> tuple[np.ndarray, slice]:
+    """The MJCF joint values (M, n) of tip poses (N, 3): the loader's (d1, theta2, theta3), the shovel's
+    (base x, theta1, theta2, theta3), and which poses they are (a slice): unreachable poses at the start (the
+    pre-entry) and at the end (the lift above the planner's clearance) are dropped; a gap in between raises.
+
+    Raises:
+        ExcavsimError: no pose, or one between two reachable ones, is out of reach.
+    """
+    if machine.moves_base:
+        q, ok = machine.inverse(poses)
+    else:
+        q, ok = machine.inverse(poses, base_x)
+        q = np.concatenate([np.full((len(q), 1), base_x), q], axis=1)
+    idx = np.flatnonzero(ok)
+    if idx.size == 0 or not ok[idx[0]:idx[-1] + 1].all():
+        bad = len(ok) - idx.size if idx.size == 0 else int((~ok[idx[0]:idx[-1] + 1]).sum())
+        raise ExcavsimError(f"{bad} poses of the planned dig are out of the machine's reach")
+    kept = slice(int(idx[0]), int(idx[-1]) + 1)
+    return q[kept], kept
+
+
+# ---------------------------------------------------------------------------------------------- the episode
+def run_episode(name: str, *, seed: int = 0, cfg: LoadingMujocoConfig | None = None,
+                cfg2d: ld.LoadingConfig | None = None, pile: PileLane | None = None, max_digs: int | None = None,
+                observer: LoadingObserver | None = None, progress=None, world_hooks=(),
+                account: SoilAccount | None = None) -> MujocoRun:
+    """One loading episode of ``name`` (``loader`` or ``shovel``) in MuJoCo (see the module docstring).
+
+    Args:
+        seed: the episode seed (the soil's heterogeneity, the scanner's noise and drift).
+        cfg, cfg2d: the MuJoCo and the 2-D loading configurations (the files' when None); the machine's
+            kinematics, capacity and the planner's grid come from ``cfg2d``.
+        pile: a pile other than the configuration's; max_digs: a limit other than the configuration's.
+        world_hooks: callables run after every control step with the world (tests: the volume account).
+        account: the delivered/spilled account to keep (a new one when None; tests read it at every step).
+    """
+    if name not in MACHINES:
+        raise ExcavsimError(f"unknown loading machine {name!r}; allowed: {', '.join(MACHINES)}")
+    cfg = cfg or load_mujoco_config()
+    cfg2d = cfg2d or ld.load_loading_config()
+    world = LoadingWorld(name, soil=cfg.soil, seed=seed)
+    world.set_terrain(world.section_heights(*pile_section(world, pile or cfg.pile)))
+    account = account if account is not None else SoilAccount()
+    account.reset(world)
+    world.step_hooks.append(account)
+    world.step_hooks.extend(world_hooks)
+    if observer is not None:
+        world.step_hooks.append(observer.stepped)
+        observer.started(world, name)
+    scanner = make_scanner(world, cfg, seed)
+    machine = ld.make_machine(cfg2d, name)
+    spec = getattr(cfg2d.machines, name)
+    rules = ld.make_rules(cfg2d, spec.capacity_units)
+    sc = cfg.script
+    mscript = getattr(sc, name)
+    speed, tol = np.array(mscript.joint_speed), np.array(mscript.tolerance)
+    carry, dump = world.keyframes["carry"], world.keyframes["dump"]
+    start = world.volumes().box
+    digs: list[MujocoDig] = []
+    reason = f"{max_digs or cfg.max_digs} digs spent"
+    q = world.joint_angles()
+    dt = world.control_dt
+    trace: list[np.ndarray] = []
+    forces: list[float] = []
+
+    def witness(w: LoadingWorld) -> None:
+        trace.append(w.tip_pose())
+        forces.append(float(np.linalg.norm(w.contact.force)))
+
+    world.step_hooks.append(witness)
+
+    def play(script: ls.JointScript, results: list) -> None:
+        nonlocal q
+        res, q = ls.run(world.step, q, script, dt, tolerance=tol)
+        results.append(res)
+
+    map_first = map_end = math.nan
+    for index in range(max_digs or cfg.max_digs):
+        emap = scan_map(world, scanner, cfg)
+        map_end = map_soil_m3(emap, world.width, rules.ground)
+        map_first = map_end if index == 0 else map_first
+        section, terrain, plan = choose_section(machine, map_sections(emap, cfg.section_half_width), rules)
+        if observer is not None:
+            observer.scanned(index, emap, terrain)
+        if plan.action is None:
+            share = f" ({100 * map_end / map_first:.1f} % of the first map)" if map_first > 0 else ""
+            reason = (f"{plan.reason}; the map shows {map_end:.3f} m^3 more than {100 * rules.ground:.0f} cm above "
+                      f"the ground{share}")
+            break
+        poses, _ = dig_poses(plan.action, terrain, rules, machine.floor, step=sc.path_step, lift_extra=sc.lift_extra)
+        try:
+            qp, _ = joint_path(machine, poses, plan.base_x)
+        except ExcavsimError as exc:  # a planned pose the machine's IK cannot reach: said, never executed blindly
+            reason = f"dig {index + 1} not executed: {exc}"
+            break
+        try:
+            if observer is not None:
+                observer.planned(index, plan, poses)
+            trace.clear()
+            forces.clear()
+            results: list[ls.ScriptResult] = []
+            delivered0, spilled0 = account.delivered, account.spilled
+            # to the dig: the loader sets its arm and drives in; the shovel drives its base, then sets its arm
+            if machine.moves_base:
+                staged = np.r_[q[0], qp[0, 1:]]
+            else:
+                staged = np.r_[qp[0, 0], q[1:]]
+            play(ls.joint_move(q, staged, joint_speed=speed, name="arm to the dig" if machine.moves_base
+                               else "base to its place"), results)
+            play(ls.joint_move(q, qp[0], joint_speed=speed, name="to the pre-entry pose"), results)
+            play(ls.timed_path(qp, np.array([machine_tip(machine, qq) for qq in qp]), tip_speed=sc.tip_speed,
+                               joint_speed=speed, name="dig"), results)
+            tip_path = np.array(trace)
+            peak = max(forces, default=0.0)
+            bucket = world.volumes().bucket
+            back = q.copy()
+            back[0] += sc.back_off if machine.moves_base else -sc.back_off  # the loader's d1 grows backwards
+            play(ls.joint_move(q, back, joint_speed=speed, name="back off"), results)
+            play(ls.joint_move(q, carry, joint_speed=speed, name="carry"), results)
+            account.dumping = True  # the bucket over the truck: what pours out of the lane now is delivered
+            try:
+                play(ls.joint_move(q, dump, joint_speed=speed, name="dump"), results)
+                for _ in range(int(sc.dump_hold_s / dt)):
+                    q = world.step(dump)
+            finally:
+                account.dumping = False
+            play(ls.joint_move(q, carry, joint_speed=speed, name="back to carry"), results)
+            world.settle_soil()
+            v = world.volumes()
+            dig = MujocoDig(plan.action, plan.base_x, plan.volume * world.width, bucket,
+                            account.delivered - delivered0, account.spilled - spilled0, v.box, results, tip_path,
+                            poses, peak, section)
+            digs.append(dig)
+        except Diverged as exc:  # an outcome, never a hang: the episode ends and says why
+            reason = f"dig {index + 1}: {exc}"
+            break
+        if observer is not None:
+            observer.dug(index, dig)
+        if progress:
+            a = plan.action
+            progress(f"  dig {index + 1:3d} ({section}): k {a.k:5.2f} m, alpha {math.degrees(a.alpha):5.1f} deg, d1 "
+                     f"{a.d1:4.2f} m, r {a.r:4.2f} m: planned {dig.planned_m3:.3f} m^3, bucket {bucket:.3f}, "
+                     f"delivered {dig.delivered_m3:.3f}, spilled {dig.spilled_m3:.3f}, lane {v.box:.3f} m^3, "
+                     f"peak soil force {peak / 1000:.1f} kN")
+    v = world.volumes()
+    drift = v.box + v.bucket + account.delivered + account.spilled - world.soil.initial_volume
+    run = MujocoRun(name, world.soil.heaped_capacity, world.width, digs, reason, start, v.box, drift,
+                    cfg.tolerance_fraction, world.time, map_end)
+    if observer is not None:
+        observer.finished(run)
+    return run
+
+
+def machine_tip(machine, q: np.ndarray) -> np.ndarray:
+    """The tip (x, z) of MJCF joint values ``q`` by the machine's closed form."""
+    if machine.moves_base:
+        return machine.forward(q)[:2]
+    return machine.forward(q[1:], q[0])[:2]
+
+
+def format_run(run: MujocoRun) -> str:
+    """A MuJoCo episode's digs as a table [m^3] and its end."""
+    lines = [f"{'dig':>4} {'k m':>5} {'h m':>5} {'alpha':>6} {'d1 m':>5} {'r m':>5} {'base x':>7} {'planned':>8} "
+             f"{'bucket':>7} {'deliv.':>7} {'spilled':>7} {'lane':>7} {'peak kN':>8} section"]
+    for i, d in enumerate(run.digs, 1):
+        a = d.action
+        bx = "moving" if not math.isfinite(d.base_x) else f"{d.base_x:7.2f}"
+        lines.append(f"{i:4d} {a.k:5.2f} {a.h:5.2f} {math.degrees(a.alpha):6.1f} {a.d1:5.2f} {a.r:5.2f} {bx:>7} "
+                     f"{d.planned_m3:8.3f} {d.bucket_m3:7.3f} {d.delivered_m3:7.3f} {d.spilled_m3:7.3f} "
+                     f"{d.lane_m3:7.3f} {d.peak_force_n / 1000:8.1f} {d.section}")
+    lines.append(f"end: {run.reason}; lane {run.start_m3:.3f} -> {run.end_m3:.3f} m^3 "
+                 f"({100 * run.removed_fraction:.1f} % removed, {'within' if run.done else 'NOT within'} the "
+                 f"{100 * run.tolerance_fraction:.0f} % tolerance); {len(run.digs)} digs, "
+                 f"{run.per_dig():.3f} m^3 delivered per dig = {100 * run.efficiency():.0f} % of the heaped "
+                 f"capacity {run.capacity_m3:.3f} m^3; {run.spilled_m3:.3f} m^3 spilled off the lane; volume account "
+                 f"drift {run.total_drift_m3:.1e} m^3; {run.sim_time_s:.0f} s simulated")
+    return "\n".join(lines)
+
+
+def format_comparison(rows: list[tuple[str, MujocoRun]], units_m2: float = 0.01) -> str:
+    """The episodes beside the thesis' 2-D results (§7.2.1), delivered per dig in units of soil of the section
+    (the lane's volume over its width; 1 unit = ``units_m2`` m^2), spilled in m^3."""
+    lines = [f"{'machine':<8} {'digs':>5} {'per dig (units)':>16} {'efficiency':>11} {'removed':>8} {'spilled':>8} "
+             f"{'thesis per dig':>15} {'thesis eff.':>12}"]
+    for name, run in rows:
+        per = run.per_dig() / run.width_m / units_m2
+        th = ld.THESIS[name]
+        lines.append(f"{name:<8} {len(run.digs):5d} {per:16.1f} {100 * run.efficiency():10.0f}% "
+                     f"{100 * run.removed_fraction:7.1f}% {run.spilled_m3:8.3f} {th['per_dig']:15.1f} "
+                     f"{100 * th['efficiency']:11.0f}%")
+    return "\n".join(lines)
+
+
+# ---------------------------------------------------------------------------------------------- campaigns
+class LoadingCampaign(StrictModel):
+    """``configs/campaigns/loading_mujoco.yaml`` (``excavsim load --campaign``): episodes of each machine over
+    seeds, judged together (the table of :func:`format_campaign`)."""
+
+    machines: list[str] = Field(min_length=1)
+    seeds: list[int] = Field(min_length=1)
+    mujoco_config: str | None = None
+
+
+def load_campaign(path: str | pathlib.Path) -> LoadingCampaign:
+    """A loading campaign file, validated (machine names, seeds)."""
+    spec = load_config(path, LoadingCampaign)
+    bad = [m for m in spec.machines if m not in MACHINES]
+    if bad:
+        raise ExcavsimError(f"{path}: machines: unknown {bad}; allowed: {', '.join(MACHINES)}")
+    if any(not 0 <= s < 2**32 for s in spec.seeds) or len(set(spec.seeds)) != len(spec.seeds):
+        raise ExcavsimError(f"{path}: seeds must be distinct integers from 0 to 2^32 - 1; given {spec.seeds}")
+    return spec
+
+
+def same_pile_2d(name: str, cfg: LoadingMujocoConfig, cfg2d: ld.LoadingConfig) -> ld.Run:
+    """The 2-D simulation of §7.2.1 (:func:`excavsim.tasks.load.planar.simulate`: exact terrain, the swept area removed,
+    settlement) on the episode's pile: the lane's length, 5 cm columns, faces at the world soil's repose."""
+    from excavsim.config import get_soil
+    from excavsim.world.pile2d import trapezoid_pile
+
+    repose = get_soil(cfg.soil).repose_angle_deg
+    pile = trapezoid_pile(cfg.pile.height, cfg.pile.top, cfg.pile.foot, 8.5, 0.05, repose)
+    spec = getattr(cfg2d.machines, name)
+    return ld.simulate(ld.make_machine(cfg2d, name), ld.make_rules(cfg2d, spec.capacity_units), pile, name=name,
+                       max_digs=cfg.max_digs)
+
+
+def run_campaign(spec: LoadingCampaign, *, cfg: LoadingMujocoConfig | None = None,
+                 cfg2d: ld.LoadingConfig | None = None, progress=None) -> list[tuple[str, int, MujocoRun]]:
+    """Every (machine, seed) episode of ``spec``, in sequence."""
+    cfg = cfg or load_mujoco_config(spec.mujoco_config)
+    cfg2d = cfg2d or ld.load_loading_config()
+    rows = []
+    for name in spec.machines:
+        for seed in spec.seeds:
+            run = run_episode(name, seed=seed, cfg=cfg, cfg2d=cfg2d)
+            rows.append((name, seed, run))
+            if progress:
+                progress(f"  {name} seed {seed}: " + _campaign_line(run))
+    return rows
+
+
+def _campaign_line(run: MujocoRun, units_m2: float = 0.01) -> str:
+    per = run.per_dig() / run.width_m / units_m2
+    return (f"{len(run.digs)} digs, {100 * run.removed_fraction:.1f} % removed, {per:.1f} units delivered per dig "
+            f"({100 * run.efficiency():.0f} %), {run.spilled_m3:.3f} m^3 spilled, "
+            f"{'done' if run.done else 'NOT done'} ({run.reason})")
+
+
+def format_campaign(rows: list[tuple[str, int, MujocoRun]], two_d: dict[str, ld.Run], units_m2: float = 0.01) -> str:
+    """The campaign's episodes, then per machine their mean and spread beside the 2-D simulation on the same
+    pile and the thesis (§7.2.1, Figs. 108-109; its own pile). Units: 1 unit = ``units_m2`` m^2 of the section."""
+    lines = [f"{'machine':<7} {'seed':>4} {'digs':>4} {'removed':>8} {'units/dig':>9} {'eff.':>5} {'spilled m3':>10} "
+             f"{'map left m3':>11} {'done':>4}  end"]
+    for name, seed, run in rows:
+        per = run.per_dig() / run.width_m / units_m2
+        lines.append(f"{name:<7} {seed:4d} {len(run.digs):4d} {100 * run.removed_fraction:7.1f}% {per:9.1f} "
+                     f"{100 * run.efficiency():4.0f}% {run.spilled_m3:10.3f} {run.map_end_m3:11.3f} "
+                     f"{'yes' if run.done else 'NO':>4}  {run.reason}")
+    lines += ["", f"{'machine':<7} {'episodes':>8} {'done':>5} {'digs':>11} {'units/dig':>12} {'efficiency':>11} "
+              f"{'spilled m3':>11} | {'2-D same pile':>22} | thesis"]
+    for name in dict.fromkeys(n for n, _, _ in rows):
+        runs = [r for n, _, r in rows if n == name]
+        digs = np.array([len(r.digs) for r in runs], float)
+        per = np.array([r.per_dig() / r.width_m / units_m2 for r in runs])
+        eff = np.array([100 * r.efficiency() for r in runs])
+        spill = np.array([r.spilled_m3 for r in runs])
+        t2 = two_d.get(name)
+        two = (f"{len(t2.digs)} digs, {t2.per_dig() / units_m2:.1f}, {100 * t2.efficiency():.0f} %" if t2 is not None
+               else "-")
+        th = ld.THESIS[name]
+        thesis = ((f"{th['digs']} digs, " if "digs" in th else "")
+                  + f"{th['per_dig']:.1f}, ≈ {100 * th['efficiency']:.0f} %")
+        lines.append(f"{name:<7} {len(runs):8d} {sum(r.done for r in runs):5d} {digs.mean():5.1f} ± {digs.std():3.1f} "
+                     f"{per.mean():6.1f} ± {per.std():3.1f} {eff.mean():5.0f} ± {eff.std():2.0f}% "
+                     f"{spill.mean():5.3f} ± {spill.std():.3f} | {two:>22} | {thesis}")
+    return "\n".join(lines)

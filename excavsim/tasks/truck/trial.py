@@ -1,0 +1,468 @@
+"""Truck loading by the mass-excavation script, self-tuned online (001_0de172b0d6b3614b.txt §4.3, §5, §6.2).
+
+One **trial** (:func:`run_trial`) is the experiment of §6.2 on the T3: a fresh world (the same soil
+every trial, as the thesis' simulation ensured), the same dig every time (``dig_path`` of
+``configs/truck.yaml``, followed through IK at the dig face), a scan of the box, then the
+mass-excavation script (:mod:`excavsim.execution.mass_script`) swings, dumps on the ground at the
+target (the truck moved away, §6.2) and swings back to the dig face; the soil settles and the box is
+scanned again. The outcomes are the script's execution time (from the end of digging until the
+swing is back at the dig face, §6.2) and the pile's position, measured by the mind from the two
+elevation maps (:func:`pile_position`, Fig. 11): the highest point of the deposit locates the pile,
+and the weighted centre of its peak region (below the map's cell size) is its position, in polar
+coordinates about the swing axis. A trial that leaves more than ``1 - min_dumped_fraction`` of the
+load in the bucket, or whose script does not end, is a failure (§5.4.1) and costs ``failure_cost`` more.
+
+:func:`tune` runs N trials online: the first ``initial_trials`` from the computed parameters plus
+small noise, then each from :func:`~excavsim.learning.lwr_tuning.select_action` on the memory so far
+(the predicted cost within the confidence bounds of §5.4.1 and the action bounds of
+:func:`tuned_bounds`; the expected cost is off by default, see ``configs/truck.yaml``), optionally
+with the target moved mid-run, and hands every trial to an observer (a recording); :func:`write_results`
+writes the learning curve (Fig. 12) and a CSV table. The campaign over seeds and soils is
+:mod:`excavsim.tasks.truck.campaign`.
+"""
+
+from __future__ import annotations
+
+import csv
+import dataclasses
+import math
+import time
+from collections.abc import Callable
+from pathlib import Path
+
+import numpy as np
+import yaml
+
+from excavsim import constants
+from excavsim.config import load_robot_config, load_sensing_config
+from excavsim.errors import ExcavsimError
+from excavsim.execution.mass_script import (BOOM, BUCKET, FRACTIONS, STICK, SWING, TUNED, MassParams, TimingModel,
+                                            TruckSite, compute_params, follow_path, mass_script, run_joint_script)
+from excavsim.handoff.maps import ElevationMap
+from excavsim.learning.lwr_tuning import Memory, Objective, select_action
+from excavsim.loop.rig import go_to
+from excavsim.robot.extract import arm_from_model
+from excavsim.sensing.elevation import build_map
+from excavsim.world.scanner import LaserScanner
+from excavsim.world.simulation import Simulation
+
+TRUCK_YAML = constants.CONFIGS_DIR / "truck.yaml"
+
+
+@dataclasses.dataclass(frozen=True)
+class TruckConfig:
+    """``configs/truck.yaml`` (see the file for every number and its source); angles in radians here."""
+
+    site: TruckSite
+    dig_swing: float
+    dig_speed: float
+    dig_path: np.ndarray
+    latency: float
+    open_pitch: float
+    w1: float
+    w2: float
+    initial_trials: int
+    initial_noise: float
+    widths_log2: tuple[int, int]
+    min_support: float
+    support_penalty: float
+    margin: float
+    failure_cost: float
+    min_dumped_fraction: float
+    trust_radius: float
+    expected_cost: bool = False
+    retarget_trials: int = 1
+    stick_fraction_range: tuple[float, float] = (0.1, 0.9)
+    return_fraction_range: tuple[float, float] = (0.3, 1.0)
+    angle_range: float = math.radians(25.0)
+
+    @property
+    def objective(self) -> Objective:
+        return Objective(self.site.r_d, self.site.theta_d, self.w1, self.w2, self.min_support, self.support_penalty,
+                         self.margin, self.failure_cost, self.trust_radius, uncertainty=self.expected_cost)
+
+
+def load_truck_config(path: str | Path | None = None) -> TruckConfig:
+    """Read ``configs/truck.yaml`` (or ``path``)."""
+    path = Path(path) if path else TRUCK_YAML
+    try:
+        d = yaml.safe_load(path.read_text())
+        tg, tr, ln = d["target"], d["truck"], d["learning"]
+        site = TruckSite(float(tg["r_m"]), math.radians(tg["theta_deg"]), float(tr["side_z_m"]),
+                         float(tr["half_width_m"]), float(tr["clearance_m"]), float(tr["dump_z_m"]))
+        dig = np.array(d["dig_path"], dtype=float)
+        dig[:, 2] = np.radians(dig[:, 2])
+        return TruckConfig(site, math.radians(d["dig_swing_deg"]), float(d["dig_speed_m_s"]), dig,
+                           float(d["latency_s"]), math.radians(d["open_pitch_deg"]), float(d["cost"]["w1_per_s"]),
+                           float(d["cost"]["w2_per_m2"]), int(ln["initial_trials"]),
+                           math.radians(ln["initial_noise_deg"]), tuple(ln["widths_log2"]),
+                           float(ln["min_support"]), float(ln["support_penalty"]), float(ln["margin"]),
+                           float(ln["failure_cost"]), float(ln["min_dumped_fraction"]), float(ln["trust_radius"]),
+                           _flag(ln["expected_cost"], "learning.expected_cost"), int(ln["retarget_trials"]),
+                           _range(d["ranges"]["stick_fraction"], "ranges.stick_fraction", 0.0, 1.0),
+                           _range(d["ranges"]["return_fraction"], "ranges.return_fraction", 0.0, 1.0),
+                           math.radians(float(d["ranges"]["angles_deg"])))
+    except (OSError, KeyError, TypeError, ValueError, IndexError) as exc:
+        raise ExcavsimError(f"{path}: not a truck configuration: {exc!r}") from exc
+
+
+def _flag(v, field: str) -> bool:
+    if not isinstance(v, bool):
+        raise ValueError(f"{field} must be true or false; given {v!r}")
+    return v
+
+
+def _range(v, field: str, lo: float, hi: float) -> tuple[float, float]:
+    a, b = (float(x) for x in v)
+    if not lo <= a < b <= hi:
+        raise ValueError(f"{field} must be [low, high] with {lo} <= low < high <= {hi}; given {v!r}")
+    return a, b
+
+
+def timing_model(sim: Simulation, cfg: TruckConfig) -> TimingModel:
+    """The machine model of §4.2 from the servos' speed limits and gain (configs/robot.yaml)."""
+    robot = load_robot_config()
+    speed = dict(zip(constants.JOINTS, sim.rate_limit))
+    return TimingModel({j: float(speed[j]) for j in (SWING, BOOM, STICK, BUCKET)}, robot.setpoint_gain_per_s,
+                       cfg.latency)
+
+
+@dataclasses.dataclass(frozen=True)
+class Pile:
+    """A pile's peak: world (x, y, z) [m], polar r [m] and theta [rad] about the swing axis."""
+
+    x: float
+    y: float
+    z: float
+
+    @property
+    def r(self) -> float:
+        return math.hypot(self.x, self.y)
+
+    @property
+    def theta(self) -> float:
+        return math.atan2(self.y, self.x)
+
+
+def deposit_peak(x: np.ndarray, y: np.ndarray, before: np.ndarray, after: np.ndarray, min_theta: float, *,
+                 peak_fraction: float = 0.5, radius_m: float = 0.2) -> Pile:
+    """The pile's position from the deposit ``after - before`` on a grid (rows along y), below the cell size.
+
+    The highest cell of the deposit smoothed over 3 x 3 cells (assumed: one cell's noise does not make
+    the peak), among the cells whose polar angle is above ``min_theta`` [rad] (the dump side, away from
+    the dig face), locates the peak (§6.2: "the highest point of the pile"); the position returned is
+    the centre of the peak region, the cells within ``radius_m`` of that peak whose smoothed deposit is
+    at least ``peak_fraction`` of the peak's, each weighted by its deposit above that level (§5.2's
+    "center of mass" of the pile on a terrain grid, restricted to the peak so that spilled soil does not
+    pull it; assumed). A cell-quantized peak would move in whole cells; the weighted centre moves
+    continuously with the pile. ``z`` is the peak cell's height after the dump."""
+    d = np.asarray(after, dtype=float) - np.asarray(before, dtype=float)
+    pad = np.pad(d, 1, mode="edge")
+    smooth = sum(pad[i:i + d.shape[0], j:j + d.shape[1]] for i in range(3) for j in range(3)) / 9.0
+    xx, yy = np.meshgrid(x, y)
+    side = np.arctan2(yy, xx) > min_theta
+    masked = np.where(side, smooth, -np.inf)
+    i, j = np.unravel_index(int(np.argmax(masked)), masked.shape)
+    level = peak_fraction * smooth[i, j]
+    near = side & (np.hypot(xx - xx[i, j], yy - yy[i, j]) <= radius_m)
+    w = np.where(near, np.clip(smooth - level, 0.0, None), 0.0)
+    if smooth[i, j] <= 0.0 or w.sum() <= 0.0:
+        return Pile(float(xx[i, j]), float(yy[i, j]), float(after[i, j]))
+    return Pile(float(np.sum(w * xx) / w.sum()), float(np.sum(w * yy) / w.sum()), float(after[i, j]))
+
+
+def pile_position(before: ElevationMap, after: ElevationMap, min_theta: float) -> Pile:
+    """Fig. 11: the pile's peak measured from two elevation maps (the mind's view)."""
+    x, y = before.centres()
+    return deposit_peak(x, y, before.heights, after.heights, min_theta)
+
+
+def true_pile(sim: Simulation, before: np.ndarray, min_theta: float) -> Pile:
+    """The true pile's peak from the world's heights (privileged: tests and logs)."""
+    g = sim.soil.grid
+    x, y = g.xy(np.arange(g.shape[0]), np.arange(g.shape[1]))
+    return deposit_peak(np.asarray(x, float), np.asarray(y, float), before, g.heights, min_theta)
+
+
+class Scanner:
+    """The box's scanner and the map builder, as the loop uses them around a trial."""
+
+    def __init__(self, sim: Simulation, seed: int):
+        self.sim = sim
+        self.cfg = load_sensing_config()
+        self.scanner = LaserScanner(sim.model, sim.soil.grid, self.cfg.scanner, np.random.default_rng((seed, 7)))
+
+    def map(self) -> ElevationMap:
+        images = [self.scanner.scan(self.sim.time) for _ in range(self.cfg.map.n_scans)]
+        return build_map(images, self.scanner.geometry, self.cfg.map)[0]
+
+
+@dataclasses.dataclass
+class Trial:
+    """One trial's action and outcomes."""
+
+    index: int
+    params: MassParams
+    time_s: float
+    pile: Pile
+    true: Pile
+    outcome: str
+    dumped_m3: float
+    loaded_m3: float
+    wall_s: float
+    source: str
+    predicted_cost: float = math.nan
+    width: float = math.nan
+    min_dumped_fraction: float = 0.9
+    r_d: float = math.nan      # the target the trial was run for (set by tune)
+    theta_d: float = math.nan
+    trace: TrialTrace | None = None  # kept when a recording asks for it (run_trial's trace)
+
+    @property
+    def failed(self) -> bool:
+        """§5.4.1: a trial that did not do its task (the script did not end, or it left more than
+        ``1 - min_dumped_fraction`` of the load in the bucket) is a failure, stored with a high cost."""
+        return self.outcome != "end" or self.dumped_m3 < self.min_dumped_fraction * self.loaded_m3
+
+
+def dig(sim: Simulation, cfg: TruckConfig, arm) -> np.ndarray:
+    """The fixed dig of §6.2: to the first pose at the dig face, then along the dig path. Returns q (6,)."""
+    start, ok = arm.inverse(cfg.dig_path[0])
+    if not ok:
+        raise ExcavsimError(f"the dig path's first pose {cfg.dig_path[0]} is out of reach")
+    go_to(sim, np.r_[cfg.dig_swing, start, 0.0, 0.0], _MoveCfg())
+    return follow_path(sim, arm, cfg.dig_path, cfg.dig_speed, cfg.dig_swing)
+
+
+@dataclasses.dataclass(frozen=True)
+class _MoveCfg:
+    settle_tol_rad: float = 0.01
+    move_timeout_s: float = 15.0
+
+
+def nominal_params(cfg: TruckConfig, *, seed: int = 0, soil: str | None = None) -> MassParams:
+    """The computed parameters (§4.2) for this site, on the dig's end pose (one dig to find it)."""
+    sim = Simulation(soil=soil, seed=seed)
+    arm = arm_from_model(sim.model)
+    q = dig(sim, cfg, arm)
+    return compute_params(arm, cfg.site, timing_model(sim, cfg), q[1:4], cfg.dig_swing, open_pitch=cfg.open_pitch)
+
+
+@dataclasses.dataclass(frozen=True)
+class TrialTrace:
+    """What a recording shows of one trial, all of it the mind's (sensed joints, scanned maps).
+
+    Attributes:
+        times: (n,) seconds since the script started, one per control tick.
+        q: (n, 6) joint angles [rad].
+        tip: (n, 3) the bucket tip in the world [m] (the robot's own kinematics on the sensed joints).
+        phases: (time [s] since the script started, sub-script joint, step name), every step change.
+        before, after: the elevation maps before the script and after the dump settled.
+    """
+
+    times: np.ndarray
+    q: np.ndarray
+    tip: np.ndarray
+    phases: list[tuple[float, str, str]]
+    before: ElevationMap
+    after: ElevationMap
+
+
+class _Tracing:
+    """The servos with every observation kept (for :class:`TrialTrace`)."""
+
+    def __init__(self, sim: Simulation):
+        self.sim, self.obs = sim, []
+
+    def __getattr__(self, name):
+        return getattr(self.sim, name)
+
+    def observe(self):
+        o = self.sim.observe()
+        self.obs.append((o.time, np.array(o.q, dtype=float)))
+        return o
+
+    def track(self, target):
+        o = self.sim.track(target)
+        self.obs.append((o.time, np.array(o.q, dtype=float)))
+        return o
+
+
+def run_trial(params: MassParams, cfg: TruckConfig, *, seed: int = 0, index: int = 0, source: str = "",
+              soil: str | None = None, trace: bool = False) -> Trial:
+    """One dig-swing-dump trial (see the module docstring); ``trace`` keeps a :class:`TrialTrace`."""
+    wall = time.perf_counter()
+    sim = Simulation(soil=soil, seed=seed)
+    arm = arm_from_model(sim.model)
+    scanner = Scanner(sim, seed)
+    dig(sim, cfg, arm)
+    loaded = sim.truth.volumes.bucket
+    before_map = scanner.map()
+    before_true = sim.soil.grid.heights.copy()
+    servos = _Tracing(sim) if trace else sim
+    script = mass_script(params)
+    run = run_joint_script(servos, script)
+    sim.settle_soil()
+    after_map = scanner.map()
+    min_theta = cfg.dig_swing + 0.5 * (cfg.site.theta_d - cfg.dig_swing)
+    pile = pile_position(before_map, after_map, min_theta)
+    true = true_pile(sim, before_true, min_theta)
+    dumped = loaded - sim.truth.volumes.bucket
+    out = Trial(index, params, run.duration, pile, true, run.outcome, dumped, loaded, time.perf_counter() - wall,
+                source, min_dumped_fraction=cfg.min_dumped_fraction)
+    if trace:
+        t = np.array([o[0] for o in servos.obs]) - run.start
+        q = np.stack([o[1] for o in servos.obs])
+        keep = (t >= 0.0) & (t <= run.duration + 1e-9)
+        t, q = t[keep], q[keep]
+        pose = arm.forward(q[:, 1:4])
+        tip = np.stack([pose[:, 0] * np.cos(q[:, 0]), pose[:, 0] * np.sin(q[:, 0]), pose[:, 1]], axis=1)
+        joints = [sub.joints[0] for sub in script.subscripts]
+        phases = [(tr.time - run.start, joints[tr.subscript], tr.name) for tr in run.transitions]
+        out.trace = TrialTrace(t, q, tip, phases, before_map, after_map)
+    return out
+
+
+def tuned_bounds(base: MassParams, cfg: TruckConfig | None = None) -> tuple[np.ndarray, np.ndarray]:
+    """Bounds of the seven tuned parameters (in :data:`~excavsim.execution.mass_script.TUNED` order): the
+    angles within ``ranges.angles_deg`` of the computed ones, the fractions in their ``ranges`` (assumed;
+    configs/truck.yaml), and the boom at the dump never below its clearance angle over the truck's side
+    (§5.4.1: bounds from the worksite's geometry; Fig. 3). With the truck moved away (§6.2) nothing stops a
+    lower boom, and without this bound the learner lowered it 25 deg, into where the truck's side would be."""
+    cfg = cfg or load_truck_config()
+    x = base.tuned()
+    lo, hi = x - cfg.angle_range, x + cfg.angle_range
+    k = TUNED.index("boom_dump")
+    lo[k] = min(max(lo[k], base.boom_clear_dump), x[k])
+    for name, (a, b) in (("stick_fraction", cfg.stick_fraction_range), ("return_fraction", cfg.return_fraction_range)):
+        k = TUNED.index(name)
+        lo[k], hi[k] = a, b
+    return lo, hi
+
+
+def noise_scale(cfg: TruckConfig) -> np.ndarray:
+    """The size of the initial trials' noise per tuned parameter: ``initial_noise`` [rad] on the angles,
+    ``initial_noise`` / 100 deg on the fractions (2 deg -> 0.02)."""
+    return np.array([cfg.initial_noise / math.radians(100.0) if n in FRACTIONS else cfg.initial_noise
+                     for n in TUNED])
+
+
+def retargeted(cfg: TruckConfig, r_m: float, theta: float) -> TruckConfig:
+    """``cfg`` with the dump target moved to (r_m [m], theta [rad])."""
+    return dataclasses.replace(cfg, site=dataclasses.replace(cfg.site, r_d=r_m, theta_d=theta))
+
+
+def tune(trials: int, cfg: TruckConfig | None = None, *, seed: int = 0,
+         progress: Callable[[Trial], None] | None = None, learn: bool = True,
+         retarget: tuple[int, float, float] | None = None, soil: str | None = None, observer=None,
+         base: MassParams | None = None) -> list[Trial]:
+    """Run ``trials`` trials online (see the module docstring); returns them in order.
+
+    ``learn=False`` is the untuned baseline: every trial from the computed parameters plus the same small
+    noise. ``retarget=(k, r_m, theta_rad)`` moves the dump target before trial ``k`` (0-based): the
+    parameters are computed again for the new target, the memory is kept (it maps actions to outcomes,
+    whatever the target) and only the objective changes; the first ``retarget_trials`` trials after the
+    move run the new computed parameters plus noise (§5.4.4: the computed parameters are "a competent
+    starting point"; without one the simplex, held near the data by the confidence bounds, creeps
+    towards the new target a fraction of the data's range per trial). ``soil`` names a soil preset
+    (configs/soils.yaml; default the scene's). ``observer`` (e.g. a recorder) is called with
+    ``started(cfg, base)``, ``trial(trial, cfg, cost=, sq_error=)`` after every trial (the trial carries
+    its :class:`TrialTrace`) and ``finished(trials, cfg)``. ``base``: the computed parameters for ``cfg``'s
+    target, seed and soil when the caller has them (:func:`nominal_params`), else computed here."""
+    cfg = cfg or load_truck_config()
+    base = base if base is not None else nominal_params(cfg, seed=seed, soil=soil)
+    lo, hi = tuned_bounds(base, cfg)
+    rng = np.random.default_rng((seed, 12))
+    memory = Memory(len(TUNED))
+    out: list[Trial] = []
+    scale = noise_scale(cfg)
+    computed_until = cfg.initial_trials
+    if observer is not None:
+        observer.started(cfg, base)
+    for k in range(trials):
+        if retarget is not None and k == retarget[0]:
+            cfg = retargeted(cfg, retarget[1], retarget[2])
+            base = nominal_params(cfg, seed=seed, soil=soil)
+            lo, hi = tuned_bounds(base, cfg)
+            computed_until = max(computed_until, k + cfg.retarget_trials)
+        pred, width = math.nan, math.nan
+        if not learn or k < computed_until or len(memory) < 2:
+            x = np.clip(base.tuned() + rng.normal(0.0, 1.0, len(TUNED)) * scale, lo, hi)
+            source = "computed + noise"
+        else:
+            sel = select_action(memory, cfg.objective, lower=lo, upper=hi)
+            x, pred, width, source = sel.x, sel.predicted_cost, sel.width, "learned"
+        trial = run_trial(base.with_tuned(x), cfg, seed=seed, index=k, source=source, soil=soil,
+                          trace=observer is not None)
+        trial.predicted_cost, trial.width = pred, width
+        trial.r_d, trial.theta_d = cfg.site.r_d, cfg.site.theta_d
+        memory.add(x, trial.time_s, trial.pile.r, trial.pile.theta, float(trial.failed))
+        out.append(trial)
+        if observer is not None:
+            observer.trial(trial, cfg, cost=trial_cost(trial, cfg), sq_error=placement_error2(trial, cfg))
+        if progress is not None:
+            progress(trial)
+    if observer is not None:
+        observer.finished(out, cfg)
+    return out
+
+
+def trial_objective(trial: Trial, cfg: TruckConfig) -> Objective:
+    """The objective the trial was run for (its own target when the target moved during the run)."""
+    if math.isnan(trial.r_d):
+        return cfg.objective
+    return retargeted(cfg, trial.r_d, trial.theta_d).objective
+
+
+def trial_cost(trial: Trial, cfg: TruckConfig) -> float:
+    """The measured cost of a trial, a failure's included (§5.4.1)."""
+    return float(trial_objective(trial, cfg).cost(trial.time_s, trial.pile.r, trial.pile.theta, float(trial.failed)))
+
+
+def placement_error2(trial: Trial, cfg: TruckConfig) -> float:
+    """The squared placement error ``(r_d - r)^2 + r_d^2 (theta_d - theta)^2`` [m^2] of a trial."""
+    o = trial_objective(trial, cfg)
+    return (o.r_d - trial.pile.r) ** 2 + o.r_d ** 2 * (o.theta_d - trial.pile.theta) ** 2
+
+
+def write_results(trials: list[Trial], cfg: TruckConfig, out: Path) -> tuple[Path, Path]:
+    """The CSV table (one row per trial) and Fig. 12's learning curve (PNG) into ``out``."""
+    import matplotlib
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    out.mkdir(parents=True, exist_ok=True)
+    obj = cfg.objective
+    rows = []
+    for t in trials:
+        err2 = placement_error2(t, cfg)
+        row = {"trial": t.index + 1, "source": t.source, "cost": trial_cost(t, cfg), "time_s": t.time_s,
+               "r_m": t.pile.r, "theta_deg": math.degrees(t.pile.theta), "sq_error_m2": err2,
+               "true_r_m": t.true.r, "true_theta_deg": math.degrees(t.true.theta), "outcome": t.outcome,
+               "failed": int(t.failed), "target_r_m": trial_objective(t, cfg).r_d,
+               "target_theta_deg": math.degrees(trial_objective(t, cfg).theta_d),
+               "loaded_l": 1e3 * t.loaded_m3, "dumped_l": 1e3 * t.dumped_m3, "predicted_cost": t.predicted_cost,
+               "kernel_width": t.width, "wall_s": t.wall_s}
+        row.update({f"{n}{'' if n in FRACTIONS else '_deg'}": v
+                    for n, v in t.params.degrees().items() if n in TUNED})
+        rows.append(row)
+    csv_path = out / "tune.csv"
+    with csv_path.open("w", newline="") as f:
+        w = csv.DictWriter(f, fieldnames=list(rows[0]))
+        w.writeheader()
+        for row in rows:
+            w.writerow({k: (f"{v:.6g}" if isinstance(v, float) else v) for k, v in row.items()})
+    n = np.arange(1, len(rows) + 1)
+    fig, ax = plt.subplots(3, 1, figsize=(6, 7), sharex=True)
+    for a, key, label in zip(ax, ("cost", "time_s", "sq_error_m2"), ("cost", "time [s]", "squared error [m^2]")):
+        a.plot(n, [r[key] for r in rows], "o-", ms=3)
+        a.axvline(cfg.initial_trials + 0.5, color="grey", lw=0.8, ls="--")
+        a.set_ylabel(label)
+    ax[0].set_title(f"Self-tuned truck loading (Fig. 12 of 001_0de172b0d6b3614b.txt): target r = {obj.r_d} m, "
+                    f"theta = {math.degrees(obj.theta_d):.0f} deg", fontsize=8)
+    ax[-1].set_xlabel("trial")
+    fig.tight_layout()
+    png = out / "learning_curve.png"
+    fig.savefig(png, dpi=120)
+    plt.close(fig)
+    return csv_path, png
