@@ -227,6 +227,7 @@ def stubbed(monkeypatch):
     import excavsim.studies.experiment
     import excavsim.record
     import excavsim.studies.learning.compare
+    import excavsim.loop.rig  # before the patches: a module importing a name after them would keep the stub
     import excavsim.loop.scenario
     import excavsim.robot.reachability
     import excavsim.world.simulation
@@ -236,6 +237,7 @@ def stubbed(monkeypatch):
     monkeypatch.setattr(excavsim.studies.experiment, "run_experiment", would_run)
     monkeypatch.setattr(excavsim.studies.learning.compare, "run_learn", would_run)
     monkeypatch.setattr(excavsim.robot.reachability, "load_or_build", would_run)
+    monkeypatch.setattr(excavsim.loop.rig, "load_or_build", would_run)
     monkeypatch.setattr(excavsim.world.simulation, "Simulation", would_run)
     monkeypatch.setattr(excavsim.record, "RerunRecorder", would_run)
 
