@@ -10,6 +10,7 @@ The build runs with warnings as errors (`sphinx-build -W --keep-going`), in CI t
 from __future__ import annotations
 
 import os
+import re
 import sys
 from pathlib import Path
 
@@ -51,3 +52,31 @@ autodoc_mock_imports = ["ray"]  # optional extra (excavsim[ray]); the docs need 
 html_theme = "furo"
 html_title = "excavsim"
 html_static_path: list[str] = []
+
+# Members are documented where they are defined, not again where a package re-exports them
+# (excavsim.ExcavsimError is excavsim.errors.ExcavsimError): one target per name.
+autodoc_default_options["ignore-module-all"] = True
+napoleon_custom_sections = [("Fields", "params_style")]  # the record dtypes' field lists
+napoleon_use_ivar = True  # "Attributes:" sections as fields, not a second description of each attribute
+
+
+def _clean_docstring(app, what, name, obj, options, lines):
+    """Keep plain-text docstrings valid reStructuredText without editing them.
+
+    Module data (numpy dtypes, for instance) has no docstring of its own: autodoc would show its
+    type's (numpy's), so that is dropped. A ``|F|`` (a magnitude) is escaped so that reST does
+    not read it as a substitution."""
+    type_doc = getattr(type(obj), "__doc__", None)
+    if what in ("data", "attribute") and lines and isinstance(type_doc, str) and type_doc.strip() and \
+            lines[0].strip() == type_doc.strip().splitlines()[0].strip():
+        lines[:] = []
+        return
+    for i, line in enumerate(lines):
+        stripped = line.lstrip()
+        if stripped.startswith("+-") or (stripped.startswith("|") and stripped.rstrip().endswith("|")):
+            continue  # a reST table: leave it
+        lines[i] = re.sub(r"(?<![\\`])\|(?=[^|\s`][^|`]*\|)([^|`]*)\|", r"\\|\1\\|", line)
+
+
+def setup(app):
+    app.connect("autodoc-process-docstring", _clean_docstring)
