@@ -6,7 +6,7 @@ STAMP_RUN := $(VENV)/.installed-run
 STAMP_DEV := $(VENV)/.installed-dev
 export MUJOCO_GL ?= disable
 
-.PHONY: demo test bench clean
+.PHONY: demo test bench docs clean
 
 $(PY):
 	$(PYTHON) -m venv $(VENV)
@@ -40,8 +40,17 @@ test: $(STAMP_DEV)
 pictures: $(STAMP_RUN)
 	$(PY) scripts/make_pictures.py --out docs/images
 
+# the documentation site (Sphinx + MyST + furo) from docs/, warnings as errors; needs the docs extra
+STAMP_DOCS := $(VENV)/.installed-docs
+$(STAMP_DOCS): pyproject.toml | $(STAMP_RUN)
+	$(PY) -m pip install --quiet -e ".[docs]"
+	touch $@
+
+docs: $(STAMP_DOCS)
+	$(VENV)/bin/sphinx-build -W --keep-going -b html docs docs/_build/html
+
 bench: $(STAMP_RUN)
 	$(VENV)/bin/excavsim bench
 
 clean:
-	rm -rf $(VENV) .pytest_cache build *.egg-info
+	rm -rf $(VENV) .pytest_cache build *.egg-info docs/_build docs/reference/_autosummary

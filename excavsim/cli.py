@@ -664,7 +664,7 @@ def _cmd_tune(args: argparse.Namespace) -> int:
         soils = args.soils or [args.soil or load_scene_config().soil]
         print(f"excavsim tune --compare: tuned vs untuned{' and a moved target' if retarget else ''}, "
               f"{args.trials} trials, seeds {' '.join(map(str, args.seeds))}, soils {' '.join(soils)} "
-              "(001_0de172b0d6b3614b.txt §6.2)")
+              "(Rowe 1997 §6.2)")
         runs = run_campaign(seeds=args.seeds, soils=soils, trials=args.trials,
                             retarget=retarget, cfg=cfg, out=pathlib.Path(args.out), progress=print)
         print(format_table(runs, cfg.initial_trials))
@@ -673,7 +673,7 @@ def _cmd_tune(args: argparse.Namespace) -> int:
     if args.soil:
         get_soil(args.soil)
     print(f"excavsim tune: {args.trials} truck-loading trials, target r = {cfg.site.r_d} m, theta = "
-          f"{math.degrees(cfg.site.theta_d):.1f} deg (001_0de172b0d6b3614b.txt §6.2)")
+          f"{math.degrees(cfg.site.theta_d):.1f} deg (Rowe 1997 §6.2)")
 
     def show(t: truck.Trial) -> None:
         print(f"  {t.index + 1:3d} {t.source:16s} cost {truck.trial_cost(t, cfg):8.2f}  time {t.time_s:5.2f} s  "
@@ -763,7 +763,7 @@ def _cmd_playback(args: argparse.Namespace) -> int:
               f"play it back with: excavsim playback --demo {path}")
         return 0
     print("excavsim playback: demonstrate a dig, replay it in a stiffer and a softer soil with fixed high, moderate, "
-          "low and variable impedance (002_694c274da322d931.txt §3.3, ch. 6)")
+          "low and variable impedance (DiMaio 1998 §3.3, ch. 6)")
     demo = load_demonstration(args.demo) if args.demo else None
     if seeds is not None:
         print(f"over seeds {', '.join(map(str, seeds))}: each seed records its own demonstration"
@@ -1132,7 +1132,7 @@ def build_parser() -> argparse.ArgumentParser:
                            "configs/campaigns/loading_mujoco.yaml); writes campaign.txt to --out")
     load.set_defaults(func=_cmd_load)
     tune = sub.add_parser("tune", help="truck loading by the mass-excavation script, self-tuned online by "
-                          "memory-based learning (001_0de172b0d6b3614b.txt §6.2): the learning curve of Fig. 12")
+                          "memory-based learning (Rowe 1997 §6.2): the learning curve of Fig. 12")
     tune.add_argument("--trials", type=_int_in(1, 10000), default=40, metavar="N", help="trials (default 40)")
     tune.add_argument("--seed", type=_seed, default=0, metavar="N", help="the world's seed (default 0)")
     tune.add_argument("--config", metavar="YAML", help="truck configuration (default configs/truck.yaml)")

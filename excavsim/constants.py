@@ -26,7 +26,7 @@ TRENCHES_DIR = CONFIGS_DIR / "trenches"
 # Joints, in qpos order; actuators carry the joint name without the suffix (Menagerie convention).
 JOINTS = ("waist_joint", "shoulder_joint", "elbow_joint", "wrist_pitch_joint", "wrist_yaw_joint", "wrist_roll_joint")
 ACTUATORS = tuple(j.removesuffix("_joint") for j in JOINTS)
-# The planar digging chain (000_a3ca905d8c6d92bf.txt §4.3.3: only these move while digging).
+# The planar digging chain (Singh 1995 §4.3.3: only these move while digging).
 PLANAR_JOINTS = ("shoulder_joint", "elbow_joint", "wrist_pitch_joint")
 WAIST_JOINT = "waist_joint"
 

@@ -1,6 +1,6 @@
 """Generate the excavator bucket of the T3 model from a few dimensions.
 
-The bucket is the one of a small commercial trenching machine (000_a3ca905d8c6d92bf.txt §7.1.1):
+The bucket is the one of a small commercial trenching machine (Singh 1995 §7.1.1):
 about 0.30 m wide and 0.02 m^3 struck capacity. Its side profile is a flat blade, a circular arc
 into a straight back wall, and an open mouth from the top of the back wall to the cutting edge.
 

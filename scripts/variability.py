@@ -1,6 +1,6 @@
 """How much the world's soil force scatters, beside what the thesis reports (issue 23 item 4).
 
-The thesis (000_a3ca905d8c6d92bf.txt) gives one number that measures the scatter of its testbed's
+The thesis (Singh 1995) gives one number that measures the scatter of its testbed's
 force signal: Table 4, the out-of-fold mean absolute error of |F| under shuffled 10-fold
 cross-validation on about 4000 samples of 30 digs in sand (§5.2.4), read at about 8-10 Hz
 (Fig. 75, §7.1.3). Shuffled, a test sample's nearest neighbours are the samples just before and

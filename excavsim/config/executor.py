@@ -11,7 +11,7 @@ from excavsim.config.loader import StrictModel, load_config
 
 class ExecutorConfig(StrictModel):
     """``configs/executor.yaml``: numbers of the trenching dig script (execution.dig); the file says
-    where each comes from (000_a3ca905d8c6d92bf.txt §7.1.3, 001_0de172b0d6b3614b.txt §4, or tuned)."""
+    where each comes from (Singh 1995 §7.1.3, Rowe 1997 §4, or tuned)."""
 
     approach_height_m: float = Field(default=0.12, gt=0, le=1, description="start of touch-down above the map [m]")
     touch_speed_m_s: float = Field(default=0.05, gt=0, le=1, description="descent speed while seeking contact")

@@ -25,11 +25,11 @@ class SoilTruthConfig(StrictModel):
     """What the static wedge model misses: truth-only terms of the world's soil (the planner never sees them).
 
     The planner's nominal model is eq. 8 alone; the world adds these so that predictions are
-    approximate, as they were on the real testbed (000_a3ca905d8c6d92bf.txt §5.1.3).
+    approximate, as they were on the real testbed (Singh 1995 §5.1.3).
 
     ``model`` picks the world's bucket-soil force model: ``wedge`` (the default, eq. 8 with the
     terms below and bearing on the outer surface) or ``dimaio``, the bucket-ground model of
-    002_694c274da322d931.txt §5.1-5.2 (viscous friction, lagging stiffness with shear failure, the
+    DiMaio 1998 §5.1-5.2 (viscous friction, lagging stiffness with shear failure, the
     load, Coulomb friction; :mod:`excavsim.world.dimaio`), with the parameters of the soil preset's
     ``dimaio`` block. The rate effect, the failure cycle and heterogeneity act on the wedge only; rocks
     and F/T noise act on both.
@@ -66,7 +66,7 @@ class SoilTruthConfig(StrictModel):
         description="std per axis, as a share of the soil's force on the bucket (load included), of a random force "
                     "at the bucket's centre of mass added to the F/T reading while the cutting edge advances into "
                     "soil: the vibration digging excites in the compliant hydraulic arm, read by the sensor "
-                    "(000_a3ca905d8c6d92bf.txt §7.1.3); calibrated to Table 4's shuffled 3-NN error [-]",
+                    "(Singh 1995 §7.1.3); calibrated to Table 4's shuffled 3-NN error [-]",
     )
 
     @model_validator(mode="after")

@@ -13,7 +13,7 @@ MAX_SCANNER_RAYS = 1_000_000  # rays per range image (the default has 40 000)
 
 
 class ScannerConfig(StrictModel):
-    """The laser range scanner (000_a3ca905d8c6d92bf.txt §7.1.2) and its errors."""
+    """The laser range scanner (Singh 1995 §7.1.2) and its errors."""
 
     n_azimuth: int = Field(default=200, ge=4, le=4000, description="rays across the image")
     n_elevation: int = Field(default=200, ge=4, le=4000, description="rays down the image")

@@ -1,4 +1,4 @@
-"""``configs/soils.yaml``: the soil presets (000_a3ca905d8c6d92bf.txt §5.1.1, Table 1)."""
+"""``configs/soils.yaml``: the soil presets (Singh 1995 §5.1.1, Table 1)."""
 
 from __future__ import annotations
 
@@ -12,7 +12,7 @@ from excavsim.config.loader import StrictModel, load_config
 from excavsim.errors import ConfigError, shorten
 
 class DiMaioParams(StrictModel):
-    """Parameters of DiMaio's bucket-ground model (002_694c274da322d931.txt §5.2, eqs. 5.41-5.49).
+    """Parameters of DiMaio's bucket-ground model (DiMaio 1998 §5.2, eqs. 5.41-5.49).
 
     The thesis gives numbers only for its identification experiment (§5.5.1, Table 5.3: b_t0 30000,
     b_n0 10000, mu 0.9, epsilon 10000, rho 2000, k 100000, T_rt 0.1 s, T_rn 0.5 s, for a full-size
@@ -43,7 +43,7 @@ class DiMaioParams(StrictModel):
 
 
 class SoilParams(StrictModel):
-    """Mohr-Coulomb soil and soil-tool parameters (000_a3ca905d8c6d92bf.txt §5.1.1, eq. 2, Table 1).
+    """Mohr-Coulomb soil and soil-tool parameters (Singh 1995 §5.1.1, eq. 2, Table 1).
 
     Shear strength is ``tau = c + sigma tan(phi)``; the tool face has friction angle ``delta`` and
     adhesion ``c_a`` (the thesis ignores adhesion; so does eq. 8).

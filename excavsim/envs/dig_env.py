@@ -45,8 +45,8 @@ class TrenchDigEnv(gym.Env):
     without a seed runs the spec's seed first, then seeds drawn from :attr:`np_random`.
 
     Args:
-        spec, weights, fallback, window_margin_m, window_half_width_m, observer, robot_path,
-            scene_path: as :class:`~excavsim.envs.core.DigCore`.
+        spec, weights, fallback, window_margin_m, window_half_width_m, observer, robot_path, scene_path:
+            as :class:`~excavsim.envs.core.DigCore`.
         render_mode: only None (record episodes with ``observer=excavsim.record.RerunRecorder(...)``).
     """
 

@@ -35,8 +35,8 @@ class TrenchJointEnv(gym.Env):
     after ``max_time_s``. Seeding as :class:`~excavsim.envs.dig_env.TrenchDigEnv`.
 
     Args:
-        spec, weights, max_time_s, scan_period_s, patch_size, patch_spacing_m, robot_path,
-            scene_path: as :class:`~excavsim.envs.core.JointCore`.
+        spec, weights, max_time_s, scan_period_s, patch_size, patch_spacing_m, robot_path, scene_path:
+            as :class:`~excavsim.envs.core.JointCore`.
         render_mode: only None.
     """
 

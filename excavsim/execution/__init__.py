@@ -1,4 +1,4 @@
-"""excavsim.execution: the robot's executor, parameterized scripts (001_0de172b0d6b3614b.txt §4) and the dig.
+"""excavsim.execution: the robot's executor, parameterized scripts (Rowe 1997 §4) and the dig.
 
 - :mod:`~excavsim.execution.conditions`: what a script step waits for (joint angles, forces, time in
   the step, events, conditions held for a while), read from sensor-level data only.

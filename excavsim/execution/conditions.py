@@ -1,4 +1,4 @@
-"""Step conditions of parameterized scripts (001_0de172b0d6b3614b.txt §4.1-4.3): what a script reacts to.
+"""Step conditions of parameterized scripts (Rowe 1997 §4.1-4.3): what a script reacts to.
 
 A condition reads sensor-level data only (:class:`Sense`: joint angles and velocities, actuator
 forces, the F/T reading, time and named events) plus what the engine knows of the sub-script it

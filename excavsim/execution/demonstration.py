@@ -1,5 +1,5 @@
 """Demonstrations: a demonstrated dig as tip pose and tip force in the arm plane, its file format, and
-where demonstrations come from (002_694c274da322d931.txt §3.1, ch. 6).
+where demonstrations come from (DiMaio 1998 §3.1, ch. 6).
 
 A :class:`Demonstration` is a time series, uniform at the control period, of the bucket-tip pose
 (x, z, pitch) and the environment's force on the bucket (radial, vertical) in the arm plane. It is

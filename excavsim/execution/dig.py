@@ -1,4 +1,4 @@
-"""The trenching dig script and its executor (000_a3ca905d8c6d92bf.txt §7.1.3, 001_0de172b0d6b3614b.txt §4).
+"""The trenching dig script and its executor (Singh 1995 §7.1.3, Rowe 1997 §4).
 
 :func:`dig_script` fills the fixed structure of a dig with the numbers of one plan. The arm group
 (shoulder, elbow, wrist pitch) runs: move above the entry; **touch-down** (descend until the F/T

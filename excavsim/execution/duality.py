@@ -1,4 +1,4 @@
-"""Dynamic impedance selection by the generalised duality principle (002_694c274da322d931.txt §3.3.1,
+"""Dynamic impedance selection by the generalised duality principle (DiMaio 1998 §3.3.1,
 "Dynamic Impedance Selection: A State-Space Approach", eqs. 3.22-3.32, Figs. 3.7-3.10).
 
 The machine (eq. 3.15) ``Mm s^2 x = f0 + fe - (Bm s + Km)(x - x0)`` against a first-order environment

@@ -1,7 +1,7 @@
 """Joint-space scripts for the loading machines: a planned tip path turned into timed servo set-points.
 
-A loading dig (000_a3ca905d8c6d92bf.txt §3.5, Fig. 26) is executed as one parameterized script in the
-sense of 001_0de172b0d6b3614b.txt §4: its numbers (the set-points and their times) are recomputed for
+A loading dig (Singh 1995 §3.5, Fig. 26) is executed as one parameterized script in the
+sense of Rowe 1997 §4: its numbers (the set-points and their times) are recomputed for
 every dig from the plan, and each joint follows its own sub-script. Here the sub-scripts are the
 joint-space path the machine's inverse kinematics (:mod:`excavsim.robot.loaders`) gives for the sampled
 tip poses of the plan, timed so that the tip moves at ``tip_speed`` and no joint exceeds its speed

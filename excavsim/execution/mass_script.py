@@ -1,4 +1,4 @@
-"""The mass-excavation (truck-loading) script of 001_0de172b0d6b3614b.txt §4.3 and §6.2 on the script engine.
+"""The mass-excavation (truck-loading) script of Rowe 1997 §4.3 and §6.2 on the script engine.
 
 After a dig, four single-joint sub-scripts run side by side, coupled through conditions on the
 other joints (the listing of §6.2, Fig. 4): swing = waist, boom = shoulder, stick = elbow, bucket =

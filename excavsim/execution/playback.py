@@ -1,6 +1,6 @@
 """Programming digs by demonstration and playing them back with variable impedance (DiMaio ch. 3, 6).
 
-Source: 002_694c274da322d931.txt, ch. 3 (§3.1 recording and playback in dissimilar environments,
+Source: DiMaio 1998, ch. 3 (§3.1 recording and playback in dissimilar environments,
 §3.2 the duality principle, §3.3 the generalised duality principle, §3.3.2 the position-force error
 weighting, §3.3.3-3.3.4 the environment impedance from the force/velocity ratio), ch. 6 and App. A.2.
 

@@ -1,4 +1,4 @@
-"""Parameterized scripts (001_0de172b0d6b3614b.txt §4.1-4.3) and the engine that runs them.
+"""Parameterized scripts (Rowe 1997 §4.1-4.3) and the engine that runs them.
 
 A :class:`Script` is a set of sub-scripts, one per joint or joint group. Each sub-script is a list
 of :class:`Step` s; a step is a *condition* and a *command*. A sub-script starts at its first step

@@ -1,4 +1,4 @@
-"""Teleoperation from a terminal: keys move the bucket tip in the arm plane (002_694c274da322d931.txt §6:
+"""Teleoperation from a terminal: keys move the bucket tip in the arm plane (DiMaio 1998 §6:
 "manipulation of the ... joystick results in velocity commands which drive the bucket endpoint").
 
 A key press moves the commanded tip pose (x radial, z up, pitch) by one step; the driver

@@ -1,6 +1,6 @@
 """What the planner hands to the executor, and what the executor reports back.
 
-:class:`TrenchAction` is the trenching action of 000_a3ca905d8c6d92bf.txt §3.4.1 with its
+:class:`TrenchAction` is the trenching action of Singh 1995 §3.4.1 with its
 dependent drag length; :class:`DigPlan` is the tip path the executor follows (from the planner or
 from the boundary-following fallback, §7.2); :class:`ExecutionRecord` is what happened while it
 ran, at sensor level: the loop turns it into metrics, learning into force samples.

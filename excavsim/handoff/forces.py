@@ -1,6 +1,6 @@
 """The force-predictor contract: what the planner asks of any model of the soil's push-back.
 
-The planner's force constraint (000_a3ca905d8c6d92bf.txt §5.3) takes any object with a ``predict``
+The planner's force constraint (Singh 1995 §5.3) takes any object with a ``predict``
 method (:class:`ForcePredictor`); the nominal one is the wedge model (eq. 8,
 :class:`~excavsim.planning.predictor.WedgePredictor`) with the configured soil, which the world's
 soil deliberately differs from. Learned predictors (§5.2, :mod:`excavsim.learning`) plug in too:

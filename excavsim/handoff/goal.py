@@ -1,6 +1,6 @@
 """The trench goal's profile and the mapped surface along the arm plane, as the planner sees them.
 
-A trench goal (:class:`~excavsim.config.TrenchGoal`, 000_a3ca905d8c6d92bf.txt §3.4) is a 2-D
+A trench goal (:class:`~excavsim.config.TrenchGoal`, Singh 1995 §3.4) is a 2-D
 profile in the arm plane at one waist angle: :func:`goal_profile` gives the lowest height the bucket
 may cut to at each radial distance. :class:`SurfaceProfile` is the scanned elevation map sampled
 along the same plane (the planner's view of the terrain). Both are shared by the planner, the

@@ -3,7 +3,7 @@
 :class:`ScanGeometry` is what the robot knows of its scanner and :class:`RangeImage` what one scan
 returns (the simulated scanner, :class:`~excavsim.world.scanner.LaserScanner`, reads the true
 terrain and belongs to the world); :class:`ElevationMap` is the robot's belief of the terrain,
-built by :func:`~excavsim.sensing.elevation.build_map` (000_a3ca905d8c6d92bf.txt §7.1.2).
+built by :func:`~excavsim.sensing.elevation.build_map` (Singh 1995 §7.1.2).
 """
 
 from __future__ import annotations

@@ -1,4 +1,4 @@
-"""excavsim.learning: learning to predict resistive forces (000_a3ca905d8c6d92bf.txt §5.2).
+"""excavsim.learning: learning to predict resistive forces (Singh 1995 §5.2).
 
 * :mod:`~excavsim.learning.encoding`, :mod:`~excavsim.learning.dataset`: force samples of executed
   digs (action, progress, terrain before the dig, measured F/T), saved as a table;

@@ -1,4 +1,4 @@
-"""A learned force model as the planner's force predictor (000_a3ca905d8c6d92bf.txt §5.3 with §5.2).
+"""A learned force model as the planner's force predictor (Singh 1995 §5.3 with §5.2).
 
 :class:`LearnedForcePredictor` satisfies :class:`~excavsim.planning.predictor.ForcePredictor`:
 the planner's force constraint queries it along every candidate dig with a

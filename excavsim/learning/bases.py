@@ -1,4 +1,4 @@
-"""Linear bases for learning resistive forces (000_a3ca905d8c6d92bf.txt §5.2.2, eqs. 12-17).
+"""Linear bases for learning resistive forces (Singh 1995 §5.2.2, eqs. 12-17).
 
 A basis turns the columns of a force sample (:mod:`excavsim.learning.encoding`) into the terms
 ``G_i`` of ``G_1 k_1 + ... + G_n k_n = F`` (eq. 12):

@@ -1,4 +1,4 @@
-"""Force data sets from execution records (000_a3ca905d8c6d92bf.txt §5.2.2, §5.2.4).
+"""Force data sets from execution records (Singh 1995 §5.2.2, §5.2.4).
 
 One row per F/T sample taken while the bucket digs (from the dig step's start to the lift-out, and
 never after a stall, when the bucket backs out): the dig it came from, the sample time, the features of

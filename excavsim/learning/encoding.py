@@ -1,4 +1,4 @@
-"""The encoding of a dig and of the terrain before it (000_a3ca905d8c6d92bf.txt §5.2.2, Figs. 65-67).
+"""The encoding of a dig and of the terrain before it (Singh 1995 §5.2.2, Figs. 65-67).
 
 Every force sample, measured during a dig or queried by the planner along a candidate dig, becomes
 one row of named columns. The same function, :func:`encode`, serves both, so that a predictor sees

@@ -1,4 +1,4 @@
-"""Figures of force learning: Fig. 81 of 000_a3ca905d8c6d92bf.txt, errors on large forces.
+"""Figures of force learning: Fig. 81 of Singh 1995, errors on large forces.
 
 matplotlib's object-oriented API on an Agg canvas (no pyplot, no display), as
 :mod:`excavsim.planning.figures`.

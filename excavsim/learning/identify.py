@@ -1,4 +1,4 @@
-"""Identifying DiMaio's bucket-ground model from force records (002_694c274da322d931.txt §5.5.1).
+"""Identifying DiMaio's bucket-ground model from force records (DiMaio 1998 §5.5.1).
 
 With soil shearing neglected (eq. 5.57) the model's tangential and normal forces are
 

@@ -1,4 +1,4 @@
-"""Memory-based self-tuning of script parameters (001_0de172b0d6b3614b.txt §5, §6.2): numpy/scipy only.
+"""Memory-based self-tuning of script parameters (Rowe 1997 §5, §6.2): numpy/scipy only.
 
 * :class:`Memory` keeps every trial: the script parameters tried (the inputs x, 7 in §6.2) and the
   outcomes (time t, pile radius r, pile angle theta).

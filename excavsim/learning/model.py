@@ -1,4 +1,4 @@
-"""The interface of learned force predictors (000_a3ca905d8c6d92bf.txt §5.2): :class:`ForceModel`.
+"""The interface of learned force predictors (Singh 1995 §5.2): :class:`ForceModel`.
 
 A model maps force samples (columns of :mod:`excavsim.learning.encoding`, any shape ``(...)``) to
 the force the wrist sensor will read, ``(..., 2)`` = ``(F_x, F_z)`` in the tip frame [N]:

@@ -1,4 +1,4 @@
-"""A back-propagation network predicting forces (000_a3ca905d8c6d92bf.txt §5.2.3.3, eqs. 26-27)."""
+"""A back-propagation network predicting forces (Singh 1995 §5.2.3.3, eqs. 26-27)."""
 
 from __future__ import annotations
 

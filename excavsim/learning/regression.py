@@ -1,4 +1,4 @@
-"""Global regression, batch (eq. 19) and recursive (eq. 22) (000_a3ca905d8c6d92bf.txt §5.2.3.1)."""
+"""Global regression, batch (eq. 19) and recursive (eq. 22) (Singh 1995 §5.2.3.1)."""
 
 from __future__ import annotations
 

@@ -3,7 +3,7 @@
 The episode driver (:func:`~excavsim.loop.episode.run_episode`) asks a :class:`DigSource` for one
 dig per cycle, on the map it just scanned, and tells it afterwards how the dig went:
 
-* :class:`PlannedDigs` (the default): the planner's choice (000_a3ca905d8c6d92bf.txt ch. 6), or,
+* :class:`PlannedDigs` (the default): the planner's choice (Singh 1995 ch. 6), or,
   when its best dig is below the minimum utility, the boundary-following fallback of §7.2; with a
   :class:`~excavsim.planning.experience.DigExperience` it plans on the map as the executed digs
   corrected it and never repeats a failed dig on unchanged terrain;

@@ -1,4 +1,4 @@
-"""Learning while digging: the planner's predictor updated after every dig (000_a3ca905d8c6d92bf.txt §5.2).
+"""Learning while digging: the planner's predictor updated after every dig (Singh 1995 §5.2).
 
 :class:`OnlineLearning` is an :class:`~excavsim.handoff.episode.EpisodeObserver`: at the start of an
 episode it installs a :class:`~excavsim.learning.adapter.LearnedForcePredictor` on the rig's

@@ -4,7 +4,7 @@
 the configurations, the robot's model of itself (:class:`~excavsim.robot.kinematics.PlanarArm`,
 read from the compiled model), the scanner, the planner with its nominal force predictor, the dig
 executor and the model's ``home`` and ``park`` keyframes. :func:`park`, :func:`go_home` and
-:func:`scan` are the moves around each dig (000_a3ca905d8c6d92bf.txt §7.2, Fig. 107): park out of
+:func:`scan` are the moves around each dig (Singh 1995 §7.2, Fig. 107): park out of
 the scanner's view, scan ten images into a map, come back over the box.
 """
 

@@ -3,7 +3,7 @@
 :class:`DigSamples` is an episode observer: it traces the tip from the joint encoders, keeps the
 terrain of each scan and the phases of each chosen dig, and turns a dig's execution record into
 force samples (:func:`~excavsim.learning.dataset.samples_from_record`, the encoding of
-000_a3ca905d8c6d92bf.txt §5.2.2). Collecting data (:mod:`excavsim.studies.learning.collect`) and learning
+Singh 1995 §5.2.2). Collecting data (:mod:`excavsim.studies.learning.collect`) and learning
 online (:mod:`excavsim.loop.online`) both build on it.
 """
 

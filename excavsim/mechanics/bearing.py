@@ -1,7 +1,7 @@
 """Bearing capacity of a strip footing: how hard the soil pushes back on the bucket's bottom and back.
 
 Standard geotechnics, not from the thesis (which treats the bucket's bearing only qualitatively,
-000_a3ca905d8c6d92bf.txt Fig. 19): the world's soil model uses these factors for the pressure on the
+Singh 1995 Fig. 19): the world's soil model uses these factors for the pressure on the
 bucket's outer surface, between the at-rest pressure and the bearing capacity.
 """
 

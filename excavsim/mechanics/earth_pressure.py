@@ -1,6 +1,6 @@
 """Classical passive earth pressure: the published closed forms the wedge model must reproduce.
 
-The wedge model (:mod:`excavsim.mechanics.wedge`, 000_a3ca905d8c6d92bf.txt eqs. 3-11) is Coulomb's
+The wedge model (:mod:`excavsim.mechanics.wedge`, Singh 1995 eqs. 3-11) is Coulomb's
 passive wedge: a planar failure surface through the tip, its angle the one of least resistance. For
 a cohesionless soil with a horizontal surface and no surcharge, the force on a blade of rake ``rho``
 is therefore Coulomb's passive thrust on a wall whose back face is inclined ``theta = pi/2 - rho``

@@ -1,6 +1,6 @@
 r"""The wedge model of a flat blade cutting soil: the Fundamental Equation of Earthmoving.
 
-000_a3ca905d8c6d92bf.txt §5.1.2.1, eqs. 3-11 (after [McKyes85], [Reece64]). A flat blade of width
+Singh 1995 §5.1.2.1, eqs. 3-11 (after [McKyes85], [Reece64]). A flat blade of width
 ``w`` at depth ``d`` and rake ``rho`` pushes a triangular wedge of soil up a planar failure surface
 at angle ``beta``; the force the blade must apply at the moment the wedge fails is (eqs. 5, 8)::
 

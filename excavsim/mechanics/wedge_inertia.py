@@ -1,6 +1,6 @@
 """The inertial term of the dynamic Fundamental Equation of Earthmoving (McKyes 1985), as a reference.
 
-The wedge model of 000_a3ca905d8c6d92bf.txt (eqs. 3-11, :mod:`excavsim.mechanics.wedge`) is static:
+The wedge model of Singh 1995 (eqs. 3-11, :mod:`excavsim.mechanics.wedge`) is static:
 "At low speeds, the forces required to accelerate soil in front of the blade can be ignored"
 (§5.1.2). Its dynamic form (McKyes, *Soil Cutting and Tillage*, 1985, ch. 4) adds the force that
 accelerates the soil entering the wedge::

@@ -1,4 +1,4 @@
-"""excavsim.planning: the trenching planner of 000_a3ca905d8c6d92bf.txt ch. 3-7, numpy only (no simulator).
+"""excavsim.planning: the trenching planner of Singh 1995 ch. 3-7, numpy only (no simulator).
 
 One dig is chosen at a time on the scanned elevation map (never the true terrain):
 

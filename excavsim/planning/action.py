@@ -1,4 +1,4 @@
-"""The trenching action's geometry (000_a3ca905d8c6d92bf.txt §3.4): the tip path of a dig and the soil it sweeps.
+"""The trenching action's geometry (Singh 1995 §3.4): the tip path of a dig and the soil it sweeps.
 
 One dig is the trenching action (k, alpha, d1, d2) of §3.4.1 (Fig. 14, Fig. 36): enter the mapped surface at
 radial distance ``k``; **penetrate** a straight line at ``alpha`` below horizontal for ``d1`` with rake

@@ -1,4 +1,4 @@
-"""Simulated annealing over the trenching action space (000_a3ca905d8c6d92bf.txt §6.3).
+"""Simulated annealing over the trenching action space (Singh 1995 §6.3).
 
 The alternative to :meth:`~excavsim.planning.search.TrenchPlanner.plan`'s exhaustive search that
 the thesis proposes (§1.4, §2.2.2, §6.3, [Bohachevsky86]): "a stochastic gradient descent method. A

@@ -1,4 +1,4 @@
-"""The constraints on a trenching dig (000_a3ca905d8c6d92bf.txt ch. 4, §5.3), one function each.
+"""The constraints on a trenching dig (Singh 1995 ch. 4, §5.3), one function each.
 
 Each is tested on the tip path sampled every ``sample_spacing_m`` and written once, vectorized over
 the samples of any number of paths, for every search: the exhaustive search and annealing (through

@@ -1,4 +1,4 @@
-"""Boundary-following fallback digs (000_a3ca905d8c6d92bf.txt §7.2).
+"""Boundary-following fallback digs (Singh 1995 §7.2).
 
 When the planner finds no dig of minimum utility, the thesis executes "a pre-planned set of
 actions": for trenching, the robot follows the boundaries of the trench. Here that set is built from

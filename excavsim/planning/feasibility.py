@@ -1,4 +1,4 @@
-"""The feasibility of cells of the action grid, and their longest admissible drag (000_a3ca905d8c6d92bf.txt ch. 4-6).
+"""The feasibility of cells of the action grid, and their longest admissible drag (Singh 1995 ch. 4-6).
 
 A cell is an independent triple (k, alpha, d1) of the trenching action (§4.3: "the set of digs for
 which there exists a valid value of the dependent parameters"). ``d2`` is the dependent variable

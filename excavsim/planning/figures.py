@@ -1,4 +1,4 @@
-"""Figures of one trenching plan, as the thesis draws them (000_a3ca905d8c6d92bf.txt ch. 4, §5.3).
+"""Figures of one trenching plan, as the thesis draws them (Singh 1995 ch. 4, §5.3).
 
 * :func:`plot_feasible_sets`: each constraint's set of actions as solid cubes in (k, alpha, d1)
   space, and their composites (Figs. 38-49, 85);

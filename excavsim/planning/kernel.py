@@ -1,4 +1,4 @@
-"""The compiled per-candidate evaluation of the trenching grid (numba; 000_a3ca905d8c6d92bf.txt ch. 4-6).
+"""The compiled per-candidate evaluation of the trenching grid (numba; Singh 1995 ch. 4-6).
 
 The same feasibility as :class:`~excavsim.planning.feasibility.Feasibility` with ``prune=True``
 (:meth:`~excavsim.planning.feasibility.Feasibility.penetration_lines` and

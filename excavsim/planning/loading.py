@@ -1,4 +1,4 @@
-"""The loading action and its constraints (000_a3ca905d8c6d92bf.txt §3.5, §4.1-4.2, §7.2.1), for a 2-D pile.
+"""The loading action and its constraints (Singh 1995 §3.5, §4.1-4.2, §7.2.1), for a 2-D pile.
 
 **The action** (§3.5, Fig. 26): the bucket tip enters the pile's surface at horizontal distance ``k`` from
 its near foot (``k < 0``, down to ``k_min``: on the bare ground in front of it, so that h = 0, the bucket set

@@ -1,4 +1,4 @@
-"""The utility of trenching digs and the choice among feasible ones (000_a3ca905d8c6d92bf.txt §6.1.3, §6.2.3).
+"""The utility of trenching digs and the choice among feasible ones (Singh 1995 §6.1.3, §6.2.3).
 
 An action space planner needs two functions (§3.3): feasibility (:mod:`~excavsim.planning.constraints`,
 :mod:`~excavsim.planning.feasibility`) and utility, here. The objective (``PlannerConfig.objective``) is

@@ -1,4 +1,4 @@
-"""The planner's nominal force predictor: the wedge model (000_a3ca905d8c6d92bf.txt eq. 8).
+"""The planner's nominal force predictor: the wedge model (Singh 1995 eq. 8).
 
 It implements :class:`~excavsim.handoff.forces.ForcePredictor` with the configured soil's wedge
 model; learned predictors (:mod:`excavsim.learning`) implement the same protocol.

@@ -1,4 +1,4 @@
-"""Rotation centres of a bucket that rotates while it translates ("drag", 000_a3ca905d8c6d92bf.txt §3.4.2.3).
+"""Rotation centres of a bucket that rotates while it translates ("drag", Singh 1995 §3.4.2.3).
 
 During the drag the tip B moves horizontally towards the robot while the pitch falls by ``omega``
 per metre travelled (eq. 1). The instantaneous centre of rotation lies on the perpendicular to B's

@@ -1,4 +1,4 @@
-"""The exhaustive trenching planner: one dig on an elevation map (000_a3ca905d8c6d92bf.txt ch. 6, §6.2).
+"""The exhaustive trenching planner: one dig on an elevation map (Singh 1995 ch. 6, §6.2).
 
 :class:`TrenchPlanner` searches the discretized (k, alpha, d1) grid of the trenching action
 (:mod:`~excavsim.planning.action`, §3.4) exhaustively (§6.2): it prunes along d1 at the first

@@ -1,6 +1,6 @@
 """Rerun recording of a self-tuned truck-loading run (``excavsim tune --record FILE.rrd``).
 
-001_0de172b0d6b3614b.txt §4.3, §6.2. An observer of :func:`excavsim.tasks.truck.trial.tune` (the loop never
+Rowe 1997 §4.3, §6.2. An observer of :func:`excavsim.tasks.truck.trial.tune` (the loop never
 imports it): ``started(cfg, base)``, ``trial(trial, cfg, cost=, sq_error=)`` after every trial (with its
 :class:`~excavsim.tasks.truck.trial.TrialTrace` and the loop's cost and squared placement error),
 ``finished(trials, cfg)``. Everything shown is the mind's
@@ -127,7 +127,7 @@ class TruckRecorder:
 
     @staticmethod
     def _config_text(cfg, base) -> str:
-        lines = ["# Truck loading, self-tuned (001_0de172b0d6b3614b.txt §6.2)", "", "## Configuration", ""]
+        lines = ["# Truck loading, self-tuned (Rowe 1997 §6.2)", "", "## Configuration", ""]
         for f in dataclasses.fields(cfg):
             v = getattr(cfg, f.name)
             if isinstance(v, np.ndarray):

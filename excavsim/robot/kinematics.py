@@ -1,6 +1,6 @@
 """Planar kinematics of the T3 digging chain (shoulder, elbow, wrist pitch), from the compiled model.
 
-Trenching is planar (000_a3ca905d8c6d92bf.txt §4.3.3): the waist fixes the arm's plane and only the
+Trenching is planar (Singh 1995 §4.3.3): the waist fixes the arm's plane and only the
 shoulder, elbow and wrist pitch move while digging; wrist yaw and roll are held at zero (App. A1,
 "θ5 and θ6 are typically held constant"). :func:`~excavsim.robot.extract.arm_from_model` reads the chain's geometry
 from a compiled MuJoCo model (joint anchors, the ``bucket_tip`` site, body masses and centres of

@@ -1,4 +1,4 @@
-"""The two loading machines of the 2-D loading world (000_a3ca905d8c6d92bf.txt §4.1.3, §4.2, App. A1-2).
+"""The two loading machines of the 2-D loading world (Singh 1995 §4.1.3, §4.2, App. A1-2).
 
 Both are planar, in the world's (x, z) plane: x horizontal, from the machine towards the pile, z up, the
 ground at z = 0. A tip pose is (x, z, phi): the bucket tip and the direction ``phi`` of its floor, from the

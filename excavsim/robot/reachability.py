@@ -1,4 +1,4 @@
-"""Fast reachability lookup over (z, pitch) (000_a3ca905d8c6d92bf.txt App. A1-3, Fig. A-6).
+"""Fast reachability lookup over (z, pitch) (Singh 1995 App. A1-3, Fig. A-6).
 
 The z axis and the pitch axis are cut into cells (1 cm and 1 degree). For each cell centre the table
 stores the radial distances x at which the tip pose (x, z, pitch) is reachable by exact elbow-up IK

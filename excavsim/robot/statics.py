@@ -1,4 +1,4 @@
-"""Static joint torques of the planar digging chain (000_a3ca905d8c6d92bf.txt §5.3, App. 2).
+"""Static joint torques of the planar digging chain (Singh 1995 §5.3, App. 2).
 
 The torque a joint must deliver to hold the arm still against the soil is (eq. 28)
 

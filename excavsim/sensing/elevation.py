@@ -1,4 +1,4 @@
-"""From range images to the elevation map the planner consumes (000_a3ca905d8c6d92bf.txt §7.1.2).
+"""From range images to the elevation map the planner consumes (Singh 1995 §7.1.2).
 
 The processing is the thesis' (Figs. 101-102 and the text around them):
 

@@ -1,4 +1,4 @@
-"""The wrist force/torque sensor as the robot's mind reads it (000_a3ca905d8c6d92bf.txt §7.1.3).
+"""The wrist force/torque sensor as the robot's mind reads it (Singh 1995 §7.1.3).
 
 On the testbed a JR3 six-axis sensor sits between the wrist and the bucket; its processor was
 "programmed to register forces with respect to the tip of the bucket" (Fig. 103), and a dedicated

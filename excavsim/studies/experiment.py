@@ -1,4 +1,4 @@
-"""The thesis' trenching experiments by command (000_a3ca905d8c6d92bf.txt §7.2.2, Figs. 113-117).
+"""The thesis' trenching experiments by command (Singh 1995 §7.2.2, Figs. 113-117).
 
 An experiment (``configs/experiments/*.yaml``, :class:`ExperimentSpec`) is one or more trenching
 episodes (:class:`~excavsim.loop.scenario.EpisodeSpec`) with the planner's constraints and

@@ -1,4 +1,4 @@
-"""DiMaio's bucket-ground interaction model as the world's soil force (002_694c274da322d931.txt ch. 5).
+"""DiMaio's bucket-ground interaction model as the world's soil force (DiMaio 1998 ch. 5).
 
 Selected by ``truth.model: dimaio`` in ``configs/scene.yaml`` (or ``scene: {truth: {model: dimaio}}``
 in an episode specification); the wedge model (:mod:`excavsim.world.kernels`) stays the default.

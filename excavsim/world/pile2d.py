@@ -1,4 +1,4 @@
-"""The truth of the 2-D loading world (000_a3ca905d8c6d92bf.txt §7.2.1): a pile's profile on flat ground.
+"""The truth of the 2-D loading world (Singh 1995 §7.2.1): a pile's profile on flat ground.
 
 The world is a vertical section: columns of soil of width ``dx`` [m] on the ground at z = 0, column i
 centred at ``x0 + (i + 1/2) dx``, height ``heights[i]`` [m]. Areas are in m^2 of the section;

@@ -5,7 +5,7 @@ beyond the near wall; the site's +z is its boresight). Each scan casts a grid of
 azimuth and elevation over the box plus a margin, and a small patch of rays at each surveyed target
 on the walls. Occlusion is truthful: rays stop at the soil (MuJoCo's heightfield triangles), the
 walls and the target plates (:mod:`excavsim.world.raycast`). The arm is not in this scene model:
-the executor parks it out of view before a scan (000_a3ca905d8c6d92bf.txt §7.2).
+the executor parks it out of view before a scan (Singh 1995 §7.2).
 
 Errors (``configs/sensing.yaml``):
 

@@ -1,7 +1,7 @@
 """Soil settlement: relax the heightfield until no slope between neighbours exceeds the angle of repose.
 
 This is Puhl's method for a single-valued soil surface, modified for an arbitrary angle of repose
-(000_a3ca905d8c6d92bf.txt §2.1.2, Fig. 6: the banks of a trench settle to 30 degrees). The grid is
+(Singh 1995 §2.1.2, Fig. 6: the banks of a trench settle to 30 degrees). The grid is
 ``heights: (nrow, ncol) float64, metres``, ``heights[row, col]`` with ``row`` the y index and ``col``
 the x index, on square cells of side ``cell_size_m``; each sample is a soil column of area
 ``cell_size_m**2``. Each cell has 8 neighbours, at ``L = cell`` (axis) and ``L = sqrt(2) cell``

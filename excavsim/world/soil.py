@@ -12,7 +12,7 @@ Model (and where it simplifies):
   removed volume enters the bucket up to its heaped capacity; beyond it the cut soil is deposited
   just ahead of the edge (surcharge) and spreads by settlement. Only the edge reshapes the terrain:
   the bottom and back of the bucket press on the soil (below) but do not displace it.
-* **Cutting resistance**: the wedge model, eq. 8 (000_a3ca905d8c6d92bf.txt §5.1.2), per width sample,
+* **Cutting resistance**: the wedge model, eq. 8 (Singh 1995 §5.1.2), per width sample,
   with depth ``d`` of the edge below the surface just ahead of it (bilinear in the heightfield, so
   sub-cell), the rake of the blade, ``beta`` minimizing ``N_gamma`` (tabulated per rake; below 5 deg
   the blade slices along itself, outside the model, and the factors are held at 5 deg), adhesion

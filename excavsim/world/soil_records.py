@@ -274,7 +274,7 @@ DIMAIO_PARAMS = np.dtype([
     ("width", _F8),
     ("v_eps", _F8),
 ], align=True)
-"""The constants of DiMaio's bucket-ground model (:mod:`excavsim.world.dimaio`; 002_694c274da322d931.txt §5.2).
+"""The constants of DiMaio's bucket-ground model (:mod:`excavsim.world.dimaio`; DiMaio 1998 §5.2).
 
 Fields:
     b_t0, b_n0: viscous friction per metre of penetration along and normal to the cutting surface,

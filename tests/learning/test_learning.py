@@ -1,4 +1,4 @@
-"""Learning to predict resistive forces (000_a3ca905d8c6d92bf.txt §5.2): bases, methods, evaluation, online use.
+"""Learning to predict resistive forces (Singh 1995 §5.2): bases, methods, evaluation, online use.
 
 Most tests run on ``tests/data/learning_digs.npz``, force samples of 12 simulated digs
 (regenerate with ``python tests/data/make_learning_digs.py``); one runs a short episode.

@@ -1,4 +1,4 @@
-"""The wedge model (000_a3ca905d8c6d92bf.txt §5.1.2.1, eqs. 3-11) against hand derivations and its own equations.
+"""The wedge model (Singh 1995 §5.1.2.1, eqs. 3-11) against hand derivations and its own equations.
 
 The reference values below use the thesis' formulas literally (cotangents, plain ``math``), not the
 closed forms of the module, and a scalar bisection on the slope of eq. 9 for the critical angle.

@@ -1,4 +1,4 @@
-"""DiMaio's bucket-ground model as the world's second truth (002_694c274da322d931.txt §5.1-5.2).
+"""DiMaio's bucket-ground model as the world's second truth (DiMaio 1998 §5.1-5.2).
 
 Each component against a hand derivation from the thesis' equations, then the model in the world:
 selected from the scene or an episode specification, measured by the F/T, cutting the grid with the

@@ -1,7 +1,7 @@
 """The wedge model and the world's soil against published references.
 
 * Coulomb's passive wedge in Mueller-Breslau's closed form (:mod:`excavsim.mechanics.earth_pressure`):
-  the planar wedge of eqs. 3-11 (000_a3ca905d8c6d92bf.txt) is that wedge, so ``N_gamma = K_p / 2``
+  the planar wedge of eqs. 3-11 (Singh 1995) is that wedge, so ``N_gamma = K_p / 2``
   for a blade of rake ``rho`` (a wall battered ``pi/2 - rho``) at every friction angle.
 * Rankine's passive coefficient with Bell's cohesion term for a smooth vertical wall.
 * Coulomb's K_p as tabulated in geotechnical texts (vertical wall, level backfill, phi = 30 deg):

@@ -1,4 +1,4 @@
-"""Soil settlement (000_a3ca905d8c6d92bf.txt §2.1.2, Fig. 6): volume, repose, symmetry, locality."""
+"""Soil settlement (Singh 1995 §2.1.2, Fig. 6): volume, repose, symmetry, locality."""
 
 from __future__ import annotations
 

@@ -1,4 +1,4 @@
-"""Soil calibration from F/T records (``excavsim calibrate``, 002_694c274da322d931.txt §5.5.1).
+"""Soil calibration from F/T records (``excavsim calibrate``, DiMaio 1998 §5.5.1).
 
 :mod:`~excavsim.apps.calibrate.fit` fits a soil and reproduces Table 5.3; :mod:`~excavsim.apps.calibrate.digs`
 records the digs a calibration fits, reads them back and digs them again.

@@ -1,4 +1,4 @@
-"""Demonstration and playback (002_694c274da322d931.txt §6.1-6.3).
+"""Demonstration and playback (DiMaio 1998 §6.1-6.3).
 
 :mod:`~excavsim.apps.playback.play` demonstrates a dig in one soil and plays it back in others with each
 impedance controller; :mod:`~excavsim.apps.playback.teleop` makes a demonstration by teleoperation from

@@ -1,4 +1,4 @@
-"""The chapter-6 experiment (002_694c274da322d931.txt §6.1-6.3, Figs. 6.42-6.48): demonstrate a dig
+"""The chapter-6 experiment (DiMaio 1998 §6.1-6.3, Figs. 6.42-6.48): demonstrate a dig
 in one soil, play it back in a stiffer and a softer one with each impedance controller.
 
 The demonstration is the cut of :data:`~excavsim.loop.demo.DEMO_ACTION` recorded by the dig executor

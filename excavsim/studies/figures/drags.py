@@ -1,7 +1,7 @@
 """Soil-bin experiments on the world's soil model: the bucket driven along prescribed tip paths.
 
 The thesis measured the wedge model's phenomena by making the bucket follow a prescribed
-trajectory through the testbed's sand and recording the force sensor (000_a3ca905d8c6d92bf.txt
+trajectory through the testbed's sand and recording the force sensor (Singh 1995
 §5.1.3, Figs. 54, 58-63; Fig. 20 for the penetration). :class:`KinematicDrive` does the same to the
 world (truth): it sets the arm's joints from inverse kinematics for each tip pose, their velocities
 by finite difference, runs MuJoCo's kinematics and steps only the soil model, so that the measured

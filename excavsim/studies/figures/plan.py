@@ -1,4 +1,4 @@
-"""The thesis' planner figures (000_a3ca905d8c6d92bf.txt §3.4.2.3, §5.3, ch. 6), drawn by ``excavsim figures``.
+"""The thesis' planner figures (Singh 1995 §3.4.2.3, §5.3, ch. 6), drawn by ``excavsim figures``.
 
 Figs. 22 (rotation centres, :mod:`excavsim.planning.rotation`), 82-84 (tip and gravity torques along
 two similar paths, eqs. 28-31), 85-88 (the force constraint in the action space and the torque

@@ -1,6 +1,6 @@
 """The thesis' figures by command: ``excavsim figures [NAME ...] [--out DIR] [--list]``.
 
-Each figure of 000_a3ca905d8c6d92bf.txt listed by :func:`figures` is redrawn from this project's
+Each figure of Singh 1995 listed by :func:`figures` is redrawn from this project's
 world and mind, beside the static wedge model (eq. 8, :mod:`excavsim.mechanics.wedge`) where the
 thesis compares with it. The force figures (20, 54, 59, 61, 63) drive the bucket through the
 world's soil model as it is (:mod:`excavsim.studies.figures.drags`): they show that model's behaviour (the

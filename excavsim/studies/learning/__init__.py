@@ -1,4 +1,4 @@
-"""The learning comparison (``excavsim learn``, 000_a3ca905d8c6d92bf.txt §5.2).
+"""The learning comparison (``excavsim learn``, Singh 1995 §5.2).
 
 :mod:`~excavsim.studies.learning.collect` digs in the simulator for force data,
 :mod:`~excavsim.studies.learning.compare` cross-validates the predictors and runs the

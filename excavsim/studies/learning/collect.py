@@ -1,4 +1,4 @@
-"""Collecting force data by digging in the simulator (000_a3ca905d8c6d92bf.txt §5.2.4: ~4000 samples of 30 digs).
+"""Collecting force data by digging in the simulator (Singh 1995 §5.2.4: ~4000 samples of 30 digs).
 
 This module and :mod:`excavsim.loop.online` are where learning meets the world: they run episodes
 (:func:`~excavsim.loop.episode.run_episode`) with an observer that turns every dig into force

@@ -1,4 +1,4 @@
-"""Loading from a pile: the 2-D simulation and the MuJoCo one (000_a3ca905d8c6d92bf.txt §7.2.1).
+"""Loading from a pile: the 2-D simulation and the MuJoCo one (Singh 1995 §7.2.1).
 
 :mod:`~excavsim.tasks.load.planar` is the 2-D simulation, :mod:`~excavsim.tasks.load.in_mujoco` the
 MuJoCo episode with the front loader or the front shovel. The mind-side pieces (the loading planner)

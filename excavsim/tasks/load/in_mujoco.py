@@ -1,4 +1,4 @@
-"""Loading from a pile in MuJoCo (000_a3ca905d8c6d92bf.txt §3.5, §4.1-4.2, §7.2.1, Fig. 107's cycle).
+"""Loading from a pile in MuJoCo (Singh 1995 §3.5, §4.1-4.2, §7.2.1, Fig. 107's cycle).
 
 The world is :class:`~excavsim.world.loading_scene.LoadingWorld`: the front loader or the front shovel
 (MJCF models with the sizes of :mod:`excavsim.robot.loaders`, ``configs/loading.yaml``) beside a pile in

@@ -1,4 +1,4 @@
-"""The 2-D loading simulation of 000_a3ca905d8c6d92bf.txt §7.2.1 (Figs. 108-112) and its figures (Figs. 28-35).
+"""The 2-D loading simulation of Singh 1995 §7.2.1 (Figs. 108-112) and its figures (Figs. 28-35).
 
 A pile in a two-dimensional world (:mod:`excavsim.world.pile2d`), a machine (:mod:`excavsim.robot.loaders`),
 and the loading planner (:mod:`excavsim.planning.loading`), wired as the excavation cycle of Fig. 107:

@@ -1,6 +1,6 @@
 """The truck-loading campaign: tuned against untuned over seeds and soils, and a target moved mid-run.
 
-001_0de172b0d6b3614b.txt §6.2 (Fig. 12). For every soil and seed, three runs of ``trials`` trials
+Rowe 1997 §6.2 (Fig. 12). For every soil and seed, three runs of ``trials`` trials
 (:func:`excavsim.tasks.truck.trial.tune`): **tuned** (the online learner), **untuned** (every trial from the
 computed parameters plus the same small noise, ``learn=False``: what the script does without
 learning) and, with ``retarget``, **moved** (tuned, the target moved before trial ``retarget[0]``:
@@ -124,7 +124,7 @@ def format_table(runs: Sequence[RunSummary], window: int) -> str:
     """The campaign's table: per soil and seed the last-window cost, time and error of the tuned and
     the untuned runs, the moved run after the move and at the end, and the verdicts; then the means
     over the seeds of each soil."""
-    head = (f"Truck loading campaign (001_0de172b0d6b3614b.txt §6.2): means of the first / last {window} trials "
+    head = (f"Truck loading campaign (Rowe 1997 §6.2): means of the first / last {window} trials "
             f"(cost, time [s], squared placement error [m^2])\n\n"
             f"| soil | seed | tuned first | tuned last | untuned last | tuned beats untuned | moved: after move "
             f"| moved: last | re-learnt |\n| --- | --- | --- | --- | --- | --- | --- | --- | --- |")

@@ -1,4 +1,4 @@
-"""Truck loading by the mass-excavation script, self-tuned online (001_0de172b0d6b3614b.txt §4.3, §5, §6.2).
+"""Truck loading by the mass-excavation script, self-tuned online (Rowe 1997 §4.3, §5, §6.2).
 
 One **trial** (:func:`run_trial`) is the experiment of §6.2 on the T3: a fresh world (the same soil
 every trial, as the thesis' simulation ensured), the same dig every time (``dig_path`` of
@@ -458,7 +458,7 @@ def write_results(trials: list[Trial], cfg: TruckConfig, out: Path) -> tuple[Pat
         a.plot(n, [r[key] for r in rows], "o-", ms=3)
         a.axvline(cfg.initial_trials + 0.5, color="grey", lw=0.8, ls="--")
         a.set_ylabel(label)
-    ax[0].set_title(f"Self-tuned truck loading (Fig. 12 of 001_0de172b0d6b3614b.txt): target r = {obj.r_d} m, "
+    ax[0].set_title(f"Self-tuned truck loading (Fig. 12 of Rowe 1997): target r = {obj.r_d} m, "
                     f"theta = {math.degrees(obj.theta_d):.0f} deg", fontsize=8)
     ax[-1].set_xlabel("trial")
     fig.tight_layout()

@@ -1,4 +1,4 @@
-"""Identifying DiMaio's model (002_694c274da322d931.txt §5.5.1, Table 5.3) and calibrating a soil from a record."""
+"""Identifying DiMaio's model (DiMaio 1998 §5.5.1, Table 5.3) and calibrating a soil from a record."""
 
 from __future__ import annotations
 

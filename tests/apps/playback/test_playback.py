@@ -1,4 +1,4 @@
-"""Demonstration and impedance playback (002_694c274da322d931.txt §3.2-3.3, App. A.2, ch. 6)."""
+"""Demonstration and impedance playback (DiMaio 1998 §3.2-3.3, App. A.2, ch. 6)."""
 
 from __future__ import annotations
 

@@ -1,5 +1,5 @@
 """Where demonstrations come from besides an executor record: teleoperation from a key sequence and
-a dig read back from a Rerun recording (002_694c274da322d931.txt ch. 6; excavsim playback --teleop / --from-rrd)."""
+a dig read back from a Rerun recording (DiMaio 1998 ch. 6; excavsim playback --teleop / --from-rrd)."""
 
 from __future__ import annotations
 

@@ -1,4 +1,4 @@
-"""Loading from a pile (000_a3ca905d8c6d92bf.txt §3.5, §4.1-4.2, §7.2.1, App. A1-2): machines, action, world, study."""
+"""Loading from a pile (Singh 1995 §3.5, §4.1-4.2, §7.2.1, App. A1-2): machines, action, world, study."""
 
 from __future__ import annotations
 

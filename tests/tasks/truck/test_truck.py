@@ -1,4 +1,4 @@
-"""Truck loading (001_0de172b0d6b3614b.txt §4.3, §5, §6.2): LWR, the simplex, the coupled trigger, the pile."""
+"""Truck loading (Rowe 1997 §4.3, §5, §6.2): LWR, the simplex, the coupled trigger, the pile."""
 
 from __future__ import annotations
 

@@ -1,4 +1,4 @@
-"""Truck loading, self-tuned (001_0de172b0d6b3614b.txt §4.2, §5.4, §6.2): every tuned parameter acts, the
+"""Truck loading, self-tuned (Rowe 1997 §4.2, §5.4, §6.2): every tuned parameter acts, the
 learner trades time once the placement is right, the recording holds its entities, the campaign's table."""
 
 from __future__ import annotations
