@@ -11,7 +11,7 @@ from __future__ import annotations
 import pathlib
 from typing import Annotated
 
-from pydantic import Field, field_validator, model_validator
+from pydantic import Field, field_validator
 
 from excavsim import constants
 from excavsim.config.loader import StrictModel, load_config
@@ -108,11 +108,12 @@ class LoadingCampaign(StrictModel):
             raise ValueError(f"unknown {bad}; allowed: {', '.join(LOADING_MACHINES)}")
         return v
 
-    @model_validator(mode="after")
-    def _seeds(self) -> LoadingCampaign:
-        if any(not 0 <= s <= MAX_SEED for s in self.seeds) or len(set(self.seeds)) != len(self.seeds):
-            raise ValueError(f"seeds must be distinct integers from 0 to 2^32 - 1; given {self.seeds}")
-        return self
+    @field_validator("seeds")
+    @classmethod
+    def _seeds(cls, v: list[int]) -> list[int]:
+        if any(not 0 <= s <= MAX_SEED for s in v) or len(set(v)) != len(v):
+            raise ValueError("allowed: distinct integers from 0 to 2^32 - 1")
+        return v
 
 
 def load_loading_mujoco_config(path: str | pathlib.Path | None = None) -> LoadingMujocoConfig:
