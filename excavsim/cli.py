@@ -17,8 +17,6 @@ from excavsim.errors import ExcavsimError, shorten
 
 MAX_SEED = 2**32 - 1  # seeds are unsigned 32-bit numbers, as EpisodeSpec.seed: exact in every result file
 MAX_DIG_BUDGET = 1000  # EpisodeSpec.dig_budget's bound
-VALIDATE_KINDS = ("robot", "scene", "soils", "sensing", "planner", "executor", "goal", "spec", "campaign",
-                  "experiment")  # the kinds of file `validate` checks (see _validate_file)
 
 
 # -- argument checks: ranges and paths, at parse time (exit 2 before any work) ---------------------
@@ -460,50 +458,11 @@ def _cmd_calibrate(args: argparse.Namespace) -> int:
     return 0
 
 
-def _validate_file(kind: str, path: str) -> str:
-    """Load the ``kind`` file at ``path`` with every check its use would make; returns what it is.
-
-    Goals are checked against configs/scene.yaml; specifications with their overrides and goal
-    resolved; campaigns with every grid value; experiments with every run resolved.
-
-    Raises:
-        ConfigError: naming the file, the field and what is allowed.
-    """
-    from excavsim import config as c
-
-    models = {"robot": c.RobotConfig, "scene": c.SceneConfig, "soils": c.SoilsFile, "sensing": c.SensingConfig,
-              "planner": c.PlannerConfig, "executor": c.ExecutorConfig}
-    if kind in models:
-        return c.load_config(path, models[kind]).__class__.__name__
-    if kind == "goal":
-        c.check_goal(c.load_trench_goal(path), c.load_scene_config(), source=c.display_path(path))
-        return "TrenchGoal"
-    if kind == "campaign":
-        from excavsim.studies.campaign.runner import load_campaign
-
-        return f"CampaignSpec ({len(load_campaign(path).grid)} grid keys, every value checked)"
-    from excavsim.loop.scenario import ResolvedSpec, load_spec
-
-    if kind == "spec":
-        spec = load_spec(path)
-        try:
-            ResolvedSpec(spec)
-        except c.ConfigError as exc:
-            raise c.ConfigError(f"{c.display_path(path)}: {exc}") from None
-        return "EpisodeSpec"
-    from excavsim.studies.experiment import ExperimentSpec
-
-    exp = c.load_config(path, ExperimentSpec)
-    for run in exp.runs:
-        try:
-            ResolvedSpec(run)
-        except c.ConfigError as exc:
-            raise c.ConfigError(f"{c.display_path(path)}: run {shorten(run.name)}: {exc}") from None
-    return f"ExperimentSpec ({len(exp.runs)} runs)"
-
-
 def _cmd_validate(args: argparse.Namespace) -> int:
-    print(f"{shorten(args.file, 200)}: valid {_validate_file(args.kind, args.file)}")
+    from excavsim.validate import validate_paths
+
+    for line in validate_paths(args.file, kind=args.kind):
+        print(line)
     return 0
 
 
@@ -903,6 +862,7 @@ def _world_options(parser: argparse.ArgumentParser) -> None:
 def build_parser() -> argparse.ArgumentParser:
     """The argument parser of the ``excavsim`` command."""
     from excavsim import __version__
+    from excavsim.validate import KINDS as VALIDATE_KINDS
 
     parser = argparse.ArgumentParser(prog="excavsim", description="MuJoCo testbed for robotic trenching.")
     parser.add_argument("--version", action="version", version=f"excavsim {__version__}")
@@ -995,12 +955,15 @@ def build_parser() -> argparse.ArgumentParser:
                                "ADDRESS, as trench --live); records every episode")
     campaign.set_defaults(func=_cmd_campaign)
 
-    validate = sub.add_parser("validate", help="check a configuration file and report every problem")
-    validate.add_argument("kind", choices=VALIDATE_KINDS,
-                          help="what the file configures (goal: a trench goal, checked against configs/scene.yaml; "
+    validate = sub.add_parser("validate", help="check configuration files of any kind and report every problem")
+    validate.add_argument("file", nargs="+", metavar="FILE",
+                          help="a configuration file (YAML; the regression baseline: JSON) or a directory (every "
+                               "such file under it); its kind is told from its place in configs/ or its fields "
+                               "(the older form KIND FILE still works)")
+    validate.add_argument("--kind", choices=list(VALIDATE_KINDS),
+                          help="what the files configure (goal: a trench goal, checked against configs/scene.yaml; "
                                "spec: an episode specification with its overrides and goal; campaign and "
-                               "experiment: every episode they make)")
-    validate.add_argument("file", help="the YAML file")
+                               "experiment: every episode they make; default: told from each file)")
     validate.set_defaults(func=_cmd_validate)
 
     plan = sub.add_parser("plan", help="plan one dig of a trench on an elevation map, print it and draw figures")

@@ -54,6 +54,11 @@ BASES = {
              "planner": {"grid": {"k_step_m": 0.2}}, "scene": {"initial_soil_height_m": 0.5}},
     "campaign": _shipped(constants.CONFIGS_DIR / "campaigns" / "tiny.yaml"),
     "experiment": _shipped(constants.CONFIGS_DIR / "experiments" / "fig114.yaml"),
+    "regress": _shipped(constants.CONFIGS_DIR / "regress" / "small_sand.yaml"),
+    "loading": _shipped(constants.CONFIGS_DIR / "loading.yaml"),
+    "loading_mujoco": _shipped(constants.CONFIGS_DIR / "loading_mujoco.yaml"),
+    "loading_campaign": _shipped(constants.CONFIGS_DIR / "campaigns" / "loading_mujoco.yaml"),
+    "truck": _shipped(constants.CONFIGS_DIR / "truck.yaml"),
 }
 
 

@@ -18,6 +18,8 @@ import os
 import pathlib
 import re
 import stat
+import types
+import typing
 from typing import Any, TypeVar
 
 import yaml
@@ -220,7 +222,55 @@ def parse_yaml(text: str, *, source: str) -> Any:
         raise ConfigError(f"{source}: not valid YAML: {shorten(exc, 200)}") from None
 
 
-def _describe_error(err: dict[str, Any]) -> str:
+def _fields_at(model: type[BaseModel], loc: tuple) -> list[str] | None:
+    """The field names of the section of ``model`` at ``loc`` (a validation error's location without its last
+    part), following nested models, lists and mappings of models; None where the section is no model."""
+    current: Any = model
+    skip = 0  # location parts that are a list's index or a mapping's key
+    for part in loc:
+        if skip:
+            skip -= 1
+            continue
+        if not (isinstance(current, type) and issubclass(current, BaseModel)) or part not in current.model_fields:
+            return None
+        current = current.model_fields[part].annotation
+        for _ in range(4):  # unwrap Optional, list[...] and dict[str, ...] around a model
+            if isinstance(current, type) and issubclass(current, BaseModel):
+                break
+            args = [a for a in typing.get_args(current) if a is not type(None)]
+            if not args:
+                return None
+            if typing.get_origin(current) in (list, dict):
+                skip += 1
+            current = args[-1]
+    if skip or not (isinstance(current, type) and issubclass(current, BaseModel)):
+        return None
+    return list(current.model_fields)
+
+
+def _field_loc(model: type[BaseModel], loc: tuple) -> tuple:
+    """A validation error's location without the tags pydantic inserts after a field whose type is a union
+    (``seeds.int``, ``seeds.list[int]``: both are ``seeds``)."""
+    out: list = []
+    current: Any = model
+    tag_next = False
+    for part in loc:
+        if tag_next and isinstance(part, str):
+            tag_next = False
+            continue
+        tag_next = False
+        out.append(part)
+        if not (isinstance(current, type) and issubclass(current, BaseModel)) or part not in current.model_fields:
+            current = None
+            continue
+        annotation = current.model_fields[part].annotation
+        members = [a for a in typing.get_args(annotation) if a is not type(None)]
+        tag_next = typing.get_origin(annotation) in (typing.Union, types.UnionType) and len(members) > 1
+        current = annotation
+    return tuple(out)
+
+
+def _describe_error(err: dict[str, Any], model: type[BaseModel] | None = None) -> str:
     """One line of a validation message: the field, what is wrong, what is allowed, what was given (cut short)."""
     loc = shorten(".".join(str(p) for p in err["loc"]) or "(top level)")
     kind = err["type"]
@@ -228,7 +278,9 @@ def _describe_error(err: dict[str, Any]) -> str:
     if kind == "missing":
         return f"{loc}: required field is missing"
     if kind == "extra_forbidden":
-        return f"{loc}: unknown field (given {given}); check the spelling against the documented fields"
+        fields = _fields_at(model, tuple(err["loc"][:-1])) if model is not None else None
+        allowed = f"; allowed: {shorten(', '.join(fields), 300)}" if fields else ""
+        return f"{loc}: unknown field (given {given}); check the spelling against the documented fields{allowed}"
     msg = shorten(err["msg"].removeprefix("Value error, "), 400)
     ctx = err.get("ctx") or {}
     if kind == "finite_number":
@@ -258,7 +310,16 @@ def parse_config(data: Any, model: type[M], *, source: str) -> M:
     try:
         return model.model_validate(data)
     except ValidationError as exc:
-        lines = [_describe_error(e) for e in exc.errors(include_url=False)]
+        groups: dict[tuple, list[dict[str, Any]]] = {}  # a union's members' errors on one line
+        for e in exc.errors(include_url=False):
+            e["loc"] = _field_loc(model, tuple(e["loc"]))
+            groups.setdefault(e["loc"], []).append(e)
+        lines = []
+        for errs in groups.values():
+            if len(errs) > 1 and all(e["type"] not in ("missing", "extra_forbidden") for e in errs):
+                msgs = [errs[0]["msg"]] + [e["msg"].removeprefix("Input should be ") for e in errs[1:]]
+                errs = [{**errs[0], "msg": " or ".join(dict.fromkeys(msgs)), "ctx": None, "type": "union"}]
+            lines.extend(_describe_error(e, model) for e in errs)
         raise ConfigError(f"{source}: invalid {model.__name__}:\n  " + "\n  ".join(lines)) from None
     except ConfigError as exc:  # raised by a check inside a model (e.g. an unknown soil name)
         text = "\n".join(shorten(line, 400) for line in str(exc).splitlines())

@@ -46,10 +46,11 @@ import pathlib
 from typing import Protocol
 
 import numpy as np
-from pydantic import Field
 
 from excavsim import constants
-from excavsim.config import StrictModel, load_config, load_sensing_config
+from excavsim.config import load_sensing_config
+from excavsim.config.loading_mujoco import (LOADING_MUJOCO_YAML, LoadingCampaign, LoadingMujocoConfig, PileLane,
+                                             load_loading_campaign, load_loading_mujoco_config)
 from excavsim.errors import ExcavsimError
 from excavsim.execution import loading_script as ls
 from excavsim.handoff.maps import ElevationMap
@@ -60,59 +61,14 @@ from excavsim.sensing.elevation import build_map
 from excavsim.world.loading_scene import MACHINES, LoadingWorld
 from excavsim.world.scanner import LaserScanner
 
-CONFIG_PATH = constants.CONFIGS_DIR / "loading_mujoco.yaml"
+CONFIG_PATH = LOADING_MUJOCO_YAML
 
 
 # ---------------------------------------------------------------------------------------------- configuration
-class PileLane(StrictModel):
-    height: float = Field(gt=0.0, le=2.2)
-    top: float = Field(ge=0.0, le=8.0)
-    foot: float = Field(ge=0.5, le=8.0)
-
-
-class ScannerOverrides(StrictModel):
-    n_azimuth: int = Field(ge=4, le=4000)
-    n_elevation: int = Field(ge=4, le=4000)
-    max_range_m: float = Field(gt=0.0, le=100.0)
-
-
-class MachineScript(StrictModel):
-    joint_speed: list[float] = Field(min_length=3, max_length=4)
-    tolerance: list[float] = Field(min_length=3, max_length=4)
-
-
-class ScriptSpec(StrictModel):
-    tip_speed: float = Field(gt=0.0, le=5.0)
-    path_step: float = Field(gt=0.001, le=0.5)
-    lift_extra: float = Field(ge=0.0, le=3.0)
-    back_off: float = Field(ge=0.0, le=10.0)
-    dump_hold_s: float = Field(gt=0.0, le=30.0)
-    loader: MachineScript
-    shovel: MachineScript
-
-
-class LoadingMujocoConfig(StrictModel):
-    """``configs/loading_mujoco.yaml``: see the file's comments."""
-
-    soil: str
-    pile: PileLane
-    tolerance_fraction: float = Field(gt=0.0, lt=1.0)
-    max_digs: int = Field(ge=1, le=1000)
-    section_half_width: float = Field(gt=0.0, le=0.45)
-    scanner: ScannerOverrides
-    n_scans: int = Field(ge=1, le=50)
-    script: ScriptSpec
-
-
 def load_mujoco_config(path: str | pathlib.Path | None = None) -> LoadingMujocoConfig:
-    """The MuJoCo loading configuration (default ``configs/loading_mujoco.yaml``), validated."""
-    cfg = load_config(CONFIG_PATH if path is None else path, LoadingMujocoConfig)
-    for name, n in (("loader", 3), ("shovel", 4)):
-        s = getattr(cfg.script, name)
-        if len(s.joint_speed) != n or len(s.tolerance) != n or min(s.joint_speed + s.tolerance) <= 0:
-            raise ExcavsimError(f"{path or CONFIG_PATH}: script.{name}: joint_speed and tolerance need {n} values "
-                                f"> 0 (one per joint); given {s.joint_speed}, {s.tolerance}")
-    return cfg
+    """The MuJoCo loading configuration (default ``configs/loading_mujoco.yaml``), validated
+    (:class:`~excavsim.config.loading_mujoco.LoadingMujocoConfig`)."""
+    return load_loading_mujoco_config(path)
 
 
 # ---------------------------------------------------------------------------------------------- observers
@@ -518,24 +474,9 @@ def format_comparison(rows: list[tuple[str, MujocoRun]], units_m2: float = 0.01)
 
 
 # ---------------------------------------------------------------------------------------------- campaigns
-class LoadingCampaign(StrictModel):
-    """``configs/campaigns/loading_mujoco.yaml`` (``excavsim load --campaign``): episodes of each machine over
-    seeds, judged together (the table of :func:`format_campaign`)."""
-
-    machines: list[str] = Field(min_length=1)
-    seeds: list[int] = Field(min_length=1)
-    mujoco_config: str | None = None
-
-
 def load_campaign(path: str | pathlib.Path) -> LoadingCampaign:
-    """A loading campaign file, validated (machine names, seeds)."""
-    spec = load_config(path, LoadingCampaign)
-    bad = [m for m in spec.machines if m not in MACHINES]
-    if bad:
-        raise ExcavsimError(f"{path}: machines: unknown {bad}; allowed: {', '.join(MACHINES)}")
-    if any(not 0 <= s < 2**32 for s in spec.seeds) or len(set(spec.seeds)) != len(spec.seeds):
-        raise ExcavsimError(f"{path}: seeds must be distinct integers from 0 to 2^32 - 1; given {spec.seeds}")
-    return spec
+    """A loading campaign file, validated (machine names, seeds: :class:`~excavsim.config.loading_mujoco.LoadingCampaign`)."""
+    return load_loading_campaign(path)
 
 
 def same_pile_2d(name: str, cfg: LoadingMujocoConfig, cfg2d: ld.LoadingConfig) -> ld.Run:

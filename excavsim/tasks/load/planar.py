@@ -26,17 +26,15 @@ import math
 import pathlib
 
 import numpy as np
-from pydantic import Field
 
-from excavsim import constants
-from excavsim.config import StrictModel, load_config
+from excavsim.config.loading import LOADING_MACHINES, LOADING_YAML, LoadingConfig, load_loading_config
 from excavsim.errors import ExcavsimError
 from excavsim.planning import loading as lp
 from excavsim.robot.loaders import FrontLoader, FrontShovel
 from excavsim.world.pile2d import Pile2D, random_pile, trapezoid_pile
 
-CONFIG_PATH = constants.CONFIGS_DIR / "loading.yaml"
-MACHINES = ("loader", "shovel")
+CONFIG_PATH = LOADING_YAML
+MACHINES = LOADING_MACHINES
 
 # What §7.2.1 reports (its text), for the side-by-side tables.
 THESIS = {
@@ -47,99 +45,6 @@ THESIS = {
 
 
 # ---------------------------------------------------------------------------------------------- configuration
-class LoaderSpec(StrictModel):
-    l1: float = Field(le=0.0)
-    l2: float
-    l3: float = Field(gt=0.0, le=20.0)
-    l4: float = Field(gt=0.0, le=10.0)
-    mu_deg: float = Field(ge=-90.0, le=90.0)
-    d1_range: list[float] = Field(min_length=2, max_length=2)
-    theta2_range_deg: list[float] = Field(min_length=2, max_length=2)
-    theta3_range_deg: list[float] = Field(min_length=2, max_length=2)
-    wheel_front: float = Field(ge=0.0, le=10.0)
-    floor: float = Field(gt=0.0, le=5.0)
-    capacity_units: float = Field(gt=0.0, le=1e5)
-
-
-class ShovelSpec(StrictModel):
-    shoulder_height: float = Field(gt=0.0, le=20.0)
-    l1: float = Field(gt=0.0, le=20.0)
-    l2: float = Field(gt=0.0, le=20.0)
-    l3: float = Field(gt=0.0, le=10.0)
-    mu_deg: float = Field(ge=-90.0, le=90.0)
-    theta1_range_deg: list[float] = Field(min_length=2, max_length=2)
-    theta2_range_deg: list[float] = Field(min_length=2, max_length=2)
-    theta3_range_deg: list[float] = Field(min_length=2, max_length=2)
-    track_front: float = Field(ge=0.0, le=10.0)
-    floor: float = Field(gt=0.0, le=5.0)
-    capacity_units: float = Field(gt=0.0, le=1e5)
-
-
-class Machines(StrictModel):
-    loader: LoaderSpec
-    shovel: ShovelSpec
-
-
-class PileSpec(StrictModel):
-    height: float = Field(gt=0.0, le=20.0)
-    top: float = Field(ge=0.0, le=50.0)
-    foot: float = Field(ge=0.0, le=50.0)
-    width: float = Field(gt=0.0, le=200.0)
-    dx: float = Field(gt=0.0, le=1.0)
-    repose_deg: float = Field(gt=0.0, lt=90.0)
-
-
-class SoilSpec(StrictModel):
-    unit_weight_kn_m3: float = Field(gt=0.0, le=100.0)
-    friction_deg: float = Field(ge=0.0, lt=90.0)
-    cohesion_kpa: float = Field(ge=0.0, le=1e4)
-
-
-class PlannerSpec(StrictModel):
-    parameterization: str = Field(pattern="^(k_alpha|k_alpha_r)$")
-    k_max: float = Field(ge=0.0, le=50.0)
-    k_min: float = Field(ge=-10.0, le=0.0)
-    k_step: float = Field(gt=0.0, le=5.0)
-    alpha_deg: list[float] = Field(min_length=3, max_length=3)
-    d1_max: float = Field(gt=0.0, le=50.0)
-    d1_step: float = Field(gt=0.0, le=5.0)
-    radii: list[float] = Field(min_length=1)
-    min_fraction: float = Field(ge=0.0, le=1.0)
-    exit_heading_deg: float = Field(gt=0.0, le=90.0)
-    base_backoffs: list[float] = Field(min_length=1, max_length=20)
-    max_digs: int = Field(ge=1, le=10_000)
-
-
-class StudySpec(StrictModel):
-    runs: int = Field(ge=1, le=1000)
-    remove_units: float = Field(gt=0.0, le=1e6)
-    pile_units: float = Field(gt=0.0, le=1e6)
-    pile_width: float = Field(gt=0.0, le=500.0)
-    capacity_units: float = Field(gt=0.0, le=1e5)
-    force_limits_kn_m: list[float] = Field(min_length=1)
-    k_step: float = Field(gt=0.0, le=5.0)
-    alpha_step_deg: float = Field(gt=0.0, le=90.0)
-    d1_step: float = Field(gt=0.0, le=5.0)
-    max_digs: int = Field(ge=1, le=100_000)
-
-
-class LoadingConfig(StrictModel):
-    """``configs/loading.yaml``: see the file's comments."""
-
-    units_m2: float = Field(gt=0.0, le=100.0)
-    machines: Machines
-    pile: PileSpec
-    soil: SoilSpec
-    planner: PlannerSpec
-    fig111_force_limit_kn_m: float = Field(gt=0.0, le=1e5)
-    study: StudySpec
-
-
-def load_loading_config(path: str | pathlib.Path | None = None) -> LoadingConfig:
-    """The loading configuration (default ``configs/loading.yaml``), validated."""
-    return load_config(CONFIG_PATH if path is None else path, LoadingConfig)
-
-
 def make_machine(cfg: LoadingConfig, name: str) -> FrontLoader | FrontShovel:
     """The machine ``name`` (``loader`` or ``shovel``) of the configuration."""
     r = math.radians

@@ -31,10 +31,10 @@ from collections.abc import Callable
 from pathlib import Path
 
 import numpy as np
-import yaml
 
 from excavsim import constants
 from excavsim.config import load_robot_config, load_sensing_config
+from excavsim.config.truck import TRUCK_YAML, load_truck_file
 from excavsim.errors import ExcavsimError
 from excavsim.execution.mass_script import (BOOM, BUCKET, FRACTIONS, STICK, SWING, TUNED, MassParams, TimingModel,
                                             TruckSite, compute_params, follow_path, mass_script, run_joint_script)
@@ -45,9 +45,6 @@ from excavsim.robot.extract import arm_from_model
 from excavsim.sensing.elevation import build_map
 from excavsim.world.scanner import LaserScanner
 from excavsim.world.simulation import Simulation
-
-TRUCK_YAML = constants.CONFIGS_DIR / "truck.yaml"
-
 
 @dataclasses.dataclass(frozen=True)
 class TruckConfig:
@@ -83,40 +80,18 @@ class TruckConfig:
 
 
 def load_truck_config(path: str | Path | None = None) -> TruckConfig:
-    """Read ``configs/truck.yaml`` (or ``path``)."""
-    path = Path(path) if path else TRUCK_YAML
-    try:
-        d = yaml.safe_load(path.read_text())
-        tg, tr, ln = d["target"], d["truck"], d["learning"]
-        site = TruckSite(float(tg["r_m"]), math.radians(tg["theta_deg"]), float(tr["side_z_m"]),
-                         float(tr["half_width_m"]), float(tr["clearance_m"]), float(tr["dump_z_m"]))
-        dig = np.array(d["dig_path"], dtype=float)
-        dig[:, 2] = np.radians(dig[:, 2])
-        return TruckConfig(site, math.radians(d["dig_swing_deg"]), float(d["dig_speed_m_s"]), dig,
-                           float(d["latency_s"]), math.radians(d["open_pitch_deg"]), float(d["cost"]["w1_per_s"]),
-                           float(d["cost"]["w2_per_m2"]), int(ln["initial_trials"]),
-                           math.radians(ln["initial_noise_deg"]), tuple(ln["widths_log2"]),
-                           float(ln["min_support"]), float(ln["support_penalty"]), float(ln["margin"]),
-                           float(ln["failure_cost"]), float(ln["min_dumped_fraction"]), float(ln["trust_radius"]),
-                           _flag(ln["expected_cost"], "learning.expected_cost"), int(ln["retarget_trials"]),
-                           _range(d["ranges"]["stick_fraction"], "ranges.stick_fraction", 0.0, 1.0),
-                           _range(d["ranges"]["return_fraction"], "ranges.return_fraction", 0.0, 1.0),
-                           math.radians(float(d["ranges"]["angles_deg"])))
-    except (OSError, KeyError, TypeError, ValueError, IndexError) as exc:
-        raise ExcavsimError(f"{path}: not a truck configuration: {exc!r}") from exc
-
-
-def _flag(v, field: str) -> bool:
-    if not isinstance(v, bool):
-        raise ValueError(f"{field} must be true or false; given {v!r}")
-    return v
-
-
-def _range(v, field: str, lo: float, hi: float) -> tuple[float, float]:
-    a, b = (float(x) for x in v)
-    if not lo <= a < b <= hi:
-        raise ValueError(f"{field} must be [low, high] with {lo} <= low < high <= {hi}; given {v!r}")
-    return a, b
+    """Read ``configs/truck.yaml`` (or ``path``), validated (:class:`~excavsim.config.truck.TruckFile`), in radians."""
+    f = load_truck_file(path)
+    tg, tr, ln, rg = f.target, f.truck, f.learning, f.ranges
+    site = TruckSite(tg.r_m, math.radians(tg.theta_deg), tr.side_z_m, tr.half_width_m, tr.clearance_m, tr.dump_z_m)
+    dig = np.array(f.dig_path, dtype=float)
+    dig[:, 2] = np.radians(dig[:, 2])
+    return TruckConfig(site, math.radians(f.dig_swing_deg), f.dig_speed_m_s, dig, f.latency_s,
+                       math.radians(f.open_pitch_deg), f.cost.w1_per_s, f.cost.w2_per_m2, ln.initial_trials,
+                       math.radians(ln.initial_noise_deg), tuple(ln.widths_log2), ln.min_support, ln.support_penalty,
+                       ln.margin, ln.failure_cost, ln.min_dumped_fraction, ln.trust_radius, ln.expected_cost,
+                       ln.retarget_trials, tuple(rg.stick_fraction), tuple(rg.return_fraction),
+                       math.radians(rg.angles_deg))
 
 
 def timing_model(sim: Simulation, cfg: TruckConfig) -> TimingModel:

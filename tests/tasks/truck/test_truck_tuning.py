@@ -102,7 +102,7 @@ def test_a_bad_learning_flag_names_the_field(tmp_path):
     text = truck.TRUCK_YAML.read_text().replace("expected_cost: false", "expected_cost: maybe")
     bad = tmp_path / "truck.yaml"
     bad.write_text(text)
-    with pytest.raises(ExcavsimError, match="learning.expected_cost must be true or false"):
+    with pytest.raises(ExcavsimError, match="learning.expected_cost: Input should be a valid boolean"):
         truck.load_truck_config(bad)
     bad.write_text(truck.TRUCK_YAML.read_text().replace("stick_fraction: [0.1, 0.9]", "stick_fraction: [0.9, 0.1]"))
     with pytest.raises(ExcavsimError, match="ranges.stick_fraction"):
