@@ -45,8 +45,8 @@ MODELS = ROOT / "models"
 
 
 def f(*v) -> str:
-    """Numbers as MJCF text (9 significant digits)."""
-    return " ".join(f"{x:.9g}" for x in np.ravel(v))
+    """Numbers as MJCF text (12 significant digits: the tests hold the files to the closed forms at 1e-9 m)."""
+    return " ".join(f"{x:.12g}" for x in np.ravel(v))
 
 
 def quat_y(angle: float) -> str:
