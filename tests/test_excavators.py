@@ -214,3 +214,19 @@ def test_committed_models_equal_the_generator_output():
     script = constants.REPO_ROOT / "scripts" / "make_excavators.py"
     result = subprocess.run([sys.executable, str(script), "--check"], capture_output=True, text=True)
     assert result.returncode == 0, result.stdout + result.stderr
+
+
+def test_the_own_machine_example_digs_the_soil_box():
+    """docs/concepts/own-machine.md's example: a user's gantry with the bucket names fills its bucket."""
+    import importlib.util
+
+    path = constants.REPO_ROOT / "examples" / "own_machine.py"
+    spec = importlib.util.spec_from_file_location("own_machine", path)
+    module = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(module)
+    result = module.dig()
+    assert result["mujoco_warnings"] == 0
+    assert result["in_bucket_m3"] > 0.5 * module.SHAPE.struck_capacity_m3()
+    assert result["cut_from_box_m3"] >= result["in_bucket_m3"]
+    assert abs(result["volume_error_m3"]) < 1e-9
+    assert result["peak_cutting_force_n"] > 100.0

@@ -246,9 +246,12 @@ def _spec(name, *, foot, upper_z, boom, stick, lower, upper, boom_pins, stick_pi
     mid = tuple(0.0 if j == 0 else 0.5 * (lower[j] + upper[j]) for j in range(4))
     boom_tri = _triangle(*boom_pins, psi_mid_deg=90.0, q_mid=mid[1])
     stick_tri = _triangle(*stick_pins, psi_mid_deg=-90.0, q_mid=mid[2])
-    placeholder = {k: Cylinder(bore_m=b, rod_m=r, retracted_m=2.0, stroke_m=1.0, count=n) for k, (b, r, n) in cyl.items()}
+    # the strokes are placeholders until with_strokes() fits them to the pins and the range
+    placeholder = {k: Cylinder(bore_m=b, rod_m=r, retracted_m=2.0, stroke_m=1.0, count=n)
+                   for k, (b, r, n) in cyl.items()}
     spec = ExcavatorSpec(name=name, arm=arm, upper_z_m=upper_z, boom_pins=boom_tri, stick_pins=stick_tri,
-                         linkage=_linkage(stick, lower[3] - TABLE_4_2_BUCKET[0]), boom_cyl=placeholder["boom"], stick_cyl=placeholder["stick"],
+                         linkage=_linkage(stick, lower[3] - TABLE_4_2_BUCKET[0]), boom_cyl=placeholder["boom"],
+                         stick_cyl=placeholder["stick"],
                          bucket_cyl=placeholder["bucket"], swing_motor=motor, relief_pa=relief,
                          pump_flow_m3_s=flow, masses_kg=masses, bucket=bucket, ref=mid, servo_error_m=servo_error)
     spec = spec.with_strokes()

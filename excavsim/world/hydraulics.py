@@ -10,7 +10,8 @@ annulus area and its set-point rate at the pump's flow over that area (the MJCF'
 :func:`~excavsim.robot.servo.setpoint_rates`: joint targets become cylinder length targets through the
 closed-form kinematics (:mod:`excavsim.robot.cylinders`), the set-points' speeds are proportional to
 their distance from those targets (the set-point, not the measured length: a stalled cylinder's set-point
-stops at the target instead of winding up, and the servo pushes at relief until the load gives way) and clipped at each cylinder's own flow limit, and then the two pumps' flow is shared
+stops at the target instead of winding up, and the servo pushes at relief until the load gives way) and
+clipped at each cylinder's own flow limit, and then the two pumps' flow is shared
 (Rowe 1997 §4.0: one pump powers boom and bucket, the other stick and swing; when both functions of a
 pump move together neither reaches its own peak speed; :func:`~excavsim.robot.cylinders.share_pump_flow`).
 
