@@ -306,9 +306,9 @@ def keyframes(s: ExcavatorSpec) -> dict[str, np.ndarray]:
     """The scene's keyframes as (swing, boom, stick, bucket) [rad]."""
     if s.name == "tb035":
         return {"home": np.array([0.0, 0.35, -1.6, -1.2]), "park": np.array([0.0, 1.0, -2.5, -2.5])}
-    # Rowe 1997 Fig. 4's carry (boom 18 deg, stick -100 deg, bucket -90 deg) and dump at 101 deg of swing
-    return {"home": np.array([0.0, 0.1, -1.5, -1.2]),
-            "carry": np.radians([5.0, 18.0, -100.0, -90.0]), "dump": np.radians([101.0, 18.0, -76.0, 30.0])}
+    # dump: swung to Rowe 1997 Fig. 4's truck at 101 deg, the bucket open above a truck bed's height
+    return {"home": np.array([0.0, 0.37, -1.55, -1.2]), "park": np.array([0.0, 1.0, -2.5, -2.4]),
+            "dump": np.array([np.radians(101.0), 0.8, -1.2, 0.5])}
 
 
 def key_line(s: ExcavatorSpec, name: str, q: np.ndarray) -> str:
