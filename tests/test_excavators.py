@@ -230,3 +230,48 @@ def test_the_own_machine_example_digs_the_soil_box():
     assert result["cut_from_box_m3"] >= result["in_bucket_m3"]
     assert abs(result["volume_error_m3"]) < 1e-9
     assert result["peak_cutting_force_n"] > 100.0
+
+
+@pytest.mark.parametrize("name", NAMES)
+def test_the_planar_chain_read_from_the_model_is_the_closed_form(name, rng):
+    """arm_from_model with the excavator's joint names gives the planner's PlanarArm of the machine: its
+    forward kinematics are the spec's closed form and its inverse (elbow up) recovers the joints."""
+    from excavsim.robot.extract import arm_from_model
+    from excavsim.robot.kinematics import wrap_angle
+
+    spec = get_machine(name)
+    model, _ = _load(name)
+    arm = arm_from_model(model, joints=EXCAVATOR_JOINTS)
+    q = _random_q(spec, rng, 200)
+    pose = arm.forward(q[:, 1:])
+    planar = spec.arm.planar(q)
+    np.testing.assert_allclose(pose[:, :2], planar[:, :2], atol=1e-9)
+    np.testing.assert_allclose(wrap_angle(pose[:, 2] - (planar[:, 2] - np.pi)), 0.0, atol=1e-9)  # pitch = rake
+    back, ok = arm.inverse(pose)
+    assert ok.all()
+    np.testing.assert_allclose(back, q[:, 1:], atol=1e-9)
+    np.testing.assert_allclose(arm.lower, spec.arm.lower[1:])
+    np.testing.assert_allclose(arm.upper, spec.arm.upper[1:])
+    with pytest.raises(Exception, match="waist, shoulder, elbow, wrist"):
+        arm_from_model(model, joints=EXCAVATOR_JOINTS[:3])
+
+
+def test_the_tb035_digs_a_trench_with_its_planar_chain():
+    """examples/tb035_trench.py: three passes, each filling the bucket, leave a trench 0.35 m deep or more
+    along its middle, with the volume account closed and no cylinder beyond relief."""
+    import importlib.util
+
+    path = constants.REPO_ROOT / "examples" / "tb035_trench.py"
+    spec = importlib.util.spec_from_file_location("tb035_trench", path)
+    module = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(module)
+    r = module.trench(seed=0)
+    middle = (r["x_m"] >= 2.8) & (r["x_m"] <= 3.3)
+    assert r["surface_z_m"][middle].max() < -0.35
+    assert r["surface_z_m"][r["x_m"] >= 4.3].min() == pytest.approx(0.0, abs=1e-6)  # beyond the trench: untouched
+    heaped = 1.25 * TB035.bucket.struck_capacity_m3()
+    assert min(r["bucket_per_pass_m3"]) > 0.9 * heaped
+    assert abs(r["volume_error_m3"]) < 1e-9
+    limits = [TB035.swing_motor.torque_limit()] + [max(TB035.cylinder(f).force_limits(TB035.relief_pa))
+                                                    for f in ("boom", "stick", "bucket")]
+    assert np.all(r["peak_forces_at_lift_out"] <= np.array(limits) * (1 + 1e-9))
