@@ -27,6 +27,7 @@ import math
 
 import numpy as np
 
+from excavsim import constants
 from excavsim.errors import ExcavsimError
 from excavsim.robot.cylinders import BucketLinkage, Cylinder, ExcavatorArm, PinTriangle, SwingMotor
 
@@ -41,6 +42,8 @@ TABLE_4_2_BOOM = (-1.085, 1.2075)
 TABLE_4_2_STICK = (-2.6927, -0.6102)
 TABLE_4_2_BUCKET = (-2.6843, 0.5182)
 FUNCTIONS = ("swing", "boom", "stick", "bucket")
+# The joints of each function, in this order; the planar chain is the last three.
+CHAIN_JOINTS = tuple(f"{f}_joint" for f in FUNCTIONS)
 PUMPS = ((1, 3), (0, 2))
 
 
@@ -101,7 +104,10 @@ class BucketShape:
 
 @dataclasses.dataclass(frozen=True)
 class ExcavatorSpec:
-    """All the numbers of one excavator model (see the module docstring).
+    """All the numbers of one excavator model (see the module docstring): the machine's description for
+    the rest of the package (its files :attr:`model_xml` and :attr:`scene_xml`, the planar chain
+    :attr:`arm` and its joints :data:`CHAIN_JOINTS`, the tool :attr:`bucket`, the joint limits, and the
+    pose-dependent torque and speed limits its hydraulics give).
 
     Attributes:
         name: the model folder's name.
@@ -136,6 +142,16 @@ class ExcavatorSpec:
     ref: tuple[float, float, float, float]
     servo_error_m: float = 0.01
     servo_time_s: float = 0.05
+
+    @property
+    def model_xml(self):
+        """The machine-only MJCF (``models/<name>/<name>.xml``)."""
+        return constants.MODELS_DIR / self.name / f"{self.name}.xml"
+
+    @property
+    def scene_xml(self):
+        """The machine beside its soil pit (``models/<name>/scene.xml``)."""
+        return constants.MODELS_DIR / self.name / "scene.xml"
 
     def cylinder_length(self, function: str, q) -> np.ndarray:
         """Pin-to-pin length [m] of ``function``'s cylinder (boom, stick, bucket) at its joint angle ``q``."""

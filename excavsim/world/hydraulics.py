@@ -32,11 +32,11 @@ from excavsim.errors import ExcavsimError
 from excavsim.handoff.observation import Diverged
 from excavsim.readouts import element_id
 from excavsim.robot.cylinders import share_pump_flow
-from excavsim.robot.excavators import FUNCTIONS, PUMPS, ExcavatorSpec, get_machine
+from excavsim.robot.excavators import CHAIN_JOINTS, FUNCTIONS, PUMPS, ExcavatorSpec, get_machine
 from excavsim.world.soil import SoilModel
 
 # The excavators' joints in the spec's order; the actuators carry the function's name.
-EXCAVATOR_JOINTS = tuple(f"{f}_joint" for f in FUNCTIONS)
+EXCAVATOR_JOINTS = CHAIN_JOINTS
 CYLINDER_FORCE_SENSORS = ("swing_torque", "boom_cylinder_force", "stick_cylinder_force", "bucket_cylinder_force")
 CONTROL_RATE_HZ = 50.0  # the excavators' control rate [Hz] (assumed, as the loading machines')
 
@@ -109,7 +109,7 @@ class ExcavatorWorld:
     def __init__(self, machine: str, soil: SoilParams | str | None = None, scene: SceneConfig | None = None, *,
                  seed: int = 0, keyframe: str = "home"):
         self.spec = get_machine(machine)
-        self.model = mujoco.MjModel.from_xml_path(str(constants.MODELS_DIR / machine / "scene.xml"))
+        self.model = mujoco.MjModel.from_xml_path(str(self.spec.scene_xml))
         self.data = mujoco.MjData(self.model)
         mujoco.mj_resetDataKeyframe(self.model, self.data, element_id(self.model, "key", keyframe))
         mujoco.mj_forward(self.model, self.data)
