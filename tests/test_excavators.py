@@ -275,3 +275,18 @@ def test_the_tb035_digs_a_trench_with_its_planar_chain():
     limits = [TB035.swing_motor.torque_limit()] + [max(TB035.cylinder(f).force_limits(TB035.relief_pa))
                                                     for f in ("boom", "stick", "bucket")]
     assert np.all(r["peak_forces_at_lift_out"] <= np.array(limits) * (1 + 1e-9))
+
+
+def test_planner_torque_limits_are_the_weakest_relief_torques_over_the_range():
+    """Singh 1995 §5.3's constant relief torque becomes p A |dL/dq|, pose- and direction-dependent; the
+    planner's constant is its smallest value over the range (or a sub-range)."""
+    limits = TB035.planner_torque_limits()
+    for j, f in enumerate(("boom", "stick", "bucket")):
+        q = np.linspace(TB035.arm.lower[j + 1], TB035.arm.upper[j + 1], 2001)
+        pull, push = TB035.cylinder(f).force_limits(TB035.relief_pa)
+        weakest = float(np.min(np.abs(TB035.moment_arm(f, q))) * min(pull, push))
+        assert limits[j] == pytest.approx(weakest, rel=1e-3)
+    narrow = TB035.planner_torque_limits(lower=(-0.2, -2.0, -2.0), upper=(0.5, -1.0, -0.5))
+    assert np.all(narrow >= limits)
+    with pytest.raises(ExcavsimError, match="within the joint limits"):
+        TB035.planner_torque_limits(lower=(-2.0, -2.0, -2.0), upper=(0.5, -1.0, -0.5))

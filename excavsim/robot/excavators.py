@@ -186,6 +186,24 @@ class ExcavatorSpec:
             out[..., j, 0], out[..., j, 1] = np.minimum(a, b), np.maximum(a, b)
         return out
 
+    def planner_torque_limits(self, lower=None, upper=None, n: int = 181) -> np.ndarray:
+        """(3,) one torque limit per planar joint (boom, stick, bucket) [N m] for a planner whose force
+        constraint takes constants (Singh 1995 §5.3.3, the T3's relief torques): the smallest of
+        :meth:`joint_torque_limits`' magnitudes, both directions, over each joint's range (or the sub-range
+        ``lower``..``upper`` (3,) the digs use). Conservative: the cylinder gives more in most poses."""
+        lo = np.asarray(self.arm.lower[1:] if lower is None else lower, dtype=float)
+        hi = np.asarray(self.arm.upper[1:] if upper is None else upper, dtype=float)
+        if lo.shape != (3,) or hi.shape != (3,) or np.any(lo > hi) or np.any(lo < np.asarray(self.arm.lower[1:])) \
+                or np.any(hi > np.asarray(self.arm.upper[1:])):
+            raise ExcavsimError(f"{self.name}: the sub-range must be 3 intervals within the joint limits "
+                                f"{self.arm.lower[1:]} .. {self.arm.upper[1:]} rad; given {lower!r} .. {upper!r}")
+        out = np.empty(3)
+        for j in range(3):
+            q = np.tile(np.asarray(self.ref, dtype=float), (n, 1))
+            q[:, j + 1] = np.linspace(lo[j], hi[j], n)
+            out[j] = np.abs(self.joint_torque_limits(q)[:, j + 1, :]).min()
+        return out
+
     def joint_speed_limits(self, q) -> np.ndarray:
         """(..., 4) each joint's largest speed with a pump's full flow to itself alone [rad/s] (the slower
         of extension and retraction: ``v / |dL/dq|``)."""
