@@ -290,3 +290,23 @@ def test_planner_torque_limits_are_the_weakest_relief_torques_over_the_range():
     assert np.all(narrow >= limits)
     with pytest.raises(ExcavsimError, match="within the joint limits"):
         TB035.planner_torque_limits(lower=(-2.0, -2.0, -2.0), upper=(0.5, -1.0, -0.5))
+
+
+@pytest.mark.parametrize("name", NAMES)
+def test_every_name_the_soil_model_and_the_loop_read_exists(name):
+    from excavsim.world.bucket import BucketGeometry
+
+    model, _ = _load(name)
+    for site in ("cab_scanner_left", "cab_scanner_right", "scanner", "ft_mount", "bucket_tip",
+                 *(f"bucket_profile_{i}" for i in range(constants.N_BUCKET_PROFILE_SITES)),
+                 *(f"survey_target_{i}" for i in range(constants.N_SURVEY_TARGETS))):
+        assert model.site(site).id >= 0
+    for sensor in ("ft_force", "ft_torque", "swing_torque", "boom_cylinder_force", "stick_cylinder_force",
+                   "bucket_cylinder_force"):
+        assert model.sensor(sensor).id >= 0
+    bucket = BucketGeometry.from_model(model)
+    spec = get_machine(name)
+    assert bucket.width == pytest.approx(spec.bucket.width_m)
+    assert bucket.capacity == pytest.approx(spec.bucket.struck_capacity_m3(), rel=1e-9)
+    for key in ("home", "park"):
+        assert model.key(key).id >= 0
