@@ -16,19 +16,25 @@ from excavsim.errors import ModelError
 from excavsim.robot.kinematics import PlanarArm
 
 
-def arm_from_model(model, *, tol: float = 1e-9) -> PlanarArm:
+def arm_from_model(model, *, tol: float = 1e-9, joints: tuple[str, ...] | None = None) -> PlanarArm:
     """Extract the planar chain from a compiled MuJoCo model.
 
     Args:
         model: a ``mujoco.MjModel`` or a dm_control ``Physics``/model wrapper holding the T3.
             Names may carry a PyMJCF attachment prefix (``t3/shoulder_joint``).
         tol: tolerance for the structural checks (parallel pitch axes, vertical waist).
+        joints: the chain's (waist, shoulder, elbow, wrist pitch) joint names, another machine's
+            (an excavator's swing, boom, stick, bucket); the T3's when None. For another machine the
+            chain is measured with those four joints at zero and every other joint at ``qpos0``
+            (the T3's six must all have zero ``qpos0``).
 
     Raises:
         ModelError: a named element is missing or the chain is not planar as assumed.
     """
     m = _as_mjmodel(model)
-    jids = [_named_id(m, mujoco.mjtObj.mjOBJ_JOINT, n) for n in constants.JOINTS]
+    if joints is not None and len(joints) != 4:
+        raise ModelError(f"joints must name (waist, shoulder, elbow, wrist pitch); given {joints!r}")
+    jids = [_named_id(m, mujoco.mjtObj.mjOBJ_JOINT, n) for n in (joints or constants.JOINTS)]
     waist, shoulder, elbow, wrist = jids[:4]
     tip_sid = _named_id(m, mujoco.mjtObj.mjOBJ_SITE, constants.BUCKET_TIP_SITE)
     for j in jids:
@@ -37,7 +43,8 @@ def arm_from_model(model, *, tol: float = 1e-9) -> PlanarArm:
     d = mujoco.MjData(m)
     d.qpos[:] = m.qpos0
     qadr = m.jnt_qposadr[jids]
-    if np.any(np.abs(m.qpos0[qadr]) > 0):
+    d.qpos[qadr] = 0.0
+    if joints is None and np.any(np.abs(m.qpos0[qadr]) > 0):
         raise ModelError("the T3 joints must have zero reference positions (qpos0) for the planar extraction")
     mujoco.mj_kinematics(m, d)
     mujoco.mj_comPos(m, d)
