@@ -684,3 +684,40 @@ def record_digs(path: str | pathlib.Path, *, truth: str = "wedge", soil: str | N
     from excavsim.loop.calibrate_digs import record_digs as _record
 
     return _record(path, truth=truth, soil=soil, digs=digs, seed=seed, quiet=quiet, observer=observer, say=say)
+
+
+def calibrate_file(record: str | pathlib.Path, model: str, out: str | pathlib.Path, *, soil: str | None = None,
+                   rerun_digs: bool = True, fixed: dict[str, float] | None = None, brittleness: float = 0.0,
+                   rate_per_decade: float = 0.0, record_digs_n: int | None = None, truth: str = "wedge",
+                   seed: int = 0, quiet: bool = False, rrd: str | None = None,
+                   say: Callable[[str], None] = print) -> dict[str, Fit]:
+    """``excavsim calibrate RECORD``: :func:`calibrate` on a force data set file or on a Rerun
+    recording (``.rrd``: its F/T, joint angles, scans and plans are read), first digging
+    ``record_digs_n`` random feasible digs into ``record`` when asked.
+
+    Args:
+        record: the force data set (.npz, .parquet, .csv) or Rerun recording (.rrd).
+        record_digs_n: dig this many digs on the ``truth`` world first (seeded by ``seed``; ``quiet``:
+            its rate effect, failure-cycle drops, heterogeneity and the F/T's disturbance off) and save
+            their record as ``record``; ``rrd``: also record that episode to this Rerun file.
+        The rest: as :func:`calibrate`.
+    """
+    record = pathlib.Path(record)
+    if record_digs_n:
+        say(f"excavsim calibrate: recording {record_digs_n} digs on the {truth} truth into {record}"
+            + (f" (and the episode into {rrd})" if rrd else ""))
+        observer = None
+        if rrd:
+            from excavsim.record import RerunRecorder
+
+            observer = RerunRecorder(rrd)
+        record_digs(record, truth=truth, soil=soil, digs=record_digs_n, seed=seed, quiet=quiet, observer=observer,
+                    say=say)
+    options = dict(soil=soil, rerun_digs=rerun_digs, fixed=fixed, brittleness=brittleness,
+                   rate_per_decade=rate_per_decade, say=say)
+    if record.suffix == ".rrd":
+        from excavsim.loop.calibrate_digs import recording_dataset
+        from excavsim.record.reading import read_recording
+
+        return calibrate(recording_dataset(read_recording(record)), model, out, name=record.stem, **options)
+    return calibrate(record, model, out, **options)

@@ -601,3 +601,68 @@ def format_campaign(rows: list[tuple[str, int, MujocoRun]], two_d: dict[str, ld.
                      f"{per.mean():6.1f} ± {per.std():3.1f} {eff.mean():5.0f} ± {eff.std():2.0f}% "
                      f"{spill.mean():5.3f} ± {spill.std():.3f} | {two:>22} | {thesis}")
     return "\n".join(lines)
+
+
+def write_campaign(campaign: str | pathlib.Path, out: str | pathlib.Path, *, cfg2d: ld.LoadingConfig,
+                   mujoco_config: str | pathlib.Path | None = None, say=print) -> bool:
+    """``excavsim load --campaign``: the campaign file's machines over its seeds in MuJoCo, judged
+    together beside the 2-D simulation of the same pile; the table goes to ``out/campaign.txt``.
+
+    Args:
+        campaign: the campaign file (e.g. ``configs/campaigns/loading_mujoco.yaml``).
+        cfg2d: the 2-D loading configuration (the machines' numbers).
+        mujoco_config: overrides the campaign's MuJoCo loading configuration.
+
+    Returns:
+        Whether every episode finished its work.
+    """
+    spec = load_campaign(campaign)
+    mcfg = load_mujoco_config(mujoco_config or spec.mujoco_config)
+    say(f"excavsim load --campaign: {', '.join(spec.machines)} x seeds {spec.seeds} in MuJoCo, pile "
+        f"{mcfg.pile.height:g} m high, soil {mcfg.soil}")
+    rows = run_campaign(spec, cfg=mcfg, cfg2d=cfg2d, progress=say)
+    two_d = {name: same_pile_2d(name, mcfg, cfg2d) for name in spec.machines}
+    table = format_campaign(rows, two_d, cfg2d.units_m2)
+    out = pathlib.Path(out)
+    out.mkdir(parents=True, exist_ok=True)
+    (out / "campaign.txt").write_text(table + "\n")
+    say(table)
+    say(f"wrote {out / 'campaign.txt'}")
+    return all(r.done for _, _, r in rows)
+
+
+def run_episodes(*, cfg2d: ld.LoadingConfig, machine: str | None = None, seed: int = 0,
+                 mujoco_config: str | pathlib.Path | None = None, record: str | None = None, say=print) -> bool:
+    """``excavsim load --mujoco``: a loading episode of each machine (or of ``machine``) in MuJoCo,
+    said run by run and compared.
+
+    Args:
+        cfg2d: the 2-D loading configuration (the machines' numbers).
+        machine: one of :data:`MACHINES` (default both).
+        seed: the episodes' seed.
+        mujoco_config: the MuJoCo loading configuration (default ``configs/loading_mujoco.yaml``).
+        record: a Rerun file to record the episode to (one machine only).
+
+    Returns:
+        Whether every episode finished its work.
+    """
+    mcfg = load_mujoco_config(mujoco_config)
+    names = [machine] if machine else list(MACHINES)
+    if record and len(names) > 1:
+        raise ExcavsimError("--record writes one episode: give --machine loader or --machine shovel with it")
+    rows = []
+    for name in names:
+        say(f"excavsim load --mujoco: front {name}, pile {mcfg.pile.height:g} m high, soil {mcfg.soil}, seed {seed}")
+        observer = None
+        if record:
+            from excavsim.record.loading import LoadingRecorder
+
+            observer = LoadingRecorder(record)
+        run = run_episode(name, seed=seed, cfg=mcfg, cfg2d=cfg2d, observer=observer, progress=say)
+        say(format_run(run))
+        rows.append((name, run))
+        if record:
+            say(f"recorded to {record}")
+    if len(rows) > 1:
+        say("\n" + format_comparison(rows))
+    return all(r.done for _, r in rows)

@@ -449,3 +449,38 @@ def plot_duality(path: Path) -> None:
     fig.tight_layout()
     fig.savefig(path, dpi=80)
     plt.close(fig)
+
+
+def demonstration_from_recording(path: str, dig: int, out: str | Path, *,
+                                 say: Callable[[str], None] = print) -> Path:
+    """``excavsim playback --from-rrd``: dig number ``dig`` (1-based) of a Rerun recording as a
+    demonstration, written to ``out/rrd_demonstration.json``; returns that path."""
+    from excavsim.record.demo_reading import read_dig
+
+    recorded = read_dig(path, dig)
+    demo = demonstration_from_signals(recorded.joint_times, recorded.joints, recorded.ft_times, recorded.ft_tip,
+                                      recorded.path_world, source=f"{path}, dig {recorded.dig}")
+    out = Path(out)
+    out.mkdir(parents=True, exist_ok=True)
+    saved = demo.save(out / "rrd_demonstration.json")
+    say(f"wrote {saved}: dig {recorded.dig} of {path} ({len(demo.times)} samples, {demo.times[-1]:.2f} s); "
+        f"play it back with: excavsim playback --demo {saved}")
+    return saved
+
+
+def run_chapter6(out: str | Path, *, seed: int = 0, seeds: list[int] | None = None, sweep: bool = True,
+                 demo_path: str | None = None, say: Callable[[str], None] = print) -> None:
+    """``excavsim playback``: the chapter-6 experiment (:func:`run_playback`), or over ``seeds``
+    (:func:`run_seeds`), with the demonstration of ``demo_path`` instead of a recorded one when given."""
+    from excavsim.execution.demonstration import load_demonstration
+
+    say("excavsim playback: demonstrate a dig, replay it in a stiffer and a softer soil with fixed high, moderate, "
+        "low and variable impedance (002_694c274da322d931.txt §3.3, ch. 6)")
+    demo = load_demonstration(demo_path) if demo_path else None
+    out = Path(out)
+    if seeds is not None:
+        say(f"over seeds {', '.join(map(str, seeds))}: each seed records its own demonstration"
+            + (" (here: the given one)" if demo is not None else "") + " and replays it in worlds of that seed")
+        run_seeds(seeds, out, sweep=sweep, demo=demo)
+        return
+    run_playback(out, seed=seed, sweep=sweep, demo=demo)

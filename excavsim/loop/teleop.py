@@ -16,6 +16,7 @@ from __future__ import annotations
 import sys
 import time
 from collections.abc import Callable, Iterable, Iterator
+from pathlib import Path
 
 import numpy as np
 
@@ -144,3 +145,39 @@ def tty_keys(stream=None) -> Iterator[str]:
                 return
     finally:
         termios.tcsetattr(fd, termios.TCSADRAIN, saved)
+
+
+def teleop_session(out: str | Path, *, keys: Iterable[str] | None = None, seed: int = 0, record: str | None = None,
+                   live: str | None = None, say: Callable[[str], None] = print) -> Path:
+    """``excavsim playback --teleop``: drive the tip by ``keys`` (default: the terminal's) from 10 cm
+    above the demonstration dig, saying each key's pose and force, and write the demonstration to
+    ``out/teleop_demonstration.json``; returns that path.
+
+    Args:
+        record: a Rerun file to record the session to.
+        live: stream the session to a Rerun viewer: "" spawns one, else its address.
+    """
+    import math
+
+    observer = None
+    if record or live is not None:
+        from excavsim.record import RerunRecorder
+        from excavsim.record.live import viewer_url
+
+        url = viewer_url(live or None) if live is not None else None
+        if url:
+            say(f"streaming the session live to {url}")
+        observer = RerunRecorder(record, live=url)
+    keys = keys if keys is not None else tty_keys()
+    say(f"excavsim playback --teleop: drive the bucket tip from 10 cm above the demonstration dig; {HELP}")
+    demo = teleoperate(keys, seed=seed, observer=observer, on_key=lambda k, p, f: say(
+        f"{k}: tip x {p[0]:.2f} m z {p[1]:.2f} m pitch {math.degrees(p[2]):.0f} deg | F radial {f[0]:7.0f} N "
+        f"vertical {f[1]:7.0f} N"))
+    if record:
+        say(f"recorded to {record}; replay it with: excavsim replay {record}")
+    out = Path(out)
+    out.mkdir(parents=True, exist_ok=True)
+    path = demo.save(out / "teleop_demonstration.json")
+    say(f"wrote {path} ({len(demo.times)} samples, {demo.times[-1]:.2f} s); play it back with: "
+        f"excavsim playback --demo {path}")
+    return path

@@ -112,6 +112,25 @@ def run_campaign(*, seeds: Sequence[int], soils: Sequence[str], trials: int,
     return runs
 
 
+def compare(*, seeds: Sequence[int], soils: Sequence[str] | None, trials: int, out: Path,
+            retarget: tuple[int, float, float] | None = None, cfg: truck.TruckConfig | None = None,
+            say: Callable[[str], None] = print) -> list[RunSummary]:
+    """``excavsim tune --compare``: :func:`run_campaign` over ``soils`` (default the scene's) with a
+    line per run and the table said at the end."""
+    from excavsim.config import load_scene_config
+
+    cfg = cfg or truck.load_truck_config()
+    soils = list(soils or [load_scene_config().soil])
+    say(f"excavsim tune --compare: tuned vs untuned{' and a moved target' if retarget else ''}, "
+        f"{trials} trials, seeds {' '.join(map(str, seeds))}, soils {' '.join(soils)} "
+        "(001_0de172b0d6b3614b.txt §6.2)")
+    runs = run_campaign(seeds=seeds, soils=soils, trials=trials, retarget=retarget, cfg=cfg, out=Path(out),
+                        progress=say)
+    say(format_table(runs, cfg.initial_trials))
+    say(f"wrote {Path(out) / 'truck_campaign.csv'} and truck_campaign.txt")
+    return runs
+
+
 def format_run(r: RunSummary) -> str:
     """One line: a run's first and last windows (and the one after the move)."""
     def w(x: Window) -> str:

@@ -10,7 +10,7 @@ import subprocess
 import sys
 from collections.abc import Callable
 
-from excavsim.errors import ExcavsimError
+from excavsim.errors import ExcavsimError, shorten
 
 
 def rerun_command(path: str | os.PathLike) -> list[str]:
@@ -19,6 +19,66 @@ def rerun_command(path: str | os.PathLike) -> list[str]:
     here = pathlib.Path(sys.executable).parent / ("rerun.exe" if os.name == "nt" else "rerun")
     exe = str(here) if here.exists() else shutil.which("rerun")
     return [exe, str(path)] if exe else [sys.executable, "-m", "rerun", str(path)]
+
+
+RRD_MAGIC = b"RRF2"  # the first bytes of a Rerun 0.2x+ recording
+VERIFY_TIMEOUT_S = 300  # the longest `rerun rrd verify` may take before replay gives up [s]
+
+
+def check_recording(path: str, *, warn: Callable[[str], None] | None = None) -> None:
+    """Refuse ``path`` unless it is a Rerun recording the installed Rerun can load (``rerun rrd verify``).
+
+    A recording cut short (an episode killed before it closed its file) has no footer: it is
+    accepted with a warning, since the viewer shows what it holds.
+
+    Args:
+        path: the file.
+        warn: where the warning about a cut-short recording goes (default stderr).
+
+    Raises:
+        ExcavsimError: naming the file and what is wrong with it.
+    """
+    shown = shorten(path, 200)
+    try:
+        if not os.path.isfile(path):
+            raise ExcavsimError(f"no recording at {shown}: give an .rrd file written by `excavsim trench --record "
+                                "FILE.rrd`")
+        with open(path, "rb") as f:
+            head = f.read(len(RRD_MAGIC))
+    except (OSError, ValueError) as exc:
+        why = getattr(exc, "strerror", None) or exc
+        raise ExcavsimError(f"{shown}: cannot read the recording ({why}); give an .rrd file written by "
+                            "`excavsim trench --record FILE.rrd`") from None
+    if head != RRD_MAGIC:
+        raise ExcavsimError(f"{shown}: not a Rerun recording (it does not start with {RRD_MAGIC.decode()}); give an "
+                            ".rrd file written by `excavsim trench --record FILE.rrd`")
+    verify = [*rerun_command(path)[:-1], "rrd", "verify"]
+    for footers in ("true", "false"):
+        try:
+            with subprocess.Popen([*verify, "--check-footers", footers, path], stdout=subprocess.PIPE,
+                                  stderr=subprocess.PIPE, text=True, errors="replace") as proc:
+                try:
+                    out, err = proc.communicate(timeout=VERIFY_TIMEOUT_S)
+                except subprocess.TimeoutExpired:
+                    proc.kill()
+                    raise ExcavsimError(f"{shown}: `rerun rrd verify` did not finish in {VERIFY_TIMEOUT_S} s") from None
+        except OSError as exc:
+            raise ExcavsimError(f"{shown}: cannot run `rerun rrd verify` ({exc.strerror})") from None
+        verified = re.search(r"(\d+) files? verified", out + err)
+        if proc.returncode == 0 and verified and int(verified.group(1)) == 0:
+            raise ExcavsimError(f"{shown}: a Rerun header and no recording in it (`rerun rrd verify` found nothing "
+                                "to verify); give an .rrd file written by `excavsim trench --record FILE.rrd`")
+        if proc.returncode == 0:
+            if footers == "false":
+                (warn or _stderr)(f"excavsim: warning: {shown} has no footer (the recording was cut short); "
+                                  "replaying what it holds")
+            return
+    lines = [ln for ln in err.splitlines() if ln.strip()]
+    raise ExcavsimError(f"{shown}: Rerun cannot load this recording: {shorten(lines[-1] if lines else out, 200)}")
+
+
+def _stderr(text: str) -> None:
+    print(text, file=sys.stderr)
 
 
 def has_display() -> bool:
