@@ -7,40 +7,40 @@ import argparse
 import pathlib
 
 from excavsim.cli.options import float_in, int_in, out_dir, out_file, seed_type
-from excavsim.errors import ExcavsimError, shorten
+from excavsim.errors import ConfigError, UsageError, shorten
 
 
 def _cmd_calibrate(args: argparse.Namespace) -> int:
     from excavsim.loop import calibrate as cal
 
     if args.table_5_3 and (args.fix or args.brittleness or args.rate_effect):
-        raise ExcavsimError("--fix, --brittleness and --rate-effect belong to a record's fit; --table-5-3 identifies "
-                            "all of Table 5.3's parameters from DiMaio's own forces")
+        raise UsageError("--fix, --brittleness and --rate-effect belong to a record's fit; --table-5-3 identifies "
+                         "all of Table 5.3's parameters from DiMaio's own forces")
     if args.brittleness and args.model != "wedge":
-        raise ExcavsimError("--brittleness is the wedge model's failure cycle; give it with --model wedge")
+        raise UsageError("--brittleness is the wedge model's failure cycle; give it with --model wedge")
     if args.rate_effect and args.model != "wedge":
-        raise ExcavsimError("--rate-effect is the wedge model's rate effect on cohesion; give it with --model wedge")
+        raise UsageError("--rate-effect is the wedge model's rate effect on cohesion; give it with --model wedge")
     if args.table_5_3:
         print(f"excavsim calibrate --table-5-3: DiMaio's model identified from its own forces (Table 5.3, Fig. 5.40); "
               f"results in {args.out}")
         cal.table_5_3(args.out, noise_n=args.noise)
         return 0
     if args.record is None:
-        raise ExcavsimError("calibrate needs a RECORD (a force data set .npz, .parquet or .csv, or a Rerun "
-                            "recording .rrd) or --table-5-3")
+        raise UsageError("calibrate needs a RECORD (a force data set .npz, .parquet or .csv, or a Rerun "
+                         "recording .rrd) or --table-5-3")
     record = pathlib.Path(args.record)
     fixed = cal.parse_fixes(args.model, args.fix)  # refused before any recording or fit
     if args.rrd and not args.record_digs:
-        raise ExcavsimError("--rrd FILE records the digs of --record-digs N; give --record-digs too")
+        raise UsageError("--rrd FILE records the digs of --record-digs N; give --record-digs too")
     if args.rrd and pathlib.Path(args.rrd).suffix != ".rrd":
-        raise ExcavsimError(f"--rrd {shorten(args.rrd)}: a Rerun recording's name ends in .rrd")
+        raise ConfigError(f"--rrd {shorten(args.rrd)}: a Rerun recording's name ends in .rrd")
     if args.record_digs:
         if record.suffix == ".rrd":
-            raise ExcavsimError(f"--record-digs saves a force data set (.npz, .parquet, .csv), not {record.name}; "
-                                "record the episode with --rrd FILE as well")
+            raise ConfigError(f"--record-digs saves a force data set (.npz, .parquet, .csv), not {record.name}; "
+                              "record the episode with --rrd FILE as well")
         if record.suffix not in (".npz", ".parquet", ".csv"):
-            raise ExcavsimError(f"--record-digs saves RECORD as a force data set: .npz, .parquet or .csv; given "
-                                f"{shorten(record.name)}")
+            raise ConfigError(f"--record-digs saves RECORD as a force data set: .npz, .parquet or .csv; given "
+                              f"{shorten(record.name)}")
     cal.calibrate_file(record, args.model, args.out, soil=args.soil, rerun_digs=not args.no_rerun, fixed=fixed,
                        brittleness=args.brittleness, rate_per_decade=args.rate_effect, record_digs_n=args.record_digs,
                        truth=args.truth, seed=args.seed, quiet=args.quiet, rrd=args.rrd)
@@ -53,21 +53,21 @@ def _cmd_playback(args: argparse.Namespace) -> int:
     modes = [name for name, on in (("--teleop", args.teleop), ("--from-rrd", args.from_rrd), ("--demo", args.demo))
              if on]
     if len(modes) > 1:
-        raise ExcavsimError(f"playback: {' and '.join(modes)} cannot be combined; give one of --teleop, --from-rrd "
-                            f"FILE.rrd, --demo FILE.json (or none for the chapter-6 experiment)")
+        raise UsageError(f"playback: {' and '.join(modes)} cannot be combined; give one of --teleop, --from-rrd "
+                         f"FILE.rrd, --demo FILE.json (or none for the chapter-6 experiment)")
     if args.keys is not None and not args.teleop:
-        raise ExcavsimError("playback: --keys is the key sequence of --teleop; give --teleop with it")
+        raise UsageError("playback: --keys is the key sequence of --teleop; give --teleop with it")
     if args.dig is not None and not args.from_rrd:
-        raise ExcavsimError("playback: --dig chooses the dig of --from-rrd FILE.rrd; give --from-rrd with it")
+        raise UsageError("playback: --dig chooses the dig of --from-rrd FILE.rrd; give --from-rrd with it")
     if (args.live is not None or args.record) and not args.teleop:
-        raise ExcavsimError("playback: --live and --record show or record a --teleop session; give --teleop with them")
+        raise UsageError("playback: --live and --record show or record a --teleop session; give --teleop with them")
     if args.record and not args.record.endswith(".rrd"):
-        raise ExcavsimError(f"--record must name an .rrd file; given {shorten(repr(args.record), 200)}")
+        raise ConfigError(f"--record must name an .rrd file; given {shorten(repr(args.record), 200)}")
     seeds = None
     if args.seeds is not None:
         if args.teleop or args.from_rrd or args.seed is not None:
-            raise ExcavsimError("playback: --seeds runs the chapter-6 experiment on several seeds; it cannot be "
-                                "combined with --seed, --teleop or --from-rrd (give --seeds alone, or with --demo)")
+            raise UsageError("playback: --seeds runs the chapter-6 experiment on several seeds; it cannot be "
+                             "combined with --seed, --teleop or --from-rrd (give --seeds alone, or with --demo)")
         seeds = playback.seed_range(args.seeds)
     seed = args.seed if args.seed is not None else 0
     if args.teleop:

@@ -9,7 +9,7 @@ import pathlib
 
 from excavsim.cli.options import (MAX_DIG_BUDGET, MAX_SEED, dig_budget_type, name_or_path, out_dir, out_file, seed_type,
                                   world_options)
-from excavsim.errors import ExcavsimError, shorten
+from excavsim.errors import ConfigError, UsageError, shorten
 
 
 def _cmd_demo(args: argparse.Namespace) -> int:
@@ -39,7 +39,7 @@ def _cmd_trench(args: argparse.Namespace) -> int:
     spec = load_spec(args.spec) if args.spec else EpisodeSpec()
     given = {"goal": args.goal, "soil": args.soil, "dig_budget": args.dig_budget, "seed": args.seed}
     if args.record and not args.record.endswith(".rrd"):
-        raise ExcavsimError(f"--record must name an .rrd file; given {shorten(repr(args.record), 200)}")
+        raise ConfigError(f"--record must name an .rrd file; given {shorten(repr(args.record), 200)}")
     spec = parse_config({**spec.model_dump(), **{k: v for k, v in given.items() if v is not None}}, EpisodeSpec,
                         source="the command line")
     ResolvedSpec(spec, robot_path=args.robot_config, scene_path=args.scene_config)  # every file checked first
@@ -110,7 +110,7 @@ def _cmd_replay(args: argparse.Namespace) -> int:
     from excavsim.record.replay import check_recording, replay
 
     if args.screenshot is None and (args.time is not None or args.size is not None):
-        raise ExcavsimError("--time and --size go with --screenshot PNG (they choose what the headless viewer renders)")
+        raise UsageError("--time and --size go with --screenshot PNG (they choose what the headless viewer renders)")
     check_recording(args.file)
     if args.screenshot is not None:
         from excavsim.record.replay import screenshots

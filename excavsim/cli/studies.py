@@ -9,7 +9,7 @@ import pathlib
 import sys
 
 from excavsim.cli.options import MAX_DIG_BUDGET, dig_budget_type, float_in, int_in, out_dir, out_file, seed_type
-from excavsim.errors import ExcavsimError
+from excavsim.errors import ConfigError, UsageError
 
 
 def _cmd_regress(args: argparse.Namespace) -> int:
@@ -19,10 +19,10 @@ def _cmd_regress(args: argparse.Namespace) -> int:
 
     directory = pathlib.Path(args.dir or REGRESS_DIR)
     if args.update and (args.against or args.against_dir):
-        raise ExcavsimError("--update rewrites the baseline and --against/--against-dir compare without one: "
-                            "give only one of them")
+        raise UsageError("--update rewrites the baseline and --against/--against-dir compare without one: "
+                         "give only one of them")
     if args.baseline and (args.against or args.against_dir):
-        raise ExcavsimError("--baseline has no meaning with --against/--against-dir (they need no baseline)")
+        raise UsageError("--baseline has no meaning with --against/--against-dir (they need no baseline)")
     seeds = parse_seeds(args.seeds) if args.seeds is not None else None
     say = (lambda s: print(s, file=sys.stderr)) if args.json else print  # with --json, stdout is the JSON only
     if args.against or args.against_dir:
@@ -62,7 +62,7 @@ def _cmd_bench(args: argparse.Namespace) -> int:
 
     unknown = [n for n in args.names if n not in BENCHMARKS]
     if unknown:
-        raise ExcavsimError(f"unknown benchmark(s) {unknown}; available: {sorted(BENCHMARKS)}")
+        raise ConfigError(f"unknown benchmark(s) {unknown}; available: {sorted(BENCHMARKS)}")
     run_benchmarks(args.names or None)
     return 0
 
@@ -76,7 +76,7 @@ def _cmd_campaign(args: argparse.Namespace) -> int:
         try:
             out_dir(out)
         except argparse.ArgumentTypeError as exc:
-            raise ExcavsimError(f"--out (default): {exc}") from None
+            raise ConfigError(f"--out (default): {exc}") from None
     recorder = None
     if args.live is not None:  # records every episode, streams the first of the grid
         from excavsim.loop.campaign import check_campaign
@@ -210,7 +210,8 @@ def register(sub: argparse._SubParsersAction) -> None:
                        help="also run episodes planned with the nominal wedge model and with learned predictors")
     learn.add_argument("--episodes", type=int_in(1, 1000), default=2, metavar="N",
                        help="episodes per predictor (default 2)")
-    learn.add_argument("--dig-budget", type=dig_budget_type, default=6, metavar="N", help="digs per episode (default 6)")
+    learn.add_argument("--dig-budget", type=dig_budget_type, default=6, metavar="N",
+                       help="digs per episode (default 6)")
     learn.add_argument("--wrist-limit", type=float_in(10, 1e6), metavar="NM",
                        help="wrist pitch torque limit in the comparison [N m] (default: configs/robot.yaml)")
     learn.add_argument("--method", default="global", metavar="NAME",

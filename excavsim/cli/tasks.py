@@ -7,7 +7,7 @@ import argparse
 import math
 
 from excavsim.cli.options import float_in, int_in, name_or_path, out_dir, out_file, seed_type
-from excavsim.errors import ExcavsimError, shorten
+from excavsim.errors import ConfigError, UsageError, shorten
 
 
 def _cmd_tune(args: argparse.Namespace) -> int:
@@ -17,12 +17,12 @@ def _cmd_tune(args: argparse.Namespace) -> int:
     retarget = None
     if args.retarget is not None:
         if not 1 <= args.retarget <= args.trials:
-            raise ExcavsimError(f"--retarget {args.retarget}: the trial before which the target moves; allowed: 1 to "
-                                f"--trials ({args.trials})")
+            raise ConfigError(f"--retarget {args.retarget}: the trial before which the target moves; allowed: 1 to "
+                              f"--trials ({args.trials})")
         retarget = (args.retarget - 1, args.retarget_r, math.radians(args.retarget_theta))
     if args.compare:
         if args.record:
-            raise ExcavsimError("--record writes one run: leave it out with --compare")
+            raise UsageError("--record writes one run: leave it out with --compare")
         from excavsim.loop.truck_campaign import compare
 
         compare(seeds=args.seeds, soils=args.soils or ([args.soil] if args.soil else None), trials=args.trials,
@@ -40,7 +40,7 @@ def _cmd_load(args: argparse.Namespace) -> int:
     if args.mujoco or args.campaign:
         return _load_mujoco(args, cfg)
     if args.record:
-        raise ExcavsimError("--record needs --mujoco (the 2-D simulation writes figures to --out)")
+        raise UsageError("--record needs --mujoco (the 2-D simulation writes figures to --out)")
     if args.study:
         ld.write_study(args.config, args.out, runs=args.runs, workers=args.workers, seed=args.seed)
     else:
@@ -53,15 +53,15 @@ def _load_mujoco(args: argparse.Namespace, cfg) -> int:
     from excavsim.loop import loading_mujoco as lm
 
     if args.study:
-        raise ExcavsimError("--study is the 2-D simulation's (Fig. 112); --mujoco runs single episodes")
+        raise UsageError("--study is the 2-D simulation's (Fig. 112); --mujoco runs single episodes")
     if args.campaign:
         if args.record or args.machine:
-            raise ExcavsimError("--campaign runs the machines and seeds its file names; --record and --machine "
-                                "are single episodes' options")
+            raise UsageError("--campaign runs the machines and seeds its file names; --record and --machine "
+                             "are single episodes' options")
         done = lm.write_campaign(args.campaign, args.out, cfg2d=cfg, mujoco_config=args.mujoco_config)
         return 0 if done else 1
     if args.record and not args.record.endswith(".rrd"):
-        raise ExcavsimError(f"--record must name an .rrd file; given {shorten(repr(args.record), 200)}")
+        raise ConfigError(f"--record must name an .rrd file; given {shorten(repr(args.record), 200)}")
     done = lm.run_episodes(cfg2d=cfg, machine=args.machine, seed=args.seed, mujoco_config=args.mujoco_config,
                            record=args.record)
     return 0 if done else 1

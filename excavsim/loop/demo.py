@@ -53,6 +53,7 @@ def demo_from_configs(robot_config: str | None = None, scene_config: str | None 
         progress: called with the header and a line per scan and dig.
     """
     from excavsim.config import load_robot_config, load_scene_config
+    from excavsim.world import simulation  # the class looked up when called, as the command always did
 
     robot = load_robot_config(robot_config)
     scene = load_scene_config(scene_config)
@@ -61,4 +62,4 @@ def demo_from_configs(robot_config: str | None = None, scene_config: str | None 
         progress(f"excavsim demo: one hand-picked dig into {scene.soil} (k {k:.2f} m, alpha "
                  f"{math.degrees(alpha):.0f} deg, d1 {d1:.2f} m, d2 {d2:.2f} m): scan, dig, dump, settle, scan "
                  f"(seed {seed})")
-    return run_demo(Simulation(robot, scene, seed=seed), seed=seed, progress=progress)
+    return run_demo(simulation.Simulation(robot, scene, seed=seed), seed=seed, progress=progress)

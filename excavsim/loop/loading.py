@@ -30,7 +30,7 @@ from pydantic import Field
 
 from excavsim import constants
 from excavsim.config import StrictModel, load_config
-from excavsim.errors import ExcavsimError
+from excavsim.errors import ConfigError
 from excavsim.planning import loading as lp
 from excavsim.robot.loaders import FrontLoader, FrontShovel
 from excavsim.world.pile2d import Pile2D, random_pile, trapezoid_pile
@@ -155,7 +155,7 @@ def make_machine(cfg: LoadingConfig, name: str) -> FrontLoader | FrontShovel:
                            np.radians([m.theta1_range_deg[0], m.theta2_range_deg[0], m.theta3_range_deg[0]]),
                            np.radians([m.theta1_range_deg[1], m.theta2_range_deg[1], m.theta3_range_deg[1]]),
                            m.track_front, m.floor)
-    raise ExcavsimError(f"unknown machine {name!r} (allowed: {', '.join(MACHINES)})")
+    raise ConfigError(f"unknown machine {name!r} (allowed: {', '.join(MACHINES)})")
 
 
 def make_rules(cfg: LoadingConfig, capacity_units: float, force_limit_kn_m: float | None = None, *,
@@ -291,7 +291,7 @@ def study(cfg_path: str | pathlib.Path | None = None, *, runs: int | None = None
     cfg = load_loading_config(cfg_path)
     n = cfg.study.runs if runs is None else int(runs)
     if n < 1:
-        raise ExcavsimError(f"the study needs at least one run; given {runs!r}")
+        raise ConfigError(f"the study needs at least one run; given {runs!r}")
     jobs = [(None if cfg_path is None else str(cfg_path), m, f, seed + i)
             for m in MACHINES for f in cfg.study.force_limits_kn_m for i in range(n)]
     if workers > 1:

@@ -50,10 +50,9 @@ from pydantic import Field
 
 from excavsim import constants
 from excavsim.config import StrictModel, load_config, load_sensing_config
-from excavsim.errors import ExcavsimError
+from excavsim.errors import ConfigError, Diverged, ExcavsimError, GoalError, UsageError
 from excavsim.execution import loading_script as ls
 from excavsim.handoff.maps import ElevationMap
-from excavsim.handoff.observation import Diverged
 from excavsim.loop import loading as ld
 from excavsim.planning import loading as lp
 from excavsim.sensing.elevation import build_map
@@ -110,8 +109,8 @@ def load_mujoco_config(path: str | pathlib.Path | None = None) -> LoadingMujocoC
     for name, n in (("loader", 3), ("shovel", 4)):
         s = getattr(cfg.script, name)
         if len(s.joint_speed) != n or len(s.tolerance) != n or min(s.joint_speed + s.tolerance) <= 0:
-            raise ExcavsimError(f"{path or CONFIG_PATH}: script.{name}: joint_speed and tolerance need {n} values "
-                                f"> 0 (one per joint); given {s.joint_speed}, {s.tolerance}")
+            raise ConfigError(f"{path or CONFIG_PATH}: script.{name}: joint_speed and tolerance need {n} values "
+                              f"> 0 (one per joint); given {s.joint_speed}, {s.tolerance}")
     return cfg
 
 
@@ -230,8 +229,8 @@ def pile_section(world: LoadingWorld, pile: PileLane) -> tuple[np.ndarray, np.nd
     x = np.array([pile.foot, pile.foot + run, pile.foot + run + pile.top, pile.foot + 2 * run + pile.top])
     g = world.soil.grid
     if x[-1] > g.x1 - 0.1:
-        raise ExcavsimError(f"a pile {pile.height} m high with a {pile.top} m top from x = {pile.foot} m ends at "
-                            f"x = {x[-1]:.2f} m, beyond the lane's end at {g.x1 - 0.1:.2f} m")
+        raise ConfigError(f"a pile {pile.height} m high with a {pile.top} m top from x = {pile.foot} m ends at "
+                          f"x = {x[-1]:.2f} m, beyond the lane's end at {g.x1 - 0.1:.2f} m")
     return x, np.array([0.0, pile.height, pile.height, 0.0])
 
 
@@ -340,7 +339,7 @@ def joint_path(machine, poses: np.ndarray, base_x: float) -> tuple[np.ndarray, s
     idx = np.flatnonzero(ok)
     if idx.size == 0 or not ok[idx[0]:idx[-1] + 1].all():
         bad = len(ok) - idx.size if idx.size == 0 else int((~ok[idx[0]:idx[-1] + 1]).sum())
-        raise ExcavsimError(f"{bad} poses of the planned dig are out of the machine's reach")
+        raise GoalError(f"{bad} poses of the planned dig are out of the machine's reach")
     kept = slice(int(idx[0]), int(idx[-1]) + 1)
     return q[kept], kept
 
@@ -361,7 +360,7 @@ def run_episode(name: str, *, seed: int = 0, cfg: LoadingMujocoConfig | None = N
         account: the delivered/spilled account to keep (a new one when None; tests read it at every step).
     """
     if name not in MACHINES:
-        raise ExcavsimError(f"unknown loading machine {name!r}; allowed: {', '.join(MACHINES)}")
+        raise ConfigError(f"unknown loading machine {name!r}; allowed: {', '.join(MACHINES)}")
     cfg = cfg or load_mujoco_config()
     cfg2d = cfg2d or ld.load_loading_config()
     world = LoadingWorld(name, soil=cfg.soil, seed=seed)
@@ -532,9 +531,9 @@ def load_campaign(path: str | pathlib.Path) -> LoadingCampaign:
     spec = load_config(path, LoadingCampaign)
     bad = [m for m in spec.machines if m not in MACHINES]
     if bad:
-        raise ExcavsimError(f"{path}: machines: unknown {bad}; allowed: {', '.join(MACHINES)}")
+        raise ConfigError(f"{path}: machines: unknown {bad}; allowed: {', '.join(MACHINES)}")
     if any(not 0 <= s < 2**32 for s in spec.seeds) or len(set(spec.seeds)) != len(spec.seeds):
-        raise ExcavsimError(f"{path}: seeds must be distinct integers from 0 to 2^32 - 1; given {spec.seeds}")
+        raise ConfigError(f"{path}: seeds must be distinct integers from 0 to 2^32 - 1; given {spec.seeds}")
     return spec
 
 
@@ -649,7 +648,7 @@ def run_episodes(*, cfg2d: ld.LoadingConfig, machine: str | None = None, seed: i
     mcfg = load_mujoco_config(mujoco_config)
     names = [machine] if machine else list(MACHINES)
     if record and len(names) > 1:
-        raise ExcavsimError("--record writes one episode: give --machine loader or --machine shovel with it")
+        raise UsageError("--record writes one episode: give --machine loader or --machine shovel with it")
     rows = []
     for name in names:
         say(f"excavsim load --mujoco: front {name}, pile {mcfg.pile.height:g} m high, soil {mcfg.soil}, seed {seed}")

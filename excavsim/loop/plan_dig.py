@@ -23,7 +23,7 @@ from excavsim.handoff.maps import ElevationMap
 from excavsim.loop.rig import make_planner
 from excavsim.loop.scenario import resolve_goal
 from excavsim.robot.extract import arm_from_model
-from excavsim.robot.reachability import load_or_build
+from excavsim.robot import reachability
 
 
 def flat_fill_map() -> ElevationMap:
@@ -73,7 +73,7 @@ def plan_on_map(*, goal: str | None = None, map_path: str | None = None, planner
     say(f"excavsim plan: trench {trench.name or goal!r} on {map_label}, soil {soil}, wrist {wrist:.0f} N m, "
         f"objective {config.objective}, {volume_rule}")
     t0 = time.perf_counter()
-    table = load_or_build(arm)  # built and cached on first use (a few seconds)
+    table = reachability.load_or_build(arm)  # built and cached on first use (a few seconds)
     t_table = time.perf_counter() - t0
     planner = make_planner(arm, limits, width, capacity, trench, config, nominal, table=table)
     # The figures show every constraint's set over the whole grid, so they need the unpruned search

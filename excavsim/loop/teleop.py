@@ -21,7 +21,7 @@ from pathlib import Path
 import numpy as np
 
 from excavsim.config import get_soil
-from excavsim.errors import ExcavsimError
+from excavsim.errors import GoalError, UsageError
 from excavsim.execution.demonstration import Demonstration, plane_state
 from excavsim.execution.teleop import FINISH, HELP, TeleopOptions, apply_key, keys_of
 from excavsim.handoff.episode import EpisodeObserver
@@ -64,7 +64,7 @@ def teleoperate(keys: Iterable[str], *, seed: int = 0, soil: str = DEMO_SOIL,
     pose = plan.poses[0] + np.array([0.0, START_HEIGHT_M, 0.0])
     q_start, ok = rig.arm.inverse(pose)
     if not ok:
-        raise ExcavsimError("teleop: the start pose above the demonstration dig is out of reach")
+        raise GoalError("teleop: the start pose above the demonstration dig is out of reach")
     obs_hooks = observer or EpisodeObserver()
     mask, z_goal = trench_footprint(sim, rig.goal, rig.width)
     h0, v0, wall0 = sim.soil.grid.heights.copy(), sim.soil.initial_volume, time.perf_counter()
@@ -112,7 +112,7 @@ def _drive(keys, sim, rig, pose, q_start, waist, options, on_key, soil: str) -> 
         if len(poses) >= options.max_keys * options.ticks_per_key:
             break
     if len(poses) < 2:
-        raise ExcavsimError(f"teleop: no key moved the arm, so there is no demonstration ({HELP})")
+        raise UsageError(f"teleop: no key moved the arm, so there is no demonstration ({HELP})")
     n = len(poses)
     return Demonstration(np.arange(n) * sim.control_dt, np.array(poses), np.array(forces), sim.control_dt, waist,
                          f"teleoperation, {n_keys} keys, {n} samples", soil), n_keys
@@ -127,8 +127,8 @@ def tty_keys(stream=None) -> Iterator[str]:
     """
     stream = sys.stdin if stream is None else stream
     if not (hasattr(stream, "isatty") and stream.isatty()):
-        raise ExcavsimError("playback --teleop: standard input is not a terminal, so keys cannot be read one by "
-                            f"one; run it in a terminal, or give the keys with --keys SEQUENCE ({HELP})")
+        raise UsageError("playback --teleop: standard input is not a terminal, so keys cannot be read one by "
+                         f"one; run it in a terminal, or give the keys with --keys SEQUENCE ({HELP})")
     import termios
     import tty
 

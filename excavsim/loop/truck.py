@@ -35,7 +35,7 @@ import yaml
 
 from excavsim import constants
 from excavsim.config import get_soil, load_robot_config, load_sensing_config
-from excavsim.errors import ExcavsimError
+from excavsim.errors import ConfigError, GoalError
 from excavsim.execution.mass_script import (BOOM, BUCKET, FRACTIONS, STICK, SWING, TUNED, MassParams, TimingModel,
                                             TruckSite, compute_params, follow_path, mass_script, run_joint_script)
 from excavsim.handoff.maps import ElevationMap
@@ -103,7 +103,7 @@ def load_truck_config(path: str | Path | None = None) -> TruckConfig:
                            _range(d["ranges"]["return_fraction"], "ranges.return_fraction", 0.0, 1.0),
                            math.radians(float(d["ranges"]["angles_deg"])))
     except (OSError, KeyError, TypeError, ValueError, IndexError) as exc:
-        raise ExcavsimError(f"{path}: not a truck configuration: {exc!r}") from exc
+        raise ConfigError(f"{path}: not a truck configuration: {exc!r}") from exc
 
 
 def _flag(v, field: str) -> bool:
@@ -229,7 +229,7 @@ def dig(sim: Simulation, cfg: TruckConfig, arm) -> np.ndarray:
     """The fixed dig of §6.2: to the first pose at the dig face, then along the dig path. Returns q (6,)."""
     start, ok = arm.inverse(cfg.dig_path[0])
     if not ok:
-        raise ExcavsimError(f"the dig path's first pose {cfg.dig_path[0]} is out of reach")
+        raise GoalError(f"the dig path's first pose {cfg.dig_path[0]} is out of reach")
     go_to(sim, np.r_[cfg.dig_swing, start, 0.0, 0.0], _MoveCfg())
     return follow_path(sim, arm, cfg.dig_path, cfg.dig_speed, cfg.dig_swing)
 

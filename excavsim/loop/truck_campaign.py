@@ -22,7 +22,7 @@ from pathlib import Path
 import numpy as np
 
 from excavsim.config import get_soil
-from excavsim.errors import ExcavsimError
+from excavsim.errors import ConfigError
 from excavsim.loop import truck
 
 
@@ -72,11 +72,11 @@ def run_campaign(*, seeds: Sequence[int], soils: Sequence[str], trials: int,
         get_soil(s)  # ConfigError (an ExcavsimError) naming the presets
     window = cfg.initial_trials
     if trials < 2 * window:
-        raise ExcavsimError(f"a campaign run needs at least {2 * window} trials (first and last {window}); "
-                            f"given {trials}")
+        raise ConfigError(f"a campaign run needs at least {2 * window} trials (first and last {window}); "
+                          f"given {trials}")
     if retarget is not None and not window <= retarget[0] <= trials - window:
-        raise ExcavsimError(f"the target can move before trial {window + 1} ... {trials - window + 1} of a "
-                            f"{trials}-trial run (a window before and after it); given {retarget[0] + 1}")
+        raise ConfigError(f"the target can move before trial {window + 1} ... {trials - window + 1} of a "
+                          f"{trials}-trial run (a window before and after it); given {retarget[0] + 1}")
     runs: list[RunSummary] = []
     rows: list[dict] = []
     for soil in soils:
