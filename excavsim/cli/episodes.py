@@ -32,9 +32,8 @@ def _cmd_cycle(args: argparse.Namespace) -> int:
 
 
 def _cmd_trench(args: argparse.Namespace) -> int:
-    from excavsim.handoff.episode import format_episode
     from excavsim.config import parse_config
-    from excavsim.loop.scenario import EpisodeSpec, ResolvedSpec, load_spec, run_spec
+    from excavsim.loop.scenario import EpisodeSpec, load_spec, run_with_outputs
 
     spec = load_spec(args.spec) if args.spec else EpisodeSpec()
     given = {"goal": args.goal, "soil": args.soil, "dig_budget": args.dig_budget, "seed": args.seed}
@@ -42,32 +41,8 @@ def _cmd_trench(args: argparse.Namespace) -> int:
         raise ConfigError(f"--record must name an .rrd file; given {shorten(repr(args.record), 200)}")
     spec = parse_config({**spec.model_dump(), **{k: v for k, v in given.items() if v is not None}}, EpisodeSpec,
                         source="the command line")
-    ResolvedSpec(spec, robot_path=args.robot_config, scene_path=args.scene_config)  # every file checked first
-    observer = None
-    if args.record or args.live is not None:
-        from excavsim.record import RerunRecorder
-        from excavsim.record.live import viewer_url
-
-        live = viewer_url(args.live or None) if args.live is not None else None  # checked before the episode
-        if live:
-            print(f"streaming the episode live to {live}")
-        observer = RerunRecorder(args.record, live=live)
-    if args.save_maps:
-        from excavsim.handoff.episode import ObserverGroup
-        from excavsim.loop.episode import MapWriter
-
-        observer = ObserverGroup(observer, MapWriter(args.save_maps))
-    goal = spec.goal if isinstance(spec.goal, str) else (spec.goal.name or "inline goal")
-    print(f"excavsim trench: {goal} trench, {spec.dig_budget} digs at most, soil {spec.soil or 'of the scene'}, "
-          f"seed {spec.seed}")
-    result = run_spec(spec, progress=print, observer=observer, robot_path=args.robot_config,
-                      scene_path=args.scene_config)
-    print(format_episode(result))
-    if args.record:
-        print(f"recorded to {args.record}; replay it with: excavsim replay {args.record}")
-    if args.save_maps:
-        print(f"scanned maps saved in {args.save_maps} (map_NN.npz); plan on one with: "
-              f"excavsim plan --map {args.save_maps}/map_02.npz")
+    run_with_outputs(spec, robot_path=args.robot_config, scene_path=args.scene_config, record=args.record,
+                     live=args.live, save_maps=args.save_maps)
     return 0
 
 

@@ -117,7 +117,7 @@ def parse_seeds(text: str) -> int | list[int]:
     ``a,b,c`` (a list).
 
     Raises:
-        ExcavsimError: anything else.
+        ConfigError: anything else.
     """
     bad = ConfigError(f"--seeds: give a count N, a range A-B or a list a,b,c of seeds >= 0; given {text!r}")
     try:
@@ -237,8 +237,8 @@ def load_baseline(path: pathlib.Path) -> dict[str, Sample]:
     """The baseline's samples by scenario.
 
     Raises:
-        ExcavsimError: the file is missing, not JSON, or in another format (the message says how to
-            write it).
+        DataFileError: the file is missing, not JSON, in another format or with a malformed entry (the
+            message names it and says how to write it).
     """
     path = pathlib.Path(path)
     rewrite = "write it with `excavsim regress --update` (or compare two checkouts with --against REF, " \

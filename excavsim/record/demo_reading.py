@@ -82,8 +82,9 @@ def read_dig(path: str | pathlib.Path, dig: int = 1) -> RecordedDig:
     """Dig number ``dig`` (1-based) of the recording at ``path``.
 
     Raises:
-        ExcavsimError: the file is missing or not a recording, it has no joint or F/T series (not
-            written by excavsim's recorder), or has fewer than ``dig`` digs (naming how many it has).
+        DataFileError: the file is missing or not a recording, or it has no joint or F/T series (not
+            written by excavsim's recorder).
+        ConfigError: it has fewer than ``dig`` digs (naming how many it has).
     """
     p = pathlib.Path(path)
     if not p.is_file():
