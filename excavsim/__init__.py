@@ -26,7 +26,9 @@ import os
 # Headless always: dm_control reads MUJOCO_GL when first imported and would otherwise try a window.
 os.environ.setdefault("MUJOCO_GL", "disable")
 
-from excavsim.errors import ConfigError, ExcavsimError, ModelError  # noqa: E402
+from excavsim.errors import (ConfigError, DataFileError, DependencyError, Diverged, EnvError,  # noqa: E402
+                             ExcavsimError, GoalError, ModelError, OutOfTime, SoilModelError, UsageError, WedgeError,
+                             WorldError)
 
 __version__ = "0.1.0"
 
@@ -48,7 +50,9 @@ _LAZY = {
     "TrenchAction": "excavsim.handoff.dig",
 }
 
-__all__ = ["ConfigError", "ExcavsimError", "ModelError", "__version__", *_LAZY]
+ERRORS = ["ConfigError", "DataFileError", "DependencyError", "Diverged", "EnvError", "ExcavsimError", "GoalError",
+          "ModelError", "OutOfTime", "SoilModelError", "UsageError", "WedgeError", "WorldError"]  # excavsim.errors
+__all__ = [*ERRORS, "__version__", *_LAZY]
 
 
 def __getattr__(name: str):

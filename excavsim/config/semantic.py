@@ -16,7 +16,7 @@ import xml.etree.ElementTree as ET
 from excavsim import constants
 from excavsim.config.planner import TrenchGoal
 from excavsim.config.scene import SceneConfig
-from excavsim.errors import ConfigError
+from excavsim.errors import GoalError, ModelError
 
 MIN_GOAL_SECTION_M2 = 1e-3  # smallest cross-section of soil a goal may hold (10 cm x 1 cm) [m^2]
 SURFACE_TOLERANCE_M = 0.01  # a goal's surface_z_m may lie this far above the initial soil [m]
@@ -41,8 +41,8 @@ def soil_box() -> SoilBox:
     body = root.find(f".//body[@name='{constants.SOIL_BOX_BODY}']")
     hfield = root.find(f".//hfield[@name='{constants.SOIL_HFIELD}']")
     if body is None or hfield is None:
-        raise ConfigError(f"{constants.SOIL_BOX_XML}: no body {constants.SOIL_BOX_BODY!r} or hfield "
-                          f"{constants.SOIL_HFIELD!r}")
+        raise ModelError(f"{constants.SOIL_BOX_XML}: no body {constants.SOIL_BOX_BODY!r} or hfield "
+                         f"{constants.SOIL_HFIELD!r}")
     cx, cy, cz = (float(v) for v in body.get("pos", "0 0 0").split())
     rx, ry = (float(v) for v in hfield.get("size").split()[:2])
     return SoilBox(cx - rx, cx + rx, cy - ry, cy + ry, cz)
@@ -68,7 +68,7 @@ def check_goal(goal: TrenchGoal, scene: SceneConfig, *, source: str = "goal") ->
     above its profile must have a cross-section of at least :data:`MIN_GOAL_SECTION_M2`.
 
     Raises:
-        ConfigError: naming ``source``, the field and what is allowed.
+        GoalError: (a ConfigError) naming ``source``, the field and what is allowed.
     """
     box = soil_box()
     c, s = math.cos(math.radians(goal.waist_deg)), math.sin(math.radians(goal.waist_deg))
@@ -76,21 +76,21 @@ def check_goal(goal: TrenchGoal, scene: SceneConfig, *, source: str = "goal") ->
         r = getattr(goal, field)
         x, y = r * c, r * s
         if not (box.x_min <= x <= box.x_max and box.y_min <= y <= box.y_max):
-            raise ConfigError(
+            raise GoalError(
                 f"{source}: {field}: the trench edge at {r:g} m, waist {goal.waist_deg:g} deg is at world "
                 f"({x:.2f}, {y:.2f}) m, outside the soil box (allowed: x in [{box.x_min:g}, {box.x_max:g}] m, "
                 f"y in [{box.y_min:g}, {box.y_max:g}] m)")
     h = box.floor_z + scene.initial_soil_height_m
     if goal.surface_z_m > h + SURFACE_TOLERANCE_M:
-        raise ConfigError(f"{source}: surface_z_m: {goal.surface_z_m:g} m lies above the initial soil at {h:g} m "
-                          f"(allowed: at most {h + SURFACE_TOLERANCE_M:g} m, the scene's initial_soil_height_m "
-                          f"+ {SURFACE_TOLERANCE_M:g})")
+        raise GoalError(f"{source}: surface_z_m: {goal.surface_z_m:g} m lies above the initial soil at {h:g} m "
+                        f"(allowed: at most {h + SURFACE_TOLERANCE_M:g} m, the scene's initial_soil_height_m "
+                        f"+ {SURFACE_TOLERANCE_M:g})")
     bottom = goal.surface_z_m - goal.depth_m
     if bottom < box.floor_z:
-        raise ConfigError(f"{source}: depth_m: the bottom at {bottom:g} m lies below the box floor at "
-                          f"{box.floor_z:g} m (allowed: depth_m <= surface_z_m - {box.floor_z:g})")
+        raise GoalError(f"{source}: depth_m: the bottom at {bottom:g} m lies below the box floor at "
+                        f"{box.floor_z:g} m (allowed: depth_m <= surface_z_m - {box.floor_z:g})")
     area = goal_section_m2(goal, h)
     if area < MIN_GOAL_SECTION_M2:
-        raise ConfigError(f"{source}: the goal holds {area:.2g} m^2 of soil in section with the initial soil at "
-                          f"{h:g} m (allowed: at least {MIN_GOAL_SECTION_M2:g} m^2; is the goal above the soil, "
-                          "or the box empty?)")
+        raise GoalError(f"{source}: the goal holds {area:.2g} m^2 of soil in section with the initial soil at "
+                        f"{h:g} m (allowed: at least {MIN_GOAL_SECTION_M2:g} m^2; is the goal above the soil, "
+                        "or the box empty?)")

@@ -34,7 +34,7 @@ from typing import Any
 import numpy as np
 
 from excavsim.config import TrenchGoal, parse_config
-from excavsim.errors import ExcavsimError
+from excavsim.errors import EnvError, ExcavsimError
 from excavsim.handoff.dig import Dig, TrenchAction
 from excavsim.handoff.episode import DigMetrics, EpisodeObserver, EpisodeResult, ObserverGroup
 from excavsim.handoff.goal import goal_profile
@@ -58,11 +58,6 @@ TERMINAL_ENDS = ("done", "no_dig", "diverged")
 """Episode ends that terminate (the trench is done, nothing is left to dig, the world broke); the
 dig budget and the wall-clock limit truncate."""
 TIMING_KEYS = ("planning_s", "wall_s")  # wall-clock numbers left out of ``info`` (they differ run to run)
-
-
-class EnvError(ExcavsimError, ValueError):
-    """A bad argument to an environment: an action outside its space or not finite, a bad seed or
-    option, a step before :meth:`reset` or after the episode ended."""
 
 
 @dataclasses.dataclass(frozen=True)

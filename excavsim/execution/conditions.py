@@ -20,7 +20,7 @@ from collections.abc import Sequence
 
 import numpy as np
 
-from excavsim.errors import ExcavsimError
+from excavsim.errors import ConfigError, UsageError
 
 
 @dataclasses.dataclass(frozen=True)
@@ -105,7 +105,7 @@ class Cond:
             return all(c.holds(s, ctx) for c in self.children)
         if k == "any":
             return any(c.holds(s, ctx) for c in self.children)
-        raise ExcavsimError(f"unknown condition kind {k!r}; allowed: {', '.join(_KINDS)}")
+        raise ConfigError(f"unknown condition kind {k!r}; allowed: {', '.join(_KINDS)}")
 
     def describe(self) -> str:
         k = self.kind
@@ -184,7 +184,7 @@ def held(cond: Cond, *, ticks: int | None = None, seconds: float | None = None) 
     """Holds when ``cond`` has held on ``ticks`` consecutive evaluations, or for ``seconds`` since the
     first evaluation it held on (give one of the two; see the module docstring for what counts)."""
     if (ticks is None) == (seconds is None):
-        raise ExcavsimError(f"held({cond.describe()}): give ticks or seconds, not {'both' if ticks else 'neither'}")
+        raise UsageError(f"held({cond.describe()}): give ticks or seconds, not {'both' if ticks else 'neither'}")
     if ticks is not None:
         return Cond("held_ticks", value=float(ticks), children=(cond,))
     return Cond("held_s", value=float(seconds), children=(cond,))

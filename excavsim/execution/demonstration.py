@@ -19,7 +19,7 @@ from pathlib import Path
 
 import numpy as np
 
-from excavsim.errors import ExcavsimError
+from excavsim.errors import DataFileError, UsageError, shorten
 from excavsim.handoff.dig import ExecutionRecord
 from excavsim.handoff.observation import Observation
 from excavsim.robot.kinematics import PlanarArm
@@ -92,43 +92,44 @@ class Demonstration:
                              self.soil)
 
 
-def validate(doc: dict) -> None:
-    """Check a demonstration document against :data:`SCHEMA`; raises :class:`ExcavsimError` saying what is wrong."""
+def validate(doc: dict, source: str = "demonstration") -> None:
+    """Check a demonstration document against :data:`SCHEMA`; raises :class:`DataFileError` saying what
+    is wrong, after ``source`` (the file, when read from one)."""
     if not isinstance(doc, dict):
-        raise ExcavsimError(f"demonstration: expected a JSON object, got {type(doc).__name__}")
+        raise DataFileError(f"{source}: expected a JSON object, got {type(doc).__name__}")
     if doc.get("format") != SCHEMA["format"] or doc.get("version") != SCHEMA_VERSION:
-        raise ExcavsimError(f"demonstration: format/version must be {SCHEMA['format']!r}/{SCHEMA_VERSION}, "
+        raise DataFileError(f"{source}: format/version must be {SCHEMA['format']!r}/{SCHEMA_VERSION}, "
                             f"got {doc.get('format')!r}/{doc.get('version')!r}")
     missing = [k for k in SCHEMA["fields"] if k not in doc]
     extra = [k for k in doc if k not in SCHEMA["fields"] and k not in ("format", "version")]
     if missing or extra:
-        raise ExcavsimError(f"demonstration: missing keys {missing}, unknown keys {extra}")
+        raise DataFileError(f"{source}: missing keys {missing}, unknown keys {extra}")
     try:
         times = np.asarray(doc["times"], dtype=float)
         pose = np.asarray(doc["pose"], dtype=float)
         force = np.asarray(doc["force"], dtype=float)
         dt, waist = float(doc["dt"]), float(doc["waist"])
-    except (TypeError, ValueError) as exc:
-        raise ExcavsimError(f"demonstration: non-numeric data ({exc})") from None
+    except (TypeError, ValueError, OverflowError, RecursionError) as exc:
+        raise DataFileError(f"{source}: non-numeric data ({type(exc).__name__}: {shorten(exc)})") from None
     n = times.shape[0] if times.ndim == 1 else -1
     if n < 2 or pose.shape != (n, 3) or force.shape != (n, 2):
-        raise ExcavsimError(f"demonstration: times (N,), pose (N, 3), force (N, 2) with N >= 2 expected, got "
+        raise DataFileError(f"{source}: times (N,), pose (N, 3), force (N, 2) with N >= 2 expected, got "
                             f"{times.shape}, {pose.shape}, {force.shape}")
     if not all(np.all(np.isfinite(a)) for a in (times, pose, force)) or not (math.isfinite(waist) and dt > 0):
-        raise ExcavsimError("demonstration: every number must be finite and dt positive")
+        raise DataFileError(f"{source}: every number must be finite and dt positive")
     if not np.allclose(np.diff(times), dt, rtol=1e-6, atol=1e-9):
-        raise ExcavsimError(f"demonstration: times must be uniform at dt = {dt} s")
+        raise DataFileError(f"{source}: times must be uniform at dt = {dt} s")
     if not isinstance(doc["source"], str) or not isinstance(doc["soil"], str):
-        raise ExcavsimError("demonstration: source and soil must be text")
+        raise DataFileError(f"{source}: source and soil must be text")
 
 
 def load_demonstration(path: str | Path) -> Demonstration:
     """Read and validate a demonstration file (:data:`SCHEMA`)."""
     try:
-        doc = json.loads(Path(path).read_text())
-    except (OSError, json.JSONDecodeError) as exc:
-        raise ExcavsimError(f"demonstration {path}: cannot read ({exc})") from None
-    validate(doc)
+        doc = json.loads(Path(path).read_text(encoding="utf-8"))
+    except (OSError, ValueError, RecursionError) as exc:  # unreadable, not UTF-8, not JSON, nested too deep
+        raise DataFileError(f"demonstration {path}: cannot read ({type(exc).__name__}: {exc})") from None
+    validate(doc, f"demonstration {path}")
     return Demonstration(np.asarray(doc["times"], float), np.asarray(doc["pose"], float),
                          np.asarray(doc["force"], float), doc["dt"], doc["waist"], doc["source"], doc["soil"])
 
@@ -165,7 +166,7 @@ def demonstration_from_record(rec: ExecutionRecord, *, arm: PlanarArm, ft: Force
         ExcavsimError: the record has no cut or no lift-out.
     """
     if len(rec.executed_path) < 2 or "lift out" not in rec.phase_starts or len(rec.ft) < 2:
-        raise ExcavsimError(f"demonstration: the record has no cut to demonstrate (outcome {rec.outcome!r})")
+        raise UsageError(f"demonstration: the record has no cut to demonstrate (outcome {rec.outcome!r})")
     pose = np.asarray(rec.executed_path, dtype=float)
     n = len(pose)
     t = rec.phase_starts["lift out"] - (n - np.arange(n)) * dt
@@ -209,7 +210,7 @@ def demonstration_from_joints(joint_times: np.ndarray, joints: np.ndarray, ft_ti
     t0 = max(t1 - (len(path_world) - 1) * dt, joint_times[0])
     n = int(np.floor((t1 - t0) / dt + 1e-9)) + 1
     if n < 2:
-        raise ExcavsimError(f"demonstration: the recorded cut spans {t1 - t0:.3f} s, shorter than two samples")
+        raise UsageError(f"demonstration: the recorded cut spans {t1 - t0:.3f} s, shorter than two samples")
     t = t0 + np.arange(n) * dt
     q = np.stack([np.interp(t, joint_times, joints[:, k]) for k in range(joints.shape[1])], axis=-1)
     f_tip = np.stack([np.interp(t, ft_times, ft_tip[:, k]) for k in range(3)], axis=-1)

@@ -46,7 +46,7 @@ import numpy as np
 
 from excavsim import constants
 from excavsim.config import ExecutorConfig
-from excavsim.errors import ExcavsimError
+from excavsim.errors import ConfigError, Diverged, ExcavsimError, GoalError, OutOfTime
 from excavsim.execution.conditions import (Sense, all_of, always, any_of, event, force_above, force_below, held,
                                            past, path_done, path_end, reached, settled, started, timed_out)
 from excavsim.execution.paths import PathFollower, interp_pose, path_length
@@ -54,7 +54,7 @@ from excavsim.execution.script import (_S_PATH, _S_TG0, _S_TGN, Abort, Command, 
                                        Step, Stop, SubScript, Transition, Watch, engine_end_tick, engine_report,
                                        engine_tick)
 from excavsim.handoff.dig import DigPlan, ExecutionRecord
-from excavsim.handoff.observation import Diverged, Observation, OutOfTime, Servos
+from excavsim.handoff.observation import Observation, Servos
 from excavsim.robot.fast import arm_params, chain_lengths, forward_pose, ik_torques, solve_pose
 from excavsim.robot.kinematics import PlanarArm
 from excavsim.sensing.ft import ForceSensor, FTReading
@@ -99,8 +99,8 @@ def dig_script(plan: DigPlan, arm: PlanarArm, cfg: ExecutorConfig, park: np.ndar
     pre_dump = np.array([cfg.dump_pose[0], cfg.dump_pose[1], plan.poses[-1, 2]])
     q_dump, ok_dump = arm.inverse(pre_dump)
     if not ok or not ok_dump:
-        raise ExcavsimError(f"dig script: the pose above the entry {above.round(3)} or the dump pose "
-                            f"{cfg.dump_pose} is out of reach")
+        raise GoalError(f"dig script: the pose above the entry {above.round(3)} or the dump pose "
+                        f"{cfg.dump_pose} is out of reach")
     park = np.asarray(park, dtype=float)[:4]
     tol = cfg.settle_tol_rad
     wait = cfg.move_timeout_s
@@ -366,8 +366,8 @@ class DigExecutor:
         elif cmd.path == "dump":  # pour: turn the bucket at a fixed tip
             path = np.array([tip, [tip[0], tip[1], math.radians(cfg.dump_pose[2])]])
         else:
-            raise ExcavsimError(f"dig script: unknown path {cmd.path!r}; the executor lays out touchdown, dig, "
-                                f"lift and dump")
+            raise ConfigError(f"dig script: unknown path {cmd.path!r}; the executor lays out touchdown, dig, "
+                              f"lift and dump")
         return PathFollower(path, cmd.speed, cfg.pitch_radius_m, cut_from)
 
     def _dig_path(self, plan: DigPlan, tip: np.ndarray, rec: ExecutionRecord) -> tuple[np.ndarray, float]:

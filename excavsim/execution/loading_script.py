@@ -20,7 +20,7 @@ from collections.abc import Callable
 
 import numpy as np
 
-from excavsim.errors import ExcavsimError
+from excavsim.errors import ConfigError
 
 
 @dataclasses.dataclass(frozen=True)
@@ -34,10 +34,10 @@ class JointScript:
     def __post_init__(self):
         t, q = np.asarray(self.times, float), np.asarray(self.targets, float)
         if t.ndim != 1 or q.ndim != 2 or q.shape[0] != t.size or t.size < 1 or np.any(np.diff(t) < 0):
-            raise ExcavsimError(f"a joint script needs N non-decreasing times and (N, n) targets; given "
-                                f"{t.shape} and {q.shape}")
+            raise ConfigError(f"a joint script needs N non-decreasing times and (N, n) targets; given "
+                              f"{t.shape} and {q.shape}")
         if not (np.all(np.isfinite(t)) and np.all(np.isfinite(q))):
-            raise ExcavsimError("a joint script's times and targets must be finite")
+            raise ConfigError("a joint script's times and targets must be finite")
 
     @property
     def duration(self) -> float:
@@ -55,7 +55,7 @@ def timed_path(q: np.ndarray, tip_xz: np.ndarray, *, tip_speed: float, joint_spe
     q = np.asarray(q, float)
     tip = np.asarray(tip_xz, float)
     if q.ndim != 2 or tip.shape != (q.shape[0], 2) or not tip_speed > 0 or np.any(np.asarray(joint_speed) <= 0):
-        raise ExcavsimError("timed_path: q (N, n), tip (N, 2), tip_speed > 0 and joint speeds > 0 are required")
+        raise ConfigError("timed_path: q (N, n), tip (N, 2), tip_speed > 0 and joint speeds > 0 are required")
     dt_tip = np.hypot(*np.diff(tip, axis=0).T) / tip_speed
     dt_joint = np.max(np.abs(np.diff(q, axis=0)) / np.asarray(joint_speed, float), axis=1)
     return JointScript(np.concatenate([[0.0], np.cumsum(np.maximum(dt_tip, dt_joint))]), q, name)

@@ -50,7 +50,7 @@ from collections.abc import Sequence
 import numpy as np
 
 from excavsim import constants
-from excavsim.errors import ExcavsimError
+from excavsim.errors import GoalError, UsageError
 from excavsim.execution.conditions import Cond, Sense, all_of, always, joint_above, joint_below, started
 from excavsim.execution.paths import PathFollower
 from excavsim.execution.script import Command, Script, ScriptEngine, Step, SubScript, Transition
@@ -182,8 +182,8 @@ def clearance_boom_angle(arm: PlanarArm, stick: float, bucket: float, side_z: fl
 
     lo, hi = float(arm.lower[0]), float(arm.upper[0])
     if lowest(hi) < side_z + clearance:
-        raise ExcavsimError(f"the bucket cannot clear a truck side at {side_z:.2f} m with the stick at "
-                            f"{math.degrees(stick):.0f} deg")
+        raise GoalError(f"the bucket cannot clear a truck side at {side_z:.2f} m with the stick at "
+                        f"{math.degrees(stick):.0f} deg")
     # the bucket rises with the boom over the range used here: bisect for the first clear angle
     for _ in range(60):
         mid = 0.5 * (lo + hi)
@@ -223,7 +223,7 @@ def compute_params(arm: PlanarArm, site: TruckSite, timing: TimingModel, dig_end
     x_tip = site.r_d - pour_offset(arm, open_pitch)
     q_dump, ok = arm.inverse(np.array([x_tip, site.dump_z, open_pitch]))
     if not ok:
-        raise ExcavsimError(f"the dump pose (tip {x_tip:.2f} m out, {site.dump_z:.2f} m up) is out of reach")
+        raise GoalError(f"the dump pose (tip {x_tip:.2f} m out, {site.dump_z:.2f} m up) is out of reach")
     stick_dump, bucket_open = float(q_dump[1]), float(q_dump[2])
     # carry: the stick stays where the dig left it; the bucket is curled ``capture_curl`` past the dig's
     # end pitch and holds that pitch as the boom rises (the pitch is the sum of the planar joint angles)
@@ -330,7 +330,7 @@ def run_joint_script(servos: Servos, script: Script) -> ScriptRun:
     for sub in script.subscripts:
         for st in sub.steps:
             if st.command.path:
-                raise ExcavsimError(f"run_joint_script: step {st.name!r} follows a path; joint targets only")
+                raise UsageError(f"run_joint_script: step {st.name!r} follows a path; joint targets only")
     engine = ScriptEngine(script)
     names = list(constants.JOINTS)
     obs = servos.observe()

@@ -60,7 +60,7 @@ import math
 
 import numpy as np
 
-from excavsim.errors import ExcavsimError
+from excavsim.errors import ConfigError, ExcavsimError
 from excavsim.execution.demonstration import (SCHEMA, SCHEMA_VERSION, Demonstration, demonstration_from_joints,
                                               demonstration_from_record, load_demonstration, plane_force,
                                               plane_state, validate)
@@ -303,7 +303,7 @@ class ImpedancePlayback:
         """Play ``demo`` from the arm's current pose (it should be at the demonstration's start)."""
         sim, dt = self.sim, self.sim.control_dt
         if abs(dt - demo.dt) > 1e-9:
-            raise ExcavsimError(f"playback: the demonstration's dt {demo.dt} s is not the control period {dt} s")
+            raise ConfigError(f"playback: the demonstration's dt {demo.dt} s is not the control period {dt} s")
         n = len(demo.times)
         law = self.law
         law.reset(2, dt)

@@ -43,7 +43,7 @@ from collections.abc import Sequence
 import numba
 import numpy as np
 
-from excavsim.errors import ExcavsimError
+from excavsim.errors import ConfigError
 from excavsim.execution.conditions import Cond, Context, Sense, engine_event
 
 
@@ -181,14 +181,14 @@ class ScriptEngine:
         self.script = script
         names = [st.name for sub in script.subscripts for st in sub.steps]
         if len(set(names)) != len(names):  # events and records name steps
-            raise ExcavsimError(f"script {script.name!r}: step names repeat: {names}; give every step its own")
+            raise ConfigError(f"script {script.name!r}: step names repeat: {names}; give every step its own")
         for sub in script.subscripts:
             if not sub.steps:
-                raise ExcavsimError(f"script {script.name!r}: a sub-script for {sub.joints} has no steps")
+                raise ConfigError(f"script {script.name!r}: a sub-script for {sub.joints} has no steps")
             for st in sub.steps:
                 if st.command.targets and len(st.command.targets) != len(sub.joints):
-                    raise ExcavsimError(f"script {script.name!r}, step {st.name!r}: {len(st.command.targets)} "
-                                        f"targets for joints {sub.joints}")
+                    raise ConfigError(f"script {script.name!r}, step {st.name!r}: {len(st.command.targets)} "
+                                      f"targets for joints {sub.joints}")
         n = len(script.subscripts)
         self.index = [0] * n
         self.entered: list[float | None] = [None] * n  # time each sub-script entered its step
@@ -351,8 +351,8 @@ class CompiledEngine:
 
         def joint(name: str) -> int:
             if name not in self._jid:
-                raise ExcavsimError(f"script {script.name!r}: a condition reads joint {name!r}, which is not among "
-                                    f"the engine's joints {self.joints}")
+                raise ConfigError(f"script {script.name!r}: a condition reads joint {name!r}, which is not among "
+                                  f"the engine's joints {self.joints}")
             return self._jid[name]
 
         def unit(cond: Cond | None, sub: int) -> tuple[int, int]:
@@ -388,8 +388,8 @@ class CompiledEngine:
                     vals.append(c.value)
                     return
                 if c.kind not in _LEAVES:
-                    raise ExcavsimError(f"unknown condition kind {c.kind!r}; allowed: {', '.join(_LEAVES)}, "
-                                        "held_ticks, held_s, all, any")
+                    raise ConfigError(f"unknown condition kind {c.kind!r}; allowed: {', '.join(_LEAVES)}, "
+                                      "held_ticks, held_s, all, any")
                 a = b = 0
                 if c.kind in ("joint_above", "joint_below", "reached"):
                     a = joint(c.joint)

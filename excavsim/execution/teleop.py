@@ -17,7 +17,7 @@ import math
 
 import numpy as np
 
-from excavsim.errors import ExcavsimError
+from excavsim.errors import ConfigError
 
 # key -> (dx [steps], dz [steps], dpitch [steps]); "." waits one key period; FINISH ends the demonstration
 KEYS = {"a": (-1, 0, 0), "d": (1, 0, 0), "w": (0, 1, 0), "s": (0, -1, 0), "q": (0, 0, 1), "e": (0, 0, -1),
@@ -45,8 +45,8 @@ class TeleopOptions:
 
     def __post_init__(self):
         if not (self.step_m > 0 and self.pitch_step_rad >= 0 and self.ticks_per_key >= 1 and self.max_keys >= 1):
-            raise ExcavsimError(f"teleop options: step_m > 0, pitch_step_rad >= 0, ticks_per_key >= 1 and "
-                                f"max_keys >= 1 required, got {self}")
+            raise ConfigError(f"teleop options: step_m > 0, pitch_step_rad >= 0, ticks_per_key >= 1 and "
+                              f"max_keys >= 1 required, got {self}")
 
 
 def apply_key(pose: np.ndarray, key: str, options: TeleopOptions = TeleopOptions()) -> np.ndarray | None:
@@ -58,7 +58,7 @@ def apply_key(pose: np.ndarray, key: str, options: TeleopOptions = TeleopOptions
     if key == FINISH:
         return None
     if key not in KEYS:
-        raise ExcavsimError(f"teleop: unknown key {key!r}; allowed: {''.join(KEYS)} and {FINISH!r} ({HELP})")
+        raise ConfigError(f"teleop: unknown key {key!r}; allowed: {''.join(KEYS)} and {FINISH!r} ({HELP})")
     step = np.array([options.step_m, options.step_m, options.pitch_step_rad])
     return np.asarray(pose, dtype=float) + step * np.array(KEYS[key])
 

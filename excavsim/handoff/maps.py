@@ -13,7 +13,7 @@ import pathlib
 
 import numpy as np
 
-from excavsim.errors import ExcavsimError
+from excavsim.errors import DataFileError, shorten
 
 
 @dataclasses.dataclass(frozen=True)
@@ -106,10 +106,30 @@ class ElevationMap:
 
     @classmethod
     def load(cls, path: str | pathlib.Path) -> ElevationMap:
-        """Read a map written by :meth:`save`."""
+        """Read a map written by :meth:`save`.
+
+        Raises:
+            DataFileError: the file is missing, not an ``.npz`` archive, or lacks a field or has one of
+                the wrong shape (the message names the file and the field).
+        """
+        fields = ("x0", "y0", "cell", "heights", "observed", "time")
         try:
-            with np.load(path) as f:
-                return cls(float(f["x0"]), float(f["y0"]), float(f["cell"]), f["heights"], f["observed"].astype(bool),
-                           float(f["time"]))
-        except (OSError, KeyError, ValueError) as exc:
-            raise ExcavsimError(f"{path}: not an elevation map written by excavsim ({exc})") from None
+            with np.load(path, allow_pickle=False) as f:
+                missing = [k for k in fields if k not in f.files]
+                if missing:
+                    raise DataFileError(f"{path}: not an elevation map written by excavsim: missing "
+                                        f"{', '.join(missing)} (a map holds {', '.join(fields)})")
+                raw = {k: np.asarray(f[k]) for k in fields}
+            scalars = {k: float(raw[k]) for k in ("x0", "y0", "cell", "time")}
+            heights, observed = raw["heights"].astype(float), raw["observed"].astype(bool)
+        except DataFileError:
+            raise
+        except Exception as exc:  # numpy's and zipfile's errors for a garbled or truncated file
+            raise DataFileError(f"{path}: not an elevation map written by excavsim ({type(exc).__name__}: "
+                                f"{shorten(exc)})") from None
+        if not all(np.isfinite(list(scalars.values()))) or scalars["cell"] <= 0:
+            raise DataFileError(f"{path}: x0, y0, cell and time must be finite and cell > 0; given {scalars}")
+        if heights.ndim != 2 or min(heights.shape) < 2 or observed.shape != heights.shape:
+            raise DataFileError(f"{path}: heights {heights.shape} and observed {observed.shape} must be one grid "
+                                "of at least 2 x 2 cells")
+        return cls(scalars["x0"], scalars["y0"], scalars["cell"], heights, observed, scalars["time"])

@@ -14,7 +14,7 @@ from typing import Protocol
 
 import numpy as np
 
-from excavsim.errors import ExcavsimError
+from excavsim.errors import Diverged, OutOfTime  # their home is excavsim.errors; kept importable here for the loop
 
 
 @dataclasses.dataclass(frozen=True)
@@ -37,15 +37,6 @@ class Observation:
     actuator_force: np.ndarray
     ft_force: np.ndarray
     ft_torque: np.ndarray
-
-
-class Diverged(ExcavsimError):
-    """The physics became unstable (a MuJoCo warning, an automatic reset, or a non-finite state): the
-    world refuses every later step, and the dig that saw it ends with outcome ``diverged``."""
-
-
-class OutOfTime(ExcavsimError):
-    """The episode's wall-clock limit passed while stepping: the dig and the episode end as ``timeout``."""
 
 
 class Servos(Protocol):

@@ -26,7 +26,7 @@ from collections.abc import Iterator
 
 import numpy as np
 
-from excavsim.errors import ExcavsimError
+from excavsim.errors import ConfigError, UsageError
 from excavsim.handoff.forces import DigContext, ForcePredictor
 from excavsim.learning.encoding import Terrain, encode, infer_progress
 from excavsim.learning.predictors import ForceModel
@@ -47,10 +47,10 @@ def censored_quantile(values: np.ndarray, censored: np.ndarray, q: float) -> flo
     values = np.asarray(values, dtype=float)
     censored = np.asarray(censored, dtype=bool)
     if values.shape != censored.shape or values.ndim != 1:
-        raise ExcavsimError(f"censored_quantile: values {values.shape} and censored {censored.shape} must be "
-                            "one-dimensional and of one length")
+        raise UsageError(f"censored_quantile: values {values.shape} and censored {censored.shape} must be "
+                         "one-dimensional and of one length")
     if not 0.0 < q < 1.0:
-        raise ExcavsimError(f"censored_quantile: q = {q} must lie in (0, 1)")
+        raise ConfigError(f"censored_quantile: q = {q} must lie in (0, 1)")
     survival = 1.0
     for t in np.unique(values[~censored]):
         at_risk = int(np.count_nonzero(values >= t))
@@ -138,8 +138,8 @@ class LearnedForcePredictor:
         if self.terrain is not None and (surface is None or self.terrain.matches(surface)):
             return self.terrain
         if surface is None:
-            raise ExcavsimError("a learned force predictor needs the terrain: bind() the scanned map's Terrain, or "
-                                "query it with a DigContext that carries the planner's surface")
+            raise UsageError("a learned force predictor needs the terrain: bind() the scanned map's Terrain, or "
+                             "query it with a DigContext that carries the planner's surface")
         if self._from_surface is None or self._from_surface[0] is not surface:
             self._from_surface = (surface, Terrain.from_surface(surface))
         return self._from_surface[1]
@@ -157,8 +157,8 @@ class LearnedForcePredictor:
         """Soil force (..., 2) in the arm plane [N], x radial, z up, without the carried load's weight."""
         if not (self.active and self.model.fitted) or context is None:
             if self.nominal is None:
-                raise ExcavsimError("a learned force predictor without a fitted model (or queried without a "
-                                    "DigContext) needs a nominal predictor to fall back on")
+                raise UsageError("a learned force predictor without a fitted model (or queried without a "
+                                 "DigContext) needs a nominal predictor to fall back on")
             return self.nominal.predict(depth, rake, volume, context)
         samples = self.samples(volume, context)
         f_tip = self.model.predict(samples)

@@ -21,7 +21,7 @@ import dataclasses
 
 import numpy as np
 
-from excavsim.errors import ExcavsimError
+from excavsim.errors import ConfigError, UsageError
 from excavsim.learning.encoding import Samples
 
 
@@ -59,8 +59,8 @@ class Basis:
         """
         missing = [c for c in self.columns if c not in samples]
         if missing:
-            raise ExcavsimError(f"the {self.name} basis (eq. {self.equation}) needs the columns {list(self.columns)}; "
-                                f"missing {missing}")
+            raise UsageError(f"the {self.name} basis (eq. {self.equation}) needs the columns {list(self.columns)}; "
+                             f"missing {missing}")
         return np.stack([np.asarray(samples[c], dtype=float) ** p for c, p in self.terms], axis=-1)
 
 
@@ -97,4 +97,4 @@ def get_basis(name: str | Basis) -> Basis:
     try:
         return BASES[name]
     except KeyError:
-        raise ExcavsimError(f"unknown basis {name!r}; available: {', '.join(BASES)}") from None
+        raise ConfigError(f"unknown basis {name!r}; available: {', '.join(BASES)}") from None

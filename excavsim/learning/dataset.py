@@ -27,7 +27,7 @@ from collections.abc import Iterable
 
 import numpy as np
 
-from excavsim.errors import ExcavsimError
+from excavsim.errors import DataFileError, DependencyError, UsageError, shorten
 from excavsim.handoff.forces import trajectory_progress
 from excavsim.learning.encoding import FEATURE_COLUMNS, Samples, Terrain, encode
 
@@ -51,11 +51,11 @@ class ForceDataset:
     def __post_init__(self):
         missing = [c for c in COLUMNS if c not in self.columns]
         if missing:
-            raise ExcavsimError(f"a force data set needs the columns {list(COLUMNS)}; missing {missing}")
+            raise UsageError(f"a force data set needs the columns {list(COLUMNS)}; missing {missing}")
         self.columns = {c: np.asarray(self.columns[c], dtype=float).reshape(-1) for c in COLUMNS}
         sizes = {v.size for v in self.columns.values()}
         if len(sizes) > 1:
-            raise ExcavsimError(f"every column of a force data set must have one length; given {sorted(sizes)}")
+            raise UsageError(f"every column of a force data set must have one length; given {sorted(sizes)}")
 
     @classmethod
     def empty(cls) -> ForceDataset:
@@ -118,37 +118,92 @@ class ForceDataset:
 
     @classmethod
     def load(cls, path: str | pathlib.Path) -> ForceDataset:
-        """Read a table written by :meth:`save`.
+        """Read a table written by :meth:`save` (a CSV may also start at its header line, without the
+        metadata comment).
 
         Raises:
-            ExcavsimError: the file is missing, has another suffix, or is not such a table.
+            DataFileError: the file is missing, has another suffix, cannot be parsed, or lacks a
+                column (the message names the file and the columns missing).
+            DependencyError: a Parquet file without pyarrow.
         """
         path = pathlib.Path(path)
         fmt = _format(path)
-        if not path.exists():
-            raise ExcavsimError(f"{path}: no such force data set (build one with `excavsim learn --out DIR`)")
+        if not path.is_file():
+            raise DataFileError(f"{path}: no such force data set (build one with `excavsim learn --out DIR`)")
+        pq = _pyarrow(path)[1] if fmt == ".parquet" else None
         try:
-            if fmt == ".parquet":
-                _, pq = _pyarrow(path)
-                table = pq.read_table(path)
-                raw = (table.schema.metadata or {}).get(b"excavsim", b"{}")
-                return cls({c: table.column(c).to_numpy() for c in table.column_names}, json.loads(raw))
-            if fmt == ".npz":
-                with np.load(path) as f:
-                    return cls({c: f[c] for c in f.files if c != "meta"}, json.loads(str(f["meta"])))
-            with open(path) as fh:
-                first = fh.readline()
-                names = fh.readline().strip().split(",")
-            meta = json.loads(first[len("# excavsim "):]) if first.startswith("# excavsim ") else {}
-            data = np.loadtxt(path, delimiter=",", skiprows=2, ndmin=2)
-            return cls({c: data[:, i] for i, c in enumerate(names)}, meta)
-        except (OSError, KeyError, ValueError) as exc:
-            raise ExcavsimError(f"{path}: not a force data set written by excavsim ({exc})") from None
+            columns, meta = _read_table(path, fmt, pq)
+        except DataFileError:
+            raise
+        except Exception as exc:  # numpy's, pyarrow's, zipfile's and json's errors for a garbled file
+            raise DataFileError(f"{path}: not a force data set written by excavsim ({type(exc).__name__}: "
+                                f"{shorten(exc)})") from None
+        if not isinstance(meta, dict):
+            raise DataFileError(f"{path}: the metadata is {type(meta).__name__}, not a JSON object")
+        missing = [c for c in COLUMNS if c not in columns]
+        if missing:
+            raise DataFileError(f"{path}: missing the column(s) {', '.join(missing)}; a force data set has "
+                                f"{', '.join(COLUMNS)}")
+        values = {}
+        for c in COLUMNS:
+            try:
+                v = np.asarray(columns[c], dtype=float)
+            except (TypeError, ValueError):
+                raise DataFileError(f"{path}: column {c} is not numbers") from None
+            if v.ndim != 1:
+                raise DataFileError(f"{path}: column {c} has shape {v.shape}; allowed: one value per row")
+            values[c] = v
+        sizes = sorted({v.size for v in values.values()})
+        if len(sizes) > 1:
+            raise DataFileError(f"{path}: the columns have different lengths {sizes}; allowed: one length")
+        return cls(values, {str(k): v for k, v in meta.items()})
+
+
+def _read_table(path: pathlib.Path, fmt: str, pq) -> tuple[dict, object]:
+    """The raw columns and metadata of a force data set file (checked by :meth:`ForceDataset.load`)."""
+    if fmt == ".parquet":
+        table = pq.read_table(path)
+        raw = (table.schema.metadata or {}).get(b"excavsim", b"{}")
+        return {c: table.column(c).to_numpy() for c in table.column_names}, json.loads(raw)
+    if fmt == ".npz":
+        with np.load(path, allow_pickle=False) as f:
+            meta = json.loads(str(f["meta"])) if "meta" in f.files else {}
+            return {c: f[c] for c in f.files if c != "meta"}, meta
+    with open(path, encoding="utf-8") as fh:
+        lines = fh.read().splitlines()
+    meta, skip = {}, 0
+    if lines and lines[0].startswith("#"):
+        if lines[0].startswith("# excavsim "):
+            meta = json.loads(lines[0][len("# excavsim "):])
+        skip = 1
+    if len(lines) <= skip:
+        raise DataFileError(f"{path}: no header line (the column names, {', '.join(COLUMNS)})")
+    names = [n.strip() for n in lines[skip].split(",")]
+    twice = sorted({n for n in names if names.count(n) > 1})
+    if twice:
+        raise DataFileError(f"{path}: the header names the column(s) {', '.join(twice)} twice")
+    body = [ln for ln in lines[skip + 1:] if ln.strip()]
+    try:
+        data = np.loadtxt(body, delimiter=",", ndmin=2) if body else np.zeros((0, len(names)))
+    except ValueError:
+        data = None
+    if data is None or data.shape[1] != len(names):  # find the line at fault, for the message
+        for number, line in enumerate(lines[skip + 1:], start=skip + 2):
+            values = line.split(",")
+            if line.strip() and len(values) != len(names):
+                raise DataFileError(f"{path}: line {number} has {len(values)} values under a header of "
+                                    f"{len(names)} columns")
+            try:
+                [float(v) for v in values if line.strip()]
+            except ValueError:
+                raise DataFileError(f"{path}: line {number} holds a value that is not a number") from None
+        raise DataFileError(f"{path}: the rows are not {len(names)} numbers each")
+    return {c: data[:, i] for i, c in enumerate(names)}, meta
 
 
 def _format(path: pathlib.Path) -> str:
     if path.suffix not in FORMATS:
-        raise ExcavsimError(f"{path}: a force data set is saved as one of {', '.join(FORMATS)}; given {path.suffix!r}")
+        raise DataFileError(f"{path}: a force data set is saved as one of {', '.join(FORMATS)}; given {path.suffix!r}")
     return path.suffix
 
 
@@ -157,7 +212,7 @@ def _pyarrow(path: pathlib.Path):
         import pyarrow as pa
         import pyarrow.parquet as pq
     except ImportError:
-        raise ExcavsimError(f"{path}: Parquet needs pyarrow (pip install pyarrow), or save as .csv or .npz") from None
+        raise DependencyError(f"{path}: Parquet needs pyarrow (pip install pyarrow), or save as .csv or .npz") from None
     return pa, pq
 
 

@@ -34,7 +34,7 @@ from collections.abc import Callable, Mapping
 
 import numpy as np
 
-from excavsim.errors import ExcavsimError
+from excavsim.errors import UsageError
 from excavsim.handoff.forces import trajectory_progress
 from excavsim.handoff.goal import SurfaceProfile
 from excavsim.handoff.maps import ElevationMap
@@ -114,8 +114,8 @@ def encode(poses: np.ndarray, progress: np.ndarray, volume: np.ndarray, terrain:
     progress = np.asarray(progress, dtype=float)
     volume = np.asarray(volume, dtype=float)
     if poses.shape[-1:] != (3,) or progress.shape != poses.shape[:-1] + (4,) or volume.shape != poses.shape[:-1]:
-        raise ExcavsimError(f"encode needs poses (..., 3), progress (..., 4) and volume (...) of one shape; given "
-                            f"{poses.shape}, {progress.shape}, {volume.shape}")
+        raise UsageError(f"encode needs poses (..., 3), progress (..., 4) and volume (...) of one shape; given "
+                         f"{poses.shape}, {progress.shape}, {volume.shape}")
     x, z = poses[..., 0], poses[..., 1]
     out = {"k": progress[..., 0], "alpha": progress[..., 1], "s1": progress[..., 2], "s2": progress[..., 3],
            "x": x, "z": z, "rake": poses[..., 2], "v": volume}

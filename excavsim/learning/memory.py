@@ -5,7 +5,7 @@ from __future__ import annotations
 import numpy as np
 from scipy.spatial import cKDTree
 
-from excavsim.errors import ExcavsimError
+from excavsim.errors import ConfigError
 from excavsim.learning.bases import Basis
 from excavsim.learning.encoding import Samples
 from excavsim.learning.model import BasisModel, check_forces
@@ -91,7 +91,7 @@ class LocallyWeightedRegression(_MemoryModel):
                  neighbours: int = 40, ridge: float = 1.0e-3, seed: int = 0):
         super().__init__(basis)
         if scaling not in (None, "importance"):
-            raise ExcavsimError(f"LWR scaling must be None or 'importance'; given {scaling!r}")
+            raise ConfigError(f"LWR scaling must be None or 'importance'; given {scaling!r}")
         self.name = "LWR" + (" (importance scaling)" if scaling else "")
         self.width = width
         self._width_given = width is not None

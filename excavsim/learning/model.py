@@ -14,7 +14,7 @@ import abc
 
 import numpy as np
 
-from excavsim.errors import ExcavsimError
+from excavsim.errors import UsageError
 from excavsim.learning.bases import Basis, get_basis
 from excavsim.learning.encoding import Samples
 
@@ -63,13 +63,13 @@ class ForceModel(abc.ABC):
 
     def _check_fitted(self) -> None:
         if not self.fitted:
-            raise ExcavsimError(f"{self.name}: predict before fit (train it on a ForceDataset first)")
+            raise UsageError(f"{self.name}: predict before fit (train it on a ForceDataset first)")
 
 
 def check_forces(forces: np.ndarray) -> np.ndarray:
     y = np.asarray(forces, dtype=float)
     if y.ndim != 2 or y.shape[1] != 2:
-        raise ExcavsimError(f"forces must be (n, 2) measured (F_x, F_z) [N]; given shape {y.shape}")
+        raise UsageError(f"forces must be (n, 2) measured (F_x, F_z) [N]; given shape {y.shape}")
     return y
 
 
@@ -86,9 +86,9 @@ class BasisModel(ForceModel):
     def fit(self, samples: Samples, forces: np.ndarray) -> ForceModel:
         x, y = self._inputs(samples), check_forces(forces)
         if x.shape[:-1] != y.shape[:-1]:
-            raise ExcavsimError(f"{self.name}: {x.shape[0]} samples but {y.shape[0]} forces")
+            raise UsageError(f"{self.name}: {x.shape[0]} samples but {y.shape[0]} forces")
         if x.shape[0] == 0:
-            raise ExcavsimError(f"{self.name}: cannot fit on no samples")
+            raise UsageError(f"{self.name}: cannot fit on no samples")
         return self.fit_inputs(x, y)
 
     def predict(self, samples: Samples) -> np.ndarray:

@@ -21,7 +21,7 @@ squares, §5.2.1, or nominal), :class:`GlobalRegression` (eq. 19 in batch, eq. 2
 
 from __future__ import annotations
 
-from excavsim.errors import ExcavsimError
+from excavsim.errors import ConfigError
 from excavsim.learning.bases import Basis, get_basis
 from excavsim.learning.memory import LWR_WIDTHS, LocallyWeightedRegression, NearestNeighbours, importance
 from excavsim.learning.model import BasisModel, ForceModel
@@ -54,5 +54,5 @@ def make_model(method: str, basis: str | Basis = "mechanics", *, seed: int = 0, 
         "net": lambda: NeuralNet(basis, seed=seed),
     }
     if method not in makers:
-        raise ExcavsimError(f"unknown learning method {method!r}; available: {', '.join(METHODS)}")
+        raise ConfigError(f"unknown learning method {method!r}; available: {', '.join(METHODS)}")
     return makers[method]()

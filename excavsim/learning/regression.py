@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from excavsim.errors import ExcavsimError
+from excavsim.errors import ConfigError
 from excavsim.learning.bases import Basis
 from excavsim.learning.encoding import Samples
 from excavsim.learning.model import BasisModel, check_forces
@@ -35,7 +35,7 @@ class GlobalRegression(BasisModel):
                  prior_scale: float = 1.0e6):
         super().__init__(basis)
         if not 0.0 < forgetting <= 1.0:
-            raise ExcavsimError(f"forgetting must lie in (0, 1]; given {forgetting!r}")
+            raise ConfigError(f"forgetting must lie in (0, 1]; given {forgetting!r}")
         self.name = "global regression" + (" (recursive, eq. 22)" if recursive else "")
         self.recursive = recursive
         self.forgetting = float(forgetting)

@@ -8,6 +8,7 @@ import numpy as np
 from scipy.optimize import least_squares
 
 from excavsim.config import SoilParams
+from excavsim.errors import SoilModelError
 from excavsim.learning.encoding import Samples
 from excavsim.learning.model import ForceModel, check_forces
 from excavsim.mechanics.wedge import G_M_S2, MIN_RAKE_RAD, critical_beta, n_factors, wedge_denominator
@@ -219,9 +220,9 @@ class RecordWedge:
                  brittleness: float = 0.0, rate_per_decade: float = 0.0,
                  rate_reference_m_s: float = RATE_REFERENCE_M_S):
         if not 0.0 <= brittleness < 1.0:
-            raise ValueError(f"brittleness must be in [0, 1); given {brittleness!r}")
+            raise SoilModelError(f"brittleness must be in [0, 1); given {brittleness!r}")
         if not (rate_per_decade >= 0.0 and rate_reference_m_s > 0.0):
-            raise ValueError(f"rate_per_decade must be >= 0 and rate_reference_m_s > 0; given {rate_per_decade!r}, "
+            raise SoilModelError(f"rate_per_decade must be >= 0 and rate_reference_m_s > 0; given {rate_per_decade!r}, "
                              f"{rate_reference_m_s!r}")
         self.rate_per_decade = float(rate_per_decade)
         self.rate_reference_m_s = float(rate_reference_m_s)
@@ -287,7 +288,7 @@ class RecordWedge:
         held = {int(i): float(v) / _WEDGE_UNITS[int(i)] for i, v in (fixed or {}).items()}
         free = [i for i in range(4) if i not in held]
         if not free:
-            raise ValueError("every parameter of the wedge is held: nothing to fit")
+            raise SoilModelError("every parameter of the wedge is held: nothing to fit")
         rng = np.random.default_rng(seed)
         firsts = [np.clip(np.asarray(start, dtype=float) / _WEDGE_UNITS, lo, hi)]
         firsts += [rng.uniform(lo, hi) for _ in range(starts - 1)]

@@ -40,3 +40,26 @@ def run_demo(sim: Simulation, *, seed: int = 0, action: TrenchAction = DEMO_ACTI
     """
     return run_episode(sim, seed=seed, goal=resolve_goal(goal), dig_budget=1, done_fraction=None,
                        digs=ScriptedDigs([action]), progress=progress, observer=observer)
+
+
+def demo_from_configs(robot_config: str | None = None, scene_config: str | None = None, *, seed: int = 0,
+                      progress: Callable[[str], None] | None = None) -> EpisodeResult:
+    """``excavsim demo``: build the world from the configuration files (default ``configs/``) and dig
+    :data:`DEMO_ACTION` once, saying what it does first.
+
+    Args:
+        robot_config, scene_config: the servo and scene configuration files.
+        seed: the episode seed.
+        progress: called with the header and a line per scan and dig.
+    """
+    from excavsim.config import load_robot_config, load_scene_config
+    from excavsim.world import simulation  # the class looked up when called, as the command always did
+
+    robot = load_robot_config(robot_config)
+    scene = load_scene_config(scene_config)
+    k, alpha, d1, d2 = DEMO_ACTION
+    if progress:
+        progress(f"excavsim demo: one hand-picked dig into {scene.soil} (k {k:.2f} m, alpha "
+                 f"{math.degrees(alpha):.0f} deg, d1 {d1:.2f} m, d2 {d2:.2f} m): scan, dig, dump, settle, scan "
+                 f"(seed {seed})")
+    return run_demo(simulation.Simulation(robot, scene, seed=seed), seed=seed, progress=progress)

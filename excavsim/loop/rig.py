@@ -16,8 +16,8 @@ from collections.abc import Callable
 import numpy as np
 
 from excavsim import constants
-from excavsim.config import (ExecutorConfig, PlannerConfig, SensingConfig, TrenchGoal, get_soil, load_executor_config,
-                             load_planner_config, load_sensing_config, load_trench_goal)
+from excavsim.config import (ExecutorConfig, PlannerConfig, SensingConfig, SoilParams, TrenchGoal, get_soil,
+                             load_executor_config, load_planner_config, load_sensing_config, load_trench_goal)
 from excavsim.execution.dig import DigExecutor
 from excavsim.handoff.dig import ExecutionRecord
 from excavsim.handoff.maps import ElevationMap
@@ -76,14 +76,31 @@ def make_rig(sim: Simulation, *, seed: int = 0, goal: TrenchGoal | None = None,
     nominal = get_soil(sim.scene.soil)
     width = float(sim.model.numeric(constants.BUCKET_WIDTH_NUMERIC).data[0])
     capacity = float(sim.model.numeric(constants.BUCKET_CAPACITY_NUMERIC).data[0])
-    planner = TrenchPlanner(arm, load_or_build(arm), sim.torque_limit[1:4], width, capacity, goal, planner_cfg,
-                            WedgePredictor(nominal, width, capacity_m3=planner_cfg.heaped_capacity_factor * capacity),
-                            nominal.density_kg_m3)
+    planner = make_planner(arm, sim.torque_limit[1:4], width, capacity, goal, planner_cfg, nominal)
     home, park_q = sim.index.home, sim.index.park
     executor = DigExecutor(sim, arm, executor_cfg, ForceSensor.from_config(sim.model, sensing_cfg.force_sensor),
                            park_q)
     return Rig(goal, planner_cfg, executor_cfg, sensing_cfg, arm, scanner, planner, executor, width, capacity,
                home, park_q)
+
+
+def make_planner(arm: PlanarArm, torque_limits: np.ndarray, width: float, capacity: float, goal: TrenchGoal,
+                 planner_cfg: PlannerConfig, soil: SoilParams, table=None) -> TrenchPlanner:
+    """The trenching planner with its nominal force predictor (the static wedge model of ``soil``).
+
+    Args:
+        arm: the robot's model of itself.
+        torque_limits: (3,) shoulder, elbow and wrist pitch torque limits [N m].
+        width, capacity: the bucket's width [m] and struck capacity [m^3].
+        goal: the trench.
+        planner_cfg: the planner's configuration.
+        soil: the soil the predictor assumes.
+        table: the arm's reachability table (default: loaded from the cache, or built).
+    """
+    table = load_or_build(arm) if table is None else table
+    return TrenchPlanner(arm, table, torque_limits, width, capacity, goal, planner_cfg,
+                         WedgePredictor(soil, width, capacity_m3=planner_cfg.heaped_capacity_factor * capacity),
+                         soil.density_kg_m3)
 
 
 def go_to(sim: Simulation, q: np.ndarray, cfg: ExecutorConfig) -> None:

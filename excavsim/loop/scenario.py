@@ -161,6 +161,53 @@ def run_spec(spec: EpisodeSpec, *, progress: Callable[[str], None] | None = None
                        observer=observer)
 
 
+def run_with_outputs(spec: EpisodeSpec, *, robot_path: str | None = None, scene_path: str | None = None,
+                     record: str | None = None, live: str | None = None, save_maps: str | None = None,
+                     say: Callable[[str], None] = print):
+    """``excavsim trench``: check every file of ``spec``, then run it with its outputs, saying the
+    episode, its summary and where the outputs went.
+
+    Args:
+        spec: the episode.
+        robot_path, scene_path: configuration files the spec's overrides apply to (default ``configs/``).
+        record: a Rerun file to record the episode to.
+        live: stream the episode to a Rerun viewer: "" spawns one, else its address (checked before
+            the episode starts).
+        save_maps: a directory for every scanned elevation map (``map_NN.npz``).
+        say: where the lines go.
+
+    Returns:
+        The episode's result.
+    """
+    from excavsim.handoff.episode import ObserverGroup, format_episode
+
+    ResolvedSpec(spec, robot_path=robot_path, scene_path=scene_path)  # every file checked first
+    observer = None
+    if record or live is not None:
+        from excavsim.record import RerunRecorder
+        from excavsim.record.live import viewer_url
+
+        url = viewer_url(live or None) if live is not None else None
+        if url:
+            say(f"streaming the episode live to {url}")
+        observer = RerunRecorder(record, live=url)
+    if save_maps:
+        from excavsim.loop.episode import MapWriter
+
+        observer = ObserverGroup(observer, MapWriter(save_maps))
+    goal = spec.goal if isinstance(spec.goal, str) else (spec.goal.name or "inline goal")
+    say(f"excavsim trench: {goal} trench, {spec.dig_budget} digs at most, soil {spec.soil or 'of the scene'}, "
+        f"seed {spec.seed}")
+    result = run_spec(spec, progress=say, observer=observer, robot_path=robot_path, scene_path=scene_path)
+    say(format_episode(result))
+    if record:
+        say(f"recorded to {record}; replay it with: excavsim replay {record}")
+    if save_maps:
+        say(f"scanned maps saved in {save_maps} (map_NN.npz); plan on one with: "
+            f"excavsim plan --map {save_maps}/map_02.npz")
+    return result
+
+
 def dig_rows(res) -> list[dict[str, Any]]:
     """One JSON-ready row per dig of an episode: its action (NaN for a fallback dig), volumes [l],
     outcome and failure, and the predicted and measured peak wrist-pitch torques [N m]."""

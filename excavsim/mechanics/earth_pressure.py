@@ -25,7 +25,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from excavsim.errors import ExcavsimError
+from excavsim.errors import SoilModelError
 
 
 def coulomb_passive_coefficient(phi, delta, theta=0.0, backfill=0.0) -> np.ndarray:
@@ -49,8 +49,8 @@ def coulomb_passive_coefficient(phi, delta, theta=0.0, backfill=0.0) -> np.ndarr
     """
     phi, delta, theta, i = (np.asarray(v, dtype=float) for v in (phi, delta, theta, backfill))
     if np.any(phi <= 0) or np.any(delta < 0):
-        raise ExcavsimError(f"Coulomb's K_p needs phi > 0 and delta >= 0 [rad]; given phi min {phi.min()!r}, "
-                            f"delta min {delta.min()!r}")
+        raise SoilModelError(f"Coulomb's K_p needs phi > 0 and delta >= 0 [rad]; given phi min {phi.min()!r}, "
+                             f"delta min {delta.min()!r}")
     with np.errstate(divide="ignore", invalid="ignore"):
         root = np.sqrt(np.sin(phi + delta) * np.sin(phi + i) / (np.cos(delta - theta) * np.cos(i - theta)))
         return (np.cos(phi + theta) ** 2 / (np.cos(theta) ** 2 * np.cos(delta - theta) * (1.0 - root) ** 2))[()]

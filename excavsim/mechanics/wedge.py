@@ -68,16 +68,12 @@ from typing import Literal, NamedTuple
 import numpy as np
 
 from excavsim.config import SoilParams
-from excavsim.errors import ExcavsimError
+from excavsim.errors import WedgeError
 
 G_M_S2 = 9.81  # gravitational acceleration [m/s^2]
 # Below this rake the blade slices along itself, outside the wedge model: the world and the
 # predictors hold the factors at their value here.
 MIN_RAKE_RAD = math.radians(5.0)
-
-
-class WedgeError(ExcavsimError, ValueError):
-    """An argument of the wedge model is outside what the model allows; the message says which."""
 
 
 class WedgeFactors(NamedTuple):

@@ -31,7 +31,7 @@ from __future__ import annotations
 import numpy as np
 
 from excavsim.config import SoilParams
-from excavsim.errors import ExcavsimError
+from excavsim.errors import SoilModelError
 from excavsim.mechanics.wedge import critical_beta
 
 
@@ -57,7 +57,7 @@ def inertial_force(depth_m, rake, speed_m_s, soil: SoilParams, width_m) -> np.nd
     """
     depth_m, rake, v, w = (np.asarray(x, dtype=float) for x in (depth_m, rake, speed_m_s, width_m))
     if np.any(v < 0) or np.any(w < 0):
-        raise ExcavsimError(f"speed_m_s and width_m must be >= 0; given min {v.min()!r}, {w.min()!r}")
+        raise SoilModelError(f"speed_m_s and width_m must be >= 0; given min {v.min()!r}, {w.min()!r}")
     beta = critical_beta(rake, soil.phi, soil.delta)
     n_acc = acceleration_factor(rake, beta, soil.phi, soil.delta)
     force = soil.density_kg_m3 * v**2 * np.maximum(depth_m, 0.0) * n_acc * w

@@ -48,7 +48,7 @@ import time
 
 import numpy as np
 
-from excavsim.errors import ExcavsimError
+from excavsim.errors import ConfigError
 from excavsim.handoff.dig import TrenchAction
 from excavsim.handoff.maps import ElevationMap
 from excavsim.planning import kernel
@@ -88,10 +88,10 @@ class AnnealOptions:
 
     def __post_init__(self):
         if self.chains < 1:
-            raise ExcavsimError(f"AnnealOptions.chains={self.chains}; it must be at least 1")
+            raise ConfigError(f"AnnealOptions.chains={self.chains}; it must be at least 1")
         for name in ("t_start", "t_end", "step_start", "step_end"):
             if not getattr(self, name) > 0:
-                raise ExcavsimError(f"AnnealOptions.{name}={getattr(self, name)}; it must be positive")
+                raise ConfigError(f"AnnealOptions.{name}={getattr(self, name)}; it must be positive")
 
 
 @dataclasses.dataclass
@@ -233,9 +233,9 @@ def anneal(planner: TrenchPlanner, emap: ElevationMap, *, seed: int | np.random.
     t0 = time.perf_counter()
     objective = planner.cfg.objective if objective is None else objective
     if objective not in OBJECTIVES:
-        raise ExcavsimError(f"objective={objective!r}; allowed: {', '.join(OBJECTIVES)}")
+        raise ConfigError(f"objective={objective!r}; allowed: {', '.join(OBJECTIVES)}")
     if maxiter < 0:
-        raise ExcavsimError(f"maxiter={maxiter}; it must be >= 0")
+        raise ConfigError(f"maxiter={maxiter}; it must be >= 0")
     rng = np.random.default_rng(seed)
     ev = CellEvaluator(planner, emap)
     shape = np.array(ev.shape)

@@ -25,7 +25,7 @@ from matplotlib.patches import Patch
 from mpl_toolkits.mplot3d.art3d import Poly3DCollection
 
 from excavsim.config import TrenchGoal
-from excavsim.errors import ExcavsimError
+from excavsim.errors import ConfigError, DataFileError, UsageError
 from excavsim.handoff.goal import SurfaceProfile, goal_profile
 from excavsim.handoff.maps import ElevationMap
 from excavsim.planning.constraints import CONSTRAINTS
@@ -92,7 +92,7 @@ def plot_feasible_sets(result: PlanResult, path: str | pathlib.Path, *, min_volu
     _check_grid(result)
     missing = [c for c in CONSTRAINTS if c not in result.masks]
     if missing:
-        raise ExcavsimError(f"plan result has no mask for constraint(s) {missing}; expected {list(CONSTRAINTS)}")
+        raise UsageError(f"plan result has no mask for constraint(s) {missing}; expected {list(CONSTRAINTS)}")
     panels = [(c, result.masks[c]) for c in CONSTRAINTS]
     panels.append(("geometric", np.logical_and.reduce([result.masks[c] for c in CONSTRAINTS if c != "force"])))
     panels.append(("feasible", result.feasible))
@@ -217,25 +217,25 @@ def plot_dig(result: PlanResult, goal: TrenchGoal, surface: SurfaceProfile | Ele
             ``arm`` and ``width_m``.
     """
     if result.action is None:
-        raise ExcavsimError(f"the plan chose no dig ({result.reason}); plot_dig needs a plan with an action")
+        raise UsageError(f"the plan chose no dig ({result.reason}); plot_dig needs a plan with an action")
     poses, phases = np.asarray(result.poses, float), np.asarray(result.phases)
     forces, torques = np.asarray(result.forces, float), np.asarray(result.torques, float)
     s_n = poses.shape[0]
     if poses.ndim != 2 or poses.shape[1] != 3 or s_n < 2 or phases.shape != (s_n,) or forces.shape != (s_n, 2) \
             or torques.shape != (s_n, 3):
-        raise ExcavsimError(f"plan result's path arrays disagree: poses {poses.shape} (S, 3), phases {phases.shape} "
-                            f"(S,), forces {forces.shape} (S, 2), torques {torques.shape} (S, 3), S >= 2")
+        raise UsageError(f"plan result's path arrays disagree: poses {poses.shape} (S, 3), phases {phases.shape} "
+                         f"(S,), forces {forces.shape} (S, 2), torques {torques.shape} (S, 3), S >= 2")
     if isinstance(surface, ElevationMap):
         if arm is None or width_m is None:
-            raise ExcavsimError("plot_dig with an elevation map needs arm= and width_m= to take the surface "
-                                "profile; or pass a SurfaceProfile")
+            raise UsageError("plot_dig with an elevation map needs arm= and width_m= to take the surface "
+                             "profile; or pass a SurfaceProfile")
         surface = SurfaceProfile.from_map(surface, arm, math.radians(goal.waist_deg), width_m)
     limits = None
     if torque_limits_nm is not None:
         limits = np.asarray(torque_limits_nm, float)
         if limits.shape != (3,):
-            raise ExcavsimError(f"torque_limits_nm must be 3 values [N m] (shoulder, elbow, wrist pitch); "
-                                f"given shape {limits.shape}")
+            raise ConfigError(f"torque_limits_nm must be 3 values [N m] (shoulder, elbow, wrist pitch); "
+                              f"given shape {limits.shape}")
 
     fig = _figure((9.0, 11.0))
     gs = fig.add_gridspec(5, 1, height_ratios=[3.2, 1.2, 1.0, 1.0, 1.0], hspace=0.35)
@@ -312,7 +312,7 @@ def _save(fig: Figure, path: str | pathlib.Path, *, tight: bool = True) -> pathl
         path.parent.mkdir(parents=True, exist_ok=True)
         fig.savefig(path, format="png", bbox_inches="tight" if tight else None)
     except OSError as exc:
-        raise ExcavsimError(f"{path}: cannot write the figure ({exc.strerror or exc})") from None
+        raise DataFileError(f"{path}: cannot write the figure ({exc.strerror or exc})") from None
     return path
 
 
@@ -364,7 +364,7 @@ def _check_grid(result: PlanResult) -> None:
               **{f"masks[{c!r}]": m for c, m in result.masks.items()}}
     bad = {name: np.shape(a) for name, a in arrays.items() if np.shape(a) != shape}
     if bad:
-        raise ExcavsimError(f"plan result arrays do not match its grid (n_k, n_alpha, n_d1) = {shape}: {bad}")
+        raise UsageError(f"plan result arrays do not match its grid (n_k, n_alpha, n_d1) = {shape}: {bad}")
 
 
 def _headline(result: PlanResult) -> str:

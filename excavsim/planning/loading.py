@@ -58,7 +58,7 @@ import time
 
 import numpy as np
 
-from excavsim.errors import ExcavsimError
+from excavsim.errors import ConfigError
 from excavsim.robot.loaders import FrontLoader, FrontShovel
 
 LOADING_CONSTRAINTS = ("shaping", "volume", "reachability", "collision", "force")
@@ -99,26 +99,26 @@ class LoadingRules:
         for name in pos:
             v = getattr(self, name)
             if not (isinstance(v, (int, float)) and math.isfinite(v) and v > 0):
-                raise ExcavsimError(f"loading rules: {name} must be a finite number > 0; given {v!r}")
+                raise ConfigError(f"loading rules: {name} must be a finite number > 0; given {v!r}")
         if not (self.k_max >= 0 and -10.0 <= self.k_min <= 0 and self.alpha_min <= self.alpha_max
                 and -math.pi / 2 < self.alpha_min and self.alpha_max < math.pi / 2):
-            raise ExcavsimError("loading rules: need k_max >= 0, -10 m <= k_min <= 0 and "
-                                "-90 deg < alpha_min <= alpha_max < 90 deg")
+            raise ConfigError("loading rules: need k_max >= 0, -10 m <= k_min <= 0 and "
+                              "-90 deg < alpha_min <= alpha_max < 90 deg")
         if not self.radii or any(not (math.isfinite(r) and r > 0) for r in self.radii):
-            raise ExcavsimError(f"loading rules: radii must be a non-empty list of lengths > 0 m; given {self.radii!r}")
+            raise ConfigError(f"loading rules: radii must be a non-empty list of lengths > 0 m; given {self.radii!r}")
         if self.parameterization not in PARAMETERIZATIONS:
-            raise ExcavsimError(f"loading rules: parameterization must be one of {PARAMETERIZATIONS}; "
-                                f"given {self.parameterization!r}")
+            raise ConfigError(f"loading rules: parameterization must be one of {PARAMETERIZATIONS}; "
+                              f"given {self.parameterization!r}")
         if self.force_limit is not None and not (math.isfinite(self.force_limit) and self.force_limit > 0):
-            raise ExcavsimError(f"loading rules: force_limit must be > 0 N/m or None; given {self.force_limit!r}")
+            raise ConfigError(f"loading rules: force_limit must be > 0 N/m or None; given {self.force_limit!r}")
         if not (0.0 < self.exit_heading <= math.pi / 2):
-            raise ExcavsimError(f"loading rules: exit_heading must lie in (0, 90] degrees; given {self.exit_heading!r}")
+            raise ConfigError(f"loading rules: exit_heading must lie in (0, 90] degrees; given {self.exit_heading!r}")
         if not self.base_backoffs or any(not (math.isfinite(b) and b >= 0) for b in self.base_backoffs):
-            raise ExcavsimError(f"loading rules: base_backoffs must be a non-empty list of lengths >= 0 m; "
-                                f"given {self.base_backoffs!r}")
+            raise ConfigError(f"loading rules: base_backoffs must be a non-empty list of lengths >= 0 m; "
+                              f"given {self.base_backoffs!r}")
         if self.arc_samples < 2 or self.tolerance < 0 or self.cohesion < 0 or not (0 <= self.friction_deg < 90):
-            raise ExcavsimError("loading rules: need arc_samples >= 2, tolerance >= 0, cohesion >= 0, "
-                                "0 <= friction < 90 deg")
+            raise ConfigError("loading rules: need arc_samples >= 2, tolerance >= 0, cohesion >= 0, "
+                              "0 <= friction < 90 deg")
 
     def grid(self) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
         """The k (from ``k_min``, ahead of the foot, to ``k_max``; 0 exactly on the grid), alpha, r (one NaN for
@@ -142,10 +142,10 @@ class Terrain:
     def __post_init__(self):
         xs, h = np.asarray(self.xs, float), np.asarray(self.heights, float)
         if xs.ndim != 1 or xs.shape != h.shape or xs.size < 2 or not (np.all(np.isfinite(xs))
-                                                                       and np.all(np.isfinite(h))):
-            raise ExcavsimError("terrain: xs and heights must be finite 1-D arrays of the same length (>= 2)")
+                                                                     and np.all(np.isfinite(h))):
+            raise ConfigError("terrain: xs and heights must be finite 1-D arrays of the same length (>= 2)")
         if np.any(np.diff(xs) <= 0) or not self.dx > 0:
-            raise ExcavsimError("terrain: column centres must increase and dx be > 0")
+            raise ConfigError("terrain: column centres must increase and dx be > 0")
 
     def surface(self, x) -> np.ndarray:
         """Heights at ``x`` (linear between column centres, the end columns' beyond)."""
@@ -503,7 +503,7 @@ def _plan_at(machine: FrontLoader | FrontShovel, terrain: Terrain, rules: Loadin
                       f"{100 * rules.min_fraction:.0f} % of capacity")
         else:
             action = LoadingAction(float(gk[ik]), float(ga[ia]), float(cell_d1[ik, ia, ir]), float(cell_r[ik, ia, ir]),
-                                   foot, float(entry_h[ik]))
+                                 foot, float(entry_h[ik]))
             frc = float(cell_f[ik, ia, ir])
             reason = "max volume"
     return LoadingPlan(action, reason, vol if action else 0.0, frc, base_x, gk, ga, gr, entry_h, d1_max, cell_d1,

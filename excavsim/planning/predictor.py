@@ -9,6 +9,7 @@ from __future__ import annotations
 import numpy as np
 
 from excavsim.config import SoilParams
+from excavsim.errors import SoilModelError
 from excavsim.handoff.forces import DigContext
 from excavsim.mechanics.wedge import G_M_S2, MIN_RAKE_RAD, WedgeTable, wedge_force
 
@@ -40,7 +41,7 @@ class WedgePredictor:
         self.surcharge_fraction = float(surcharge_fraction)
         self.capacity = float(capacity_m3)
         if not self.capacity > 0:
-            raise ValueError(f"capacity_m3 must be positive (inf: no limit); given {capacity_m3!r}")
+            raise SoilModelError(f"capacity_m3 must be positive (inf: no limit); given {capacity_m3!r}")
         self.table = WedgeTable.for_soil(soil)
         self._rake_lo = max(self.table.rake_min, MIN_RAKE_RAD)
 

@@ -21,7 +21,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from excavsim.errors import ExcavsimError
+from excavsim.errors import ConfigError
 
 
 def drag_rotation_radius(omega_rad_per_m) -> np.ndarray:
@@ -29,7 +29,7 @@ def drag_rotation_radius(omega_rad_per_m) -> np.ndarray:
     lines); ``omega`` the fall of the pitch per metre of drag [rad/m], > 0."""
     omega = np.asarray(omega_rad_per_m, dtype=float)
     if np.any(omega <= 0):
-        raise ExcavsimError(f"the rate of rotation must be > 0 rad/m; given min {omega.min()!r}")
+        raise ConfigError(f"the rate of rotation must be > 0 rad/m; given min {omega.min()!r}")
     return (1.0 / omega)[()]
 
 
@@ -37,7 +37,7 @@ def closest_admissible_radius(bottom_length_m: float, pitch_rad) -> np.ndarray:
     """The closest admissible rotation centre's distance above the tip, ``L / sin rho`` [m] (Fig. 22's
     dashed line); ``inf`` for a pitch at or below 0 (no centre keeps a flat bottom off the soil)."""
     if not bottom_length_m > 0:
-        raise ExcavsimError(f"the bucket's bottom length must be > 0 m; given {bottom_length_m!r}")
+        raise ConfigError(f"the bucket's bottom length must be > 0 m; given {bottom_length_m!r}")
     s = np.sin(np.asarray(pitch_rad, dtype=float))
     with np.errstate(divide="ignore"):
         return np.where(s > 0, bottom_length_m / np.where(s > 0, s, 1.0), np.inf)[()]
@@ -49,7 +49,7 @@ def minimum_drag_rake(bottom_length_m: float, omega_rad_per_m) -> np.ndarray:
     omega = np.asarray(omega_rad_per_m, dtype=float)
     drag_rotation_radius(omega)  # checks omega
     if not bottom_length_m > 0:
-        raise ExcavsimError(f"the bucket's bottom length must be > 0 m; given {bottom_length_m!r}")
+        raise ConfigError(f"the bucket's bottom length must be > 0 m; given {bottom_length_m!r}")
     x = bottom_length_m * omega
     with np.errstate(invalid="ignore"):
         return np.where(x <= 1.0, np.arcsin(np.minimum(x, 1.0)), np.nan)[()]

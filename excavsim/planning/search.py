@@ -26,7 +26,7 @@ import time
 import numpy as np
 
 from excavsim.config import PlannerConfig, TrenchGoal
-from excavsim.errors import ExcavsimError
+from excavsim.errors import ConfigError, UsageError
 from excavsim.handoff.dig import TrenchAction
 from excavsim.handoff.forces import ForcePredictor, trajectory_progress
 from excavsim.handoff.goal import SurfaceProfile
@@ -101,7 +101,7 @@ class TrenchPlanner:
         self.arm = arm
         self.limits = np.asarray(torque_limits, dtype=float)
         if self.limits.shape != (3,) or np.any(self.limits <= 0):
-            raise ExcavsimError(f"torque_limits must be 3 positive values [N m]; given {torque_limits!r}")
+            raise ConfigError(f"torque_limits must be 3 positive values [N m]; given {torque_limits!r}")
         self.width = float(bucket_width)
         self.capacity = float(bucket_capacity)
         self.goal = goal
@@ -248,7 +248,7 @@ class TrenchPlanner:
         vmax = cfg.volume_limit_m3(self.capacity)
         counts = {"cells": n}
         if not (math.isfinite(torque_margin) and torque_margin > 0.0):
-            raise ExcavsimError(f"torque_margin must be a finite factor > 0; given {torque_margin!r}")
+            raise ConfigError(f"torque_margin must be a finite factor > 0; given {torque_margin!r}")
         if self.uses_kernel(prune=prune, classify_limits=classify_limits, kernel=kernel):
             feas = self.feasibility(surface, vmax, limits=self.limits / torque_margin)
             out = compiled.evaluate_grid(feas, self.grid_k, self.grid_alpha, self.grid_d1)
@@ -306,7 +306,7 @@ class TrenchPlanner:
         if exclude is not None:
             exclude = np.asarray(exclude, dtype=bool).reshape(-1)
             if exclude.shape != (n,):
-                raise ExcavsimError(f"exclude must have the grid's shape {shape}; given {exclude.size} cells")
+                raise UsageError(f"exclude must have the grid's shape {shape}; given {exclude.size} cells")
             allowed = feasible & ~exclude
             counts["excluded"] = int((feasible & exclude).sum())
         choice, utility, reason = choose(allowed, res["volume"], res["peak"], res["cum"], cfg, self.capacity)

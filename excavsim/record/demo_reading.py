@@ -21,7 +21,7 @@ import numpy as np
 import pyarrow as pa
 from rerun.chunk import RrdReader
 
-from excavsim.errors import ExcavsimError
+from excavsim.errors import ConfigError, DataFileError, shorten
 from excavsim.record.reading import read_recording
 
 
@@ -55,11 +55,15 @@ def cut_paths(path: str | pathlib.Path) -> list[tuple[float, np.ndarray]]:
     """Every executed dig's measured cut path ``world/exec/path`` as (time logged [s], (P, 3) world points [m]),
     in time order (the Clear logged when the next dig is planned is skipped)."""
     try:
-        chunks = RrdReader(path).stream().filter(content="/world/exec/path").to_chunks()
-    except Exception as exc:  # the reader's own error types are not public
-        raise ExcavsimError(f"{path}: not a readable Rerun recording ({exc})") from None
+        return _cut_paths(path)
+    except Exception as exc:  # the reader's error types are not public; pyarrow's and numpy's for odd shapes
+        raise DataFileError(f"{path}: not a readable Rerun recording ({type(exc).__name__}: "
+                            f"{shorten(exc)})") from None
+
+
+def _cut_paths(path: str | pathlib.Path) -> list[tuple[float, np.ndarray]]:
     paths = []
-    for ch in chunks:
+    for ch in RrdReader(path).stream().filter(content="/world/exec/path").to_chunks():
         if ch.is_static or "sim_time" not in ch.timeline_names:
             continue
         batch = ch.to_record_batch()
@@ -67,7 +71,10 @@ def cut_paths(path: str | pathlib.Path) -> list[tuple[float, np.ndarray]]:
             continue
         for t, strips in zip(_seconds(batch.column("sim_time")), batch.column("LineStrips3D:strips").to_pylist()):
             if strips:
-                paths.append((float(t), np.asarray(strips[0], dtype=float)))
+                points = np.asarray(strips[0], dtype=float)
+                if points.ndim != 2 or points.shape[1] != 3 or len(points) < 2:
+                    raise ValueError(f"a cut path of shape {points.shape}; allowed: (P >= 2, 3) world points")
+                paths.append((float(t), points))
     return sorted(paths, key=lambda x: x[0])
 
 
@@ -75,25 +82,26 @@ def read_dig(path: str | pathlib.Path, dig: int = 1) -> RecordedDig:
     """Dig number ``dig`` (1-based) of the recording at ``path``.
 
     Raises:
-        ExcavsimError: the file is missing or not a recording, it has no joint or F/T series (not
-            written by excavsim's recorder), or has fewer than ``dig`` digs (naming how many it has).
+        DataFileError: the file is missing or not a recording, or it has no joint or F/T series (not
+            written by excavsim's recorder).
+        ConfigError: it has fewer than ``dig`` digs (naming how many it has).
     """
     p = pathlib.Path(path)
     if not p.is_file():
-        raise ExcavsimError(f"no recording at {p}: give an .rrd file written by `excavsim trench --record FILE.rrd`")
+        raise DataFileError(f"no recording at {p}: give an .rrd file written by `excavsim trench --record FILE.rrd`")
     series = read_recording(p)
     paths = cut_paths(p)
     if not paths:
-        raise ExcavsimError(f"{p}: the recording has no executed dig (no world/exec/path): record an episode with "
+        raise DataFileError(f"{p}: the recording has no executed dig (no world/exec/path): record an episode with "
                             f"`excavsim trench --record FILE.rrd`")
     if not 1 <= dig <= len(paths):
-        raise ExcavsimError(f"{p}: dig {dig} asked for, the recording has {len(paths)} executed digs "
-                            f"(world/exec/path); allowed: 1..{len(paths)}")
+        raise ConfigError(f"{p}: dig {dig} asked for, the recording has {len(paths)} executed digs "
+                          f"(world/exec/path); allowed: 1..{len(paths)}")
     start = paths[dig - 2][0] if dig > 1 else -np.inf
     end, path_world = paths[dig - 1]
     jt, ft_t = series["joint_time"], series["ft_time"]
     jk, fk = (jt > start) & (jt <= end), (ft_t > start) & (ft_t <= end)
     if jk.sum() < 2 or fk.sum() < 2:
-        raise ExcavsimError(f"{p}: dig {dig} has fewer than two joint or F/T samples (joint_deg/*, ft/tip/*)")
+        raise DataFileError(f"{p}: dig {dig} has fewer than two joint or F/T samples (joint_deg/*, ft/tip/*)")
     return RecordedDig(dig, jt[jk], np.radians(series["joint_deg"][jk]), ft_t[fk], series["ft_tip"][fk],
                        path_world, end)

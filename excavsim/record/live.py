@@ -11,7 +11,7 @@ import pathlib
 import re
 import socket
 
-from excavsim.errors import ExcavsimError, shorten
+from excavsim.errors import ConfigError, DependencyError, UsageError, shorten
 from excavsim.record.replay import _free_port, has_display, rerun_command
 
 DEFAULT_PORT = 9876  # where `rerun` listens when started without options
@@ -34,13 +34,13 @@ def parse_address(address: str) -> tuple[str, int, str]:
         m = re.fullmatch(r"(?:([A-Za-z0-9._-]+|\[[0-9A-Fa-f:]+\]):)?(\d+)|([A-Za-z0-9._-]*[A-Za-z_-][A-Za-z0-9._-]*)",
                          text)
         if not m:
-            raise ExcavsimError(f"--live {shorten(repr(address), 100)}: not a viewer address; give PORT, HOST:PORT or "
-                                "rerun+http://HOST:PORT/proxy (a viewer started with `rerun` listens on 9876)")
+            raise ConfigError(f"--live {shorten(repr(address), 100)}: not a viewer address; give PORT, HOST:PORT or "
+                              "rerun+http://HOST:PORT/proxy (a viewer started with `rerun` listens on 9876)")
         scheme = "rerun+http"
         host = m.group(3) or m.group(1) or "127.0.0.1"
         port = int(m.group(2)) if m.group(2) else DEFAULT_PORT
     if not 0 < port < 65536:
-        raise ExcavsimError(f"--live {shorten(repr(address), 100)}: port {port} is out of range (1 to 65535)")
+        raise ConfigError(f"--live {shorten(repr(address), 100)}: port {port} is out of range (1 to 65535)")
     return host.strip("[]"), port, f"{scheme}://{host}:{port}/proxy"
 
 
@@ -64,9 +64,9 @@ def viewer_url(address: str | None) -> str:
         return spawn_viewer()
     host, port, url = parse_address(address)
     if not _listening(host, port, CONNECT_TIMEOUT_S):
-        raise ExcavsimError(f"--live {shorten(address, 100)}: no Rerun viewer listens at {host}:{port}. Start one "
-                            f"there with `rerun --port {port}` (or `rerun --serve-web` for a browser), or record to a "
-                            "file with --record FILE.rrd and replay it later")
+        raise DependencyError(f"--live {shorten(address, 100)}: no Rerun viewer listens at {host}:{port}. Start "
+                              f"one there with `rerun --port {port}` (or `rerun --serve-web` for a browser), or "
+                              "record to a file with --record FILE.rrd and replay it later")
     return url
 
 
@@ -81,25 +81,25 @@ def spawn_viewer() -> str:
     import time
 
     if not has_display():
-        raise ExcavsimError("--live without an address spawns a viewer window, and there is no display here "
-                            "(DISPLAY and WAYLAND_DISPLAY are unset). Run a viewer where there is one (`rerun`) "
-                            "and give its address, --live HOST:9876; or record with --record FILE.rrd and use "
-                            "`excavsim replay FILE.rrd --screenshot PNG` (headless)")
+        raise UsageError("--live without an address spawns a viewer window, and there is no display here "
+                         "(DISPLAY and WAYLAND_DISPLAY are unset). Run a viewer where there is one (`rerun`) "
+                         "and give its address, --live HOST:9876; or record with --record FILE.rrd and use "
+                         "`excavsim replay FILE.rrd --screenshot PNG` (headless)")
     port = _free_port()
     command = [*rerun_command(pathlib.Path("x"))[:-1], "--port", str(port), "--expect-data-soon"]
     try:
         proc = subprocess.Popen(command, stdin=subprocess.DEVNULL, stdout=subprocess.DEVNULL,
                                 stderr=subprocess.DEVNULL, start_new_session=True)  # outlives the episode
     except OSError as exc:
-        raise ExcavsimError(f"cannot start the Rerun viewer ({exc.strerror}): {' '.join(command)}") from None
+        raise DependencyError(f"cannot start the Rerun viewer ({exc.strerror}): {' '.join(command)}") from None
     deadline = time.monotonic() + SPAWN_TIMEOUT_S
     while not _listening("127.0.0.1", port, 0.5):
         if proc.poll() is not None:
-            raise ExcavsimError(f"the Rerun viewer exited with status {proc.returncode} before it listened: "
-                                f"{' '.join(command)} (run it yourself to see why)")
+            raise DependencyError(f"the Rerun viewer exited with status {proc.returncode} before it listened: "
+                                  f"{' '.join(command)} (run it yourself to see why)")
         if time.monotonic() > deadline:
             proc.terminate()
-            raise ExcavsimError(f"the Rerun viewer did not listen on port {port} in {SPAWN_TIMEOUT_S:g} s")
+            raise DependencyError(f"the Rerun viewer did not listen on port {port} in {SPAWN_TIMEOUT_S:g} s")
         time.sleep(0.2)
     return f"rerun+http://127.0.0.1:{port}/proxy"
 

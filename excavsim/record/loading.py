@@ -20,7 +20,7 @@ import mujoco
 import numpy as np
 import rerun as rr
 
-from excavsim.errors import ExcavsimError
+from excavsim.errors import ConfigError, UsageError
 from excavsim.record.geometry import MAP_RGB, SAND_RGB, geom_archetype, grid_normals, grid_triangles, quat_xyzw
 
 PLAN_RGB = (230, 90, 40)
@@ -31,7 +31,7 @@ class LoadingRecorder:
 
     def __init__(self, path: str | os.PathLike, *, rate_hz: float = 10.0, recording_id: str | None = None):
         if not (np.isfinite(rate_hz) and rate_hz > 0):
-            raise ExcavsimError(f"LoadingRecorder rate_hz must be a positive number [Hz]; given {rate_hz!r}")
+            raise ConfigError(f"LoadingRecorder rate_hz must be a positive number [Hz]; given {rate_hz!r}")
         self.path = pathlib.Path(path)
         self.rate_hz = float(rate_hz)
         self.recording_id = recording_id
@@ -42,7 +42,7 @@ class LoadingRecorder:
 
     def started(self, world, machine: str) -> None:
         if self.rec is not None:
-            raise ExcavsimError(f"a LoadingRecorder records one episode; make a new one for {self.path}")
+            raise UsageError(f"a LoadingRecorder records one episode; make a new one for {self.path}")
         rec = rr.RecordingStream("excavsim", recording_id=self.recording_id or f"load-{machine}-{self.path.stem}",
                                  send_properties=False)
         rec.set_log_time_enabled(False)

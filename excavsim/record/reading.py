@@ -21,7 +21,7 @@ import pyarrow as pa
 import yaml
 
 from excavsim import constants
-from excavsim.errors import ExcavsimError
+from excavsim.errors import DataFileError, shorten
 from excavsim.handoff.maps import ElevationMap
 
 
@@ -46,7 +46,7 @@ def _map(positions: np.ndarray, time: float) -> ElevationMap:
     xs = np.unique(np.round(positions[:, 0], 9))
     ys = np.unique(np.round(positions[:, 1], 9))
     if xs.size < 2 or ys.size < 2 or xs.size * ys.size != len(positions):
-        raise ExcavsimError("world/soil/scan is not a grid of vertices (not an excavsim recording)")
+        raise DataFileError("world/soil/scan is not a grid of vertices (not an excavsim recording)")
     cell = float(np.median(np.diff(xs)))
     heights = positions[:, 2].reshape(ys.size, xs.size)
     return ElevationMap(float(xs[0] - cell / 2), float(ys[0] - cell / 2), cell, heights.astype(float),
@@ -63,13 +63,25 @@ def read_recording(path: str | os.PathLike) -> dict:
         dict, empty when absent); ``soil`` (from it) and ``seed`` (from the summary) where present.
 
     Raises:
-        ExcavsimError: the file is missing or not a Rerun recording, or has no F/T samples in the
-            tip frame or no joint angles.
+        DataFileError: the file is missing or not a Rerun recording, or has no F/T samples in the
+            tip frame or no joint angles, or holds them malformed (the message names the file).
     """
+    if not os.path.isfile(path):
+        raise DataFileError(f"{path}: no such recording")
+    try:
+        return _read(path)
+    except DataFileError as exc:
+        if str(exc).startswith(f"{path}:"):
+            raise
+        raise DataFileError(f"{path}: {exc}") from None
+    except Exception as exc:  # a recording of other entities' shapes: rerun's, pyarrow's and numpy's errors
+        raise DataFileError(f"{path}: not an excavsim recording ({type(exc).__name__}: {shorten(exc)})") from None
+
+
+def _read(path: str | os.PathLike) -> dict:
+    """:func:`read_recording` without its wrapping of errors."""
     from rerun.chunk import RrdReader
 
-    if not os.path.exists(path):
-        raise ExcavsimError(f"{path}: no such recording")
     ft: dict[str, list] = {a: [] for a in "xyz"}
     joints: dict[str, list] = {n: [] for n in constants.ACTUATORS}
     maps, log, config = [], [], ""
@@ -77,7 +89,7 @@ def read_recording(path: str | os.PathLike) -> dict:
     try:
         chunks = list(RrdReader(path).stream().to_chunks())
     except Exception as exc:  # rerun raises its own error types for a file that is not an .rrd
-        raise ExcavsimError(f"{path}: not a Rerun recording ({exc})") from None
+        raise DataFileError(f"{path}: not a Rerun recording ({exc})") from None
     for chunk in chunks:
         name = chunk.entity_path
         if name == "/config" and chunk.is_static:
@@ -107,22 +119,25 @@ def read_recording(path: str | os.PathLike) -> dict:
     series = {a: _series(p) for a, p in ft.items()}
     ft_time = series["x"][0]
     if ft_time.size == 0:
-        raise ExcavsimError(f"{path}: the recording has no F/T samples in the tip frame (ft/tip/x, y, z); "
+        raise DataFileError(f"{path}: the recording has no F/T samples in the tip frame (ft/tip/x, y, z); "
                             "record an episode with `excavsim trench --record FILE` or `excavsim calibrate "
                             "RECORD.npz --record-digs N --rrd FILE`")
     for a in "yz":
         if not np.array_equal(series[a][0], ft_time):
-            raise ExcavsimError(f"{path}: ft/tip/{a} is not sampled at the times of ft/tip/x")
+            raise DataFileError(f"{path}: ft/tip/{a} is not sampled at the times of ft/tip/x")
     jseries = {n: _series(p) for n, p in joints.items()}
     joint_time = jseries[constants.ACTUATORS[0]][0]
     if joint_time.size == 0 or any(not np.array_equal(jseries[n][0], joint_time) for n in constants.ACTUATORS):
-        raise ExcavsimError(f"{path}: the recording has no joint angles (joint_deg/<actuator>) at common times")
+        raise DataFileError(f"{path}: the recording has no joint angles (joint_deg/<actuator>) at common times")
     out = {"ft_time": ft_time, "ft_tip": np.stack([series[a][1] for a in "xyz"], axis=-1),
            "joint_time": joint_time, "joint_deg": np.stack([jseries[n][1] for n in constants.ACTUATORS], axis=-1),
            "maps": sorted(maps, key=lambda m: m[0]), "log": sorted(log, key=lambda e: e[0]), "config": {}, **found}
     match = re.search(r"```yaml\n(.*)```", config, re.S)
     if match:
-        out["config"] = yaml.safe_load(match.group(1)) or {}
-        scene = out["config"].get("scene") or {}
-        out["soil"] = scene.get("soil", "unknown")
+        config = yaml.safe_load(match.group(1)) or {}
+        if not isinstance(config, dict):
+            raise DataFileError(f"{path}: the recorded configuration is not a mapping")
+        out["config"] = config
+        scene = config.get("scene") or {}
+        out["soil"] = scene.get("soil", "unknown") if isinstance(scene, dict) else "unknown"
     return out

@@ -67,7 +67,7 @@ import rerun as rr
 import yaml
 
 from excavsim import constants
-from excavsim.errors import ExcavsimError
+from excavsim.errors import ConfigError, UsageError
 from excavsim.handoff.episode import DigMetrics, EpisodeObserver, EpisodeResult
 from excavsim.handoff.goal import goal_profile
 from excavsim.record.blueprint import default_blueprint
@@ -161,9 +161,9 @@ class RerunRecorder(EpisodeObserver):
     def __init__(self, path: str | os.PathLike | None, *, rate_hz: float = 10.0, recording_id: str | None = None,
                  live: str | None = None):
         if not (np.isfinite(rate_hz) and rate_hz > 0):
-            raise ExcavsimError(f"RerunRecorder rate_hz must be a positive number [Hz]; given {rate_hz!r}")
+            raise ConfigError(f"RerunRecorder rate_hz must be a positive number [Hz]; given {rate_hz!r}")
         if path is None and not live:
-            raise ExcavsimError("RerunRecorder needs a file to write (path) or a viewer to stream to (live)")
+            raise UsageError("RerunRecorder needs a file to write (path) or a viewer to stream to (live)")
         self.path = pathlib.Path(path) if path is not None else None
         self.live = live
         self.rate_hz = float(rate_hz)
@@ -181,7 +181,7 @@ class RerunRecorder(EpisodeObserver):
     # -- the observer hooks ---------------------------------------------------------------------
     def started(self, sim, rig, goal_mask: np.ndarray, goal_z: np.ndarray) -> None:
         if self.rec is not None:
-            raise ExcavsimError(f"a RerunRecorder records one episode; make a new one for {self.path or self.live}")
+            raise UsageError(f"a RerunRecorder records one episode; make a new one for {self.path or self.live}")
         config = self._config_text(sim, rig)
         name = self.path.name if self.path is not None else "live.rrd"
         self.recording_id = self.recording_id or recording_id_for(name, sim.seed, config)

@@ -10,7 +10,7 @@ import subprocess
 import sys
 from collections.abc import Callable
 
-from excavsim.errors import ExcavsimError
+from excavsim.errors import ConfigError, DataFileError, DependencyError, ExcavsimError, shorten
 
 
 def rerun_command(path: str | os.PathLike) -> list[str]:
@@ -19,6 +19,66 @@ def rerun_command(path: str | os.PathLike) -> list[str]:
     here = pathlib.Path(sys.executable).parent / ("rerun.exe" if os.name == "nt" else "rerun")
     exe = str(here) if here.exists() else shutil.which("rerun")
     return [exe, str(path)] if exe else [sys.executable, "-m", "rerun", str(path)]
+
+
+RRD_MAGIC = b"RRF2"  # the first bytes of a Rerun 0.2x+ recording
+VERIFY_TIMEOUT_S = 300  # the longest `rerun rrd verify` may take before replay gives up [s]
+
+
+def check_recording(path: str, *, warn: Callable[[str], None] | None = None) -> None:
+    """Refuse ``path`` unless it is a Rerun recording the installed Rerun can load (``rerun rrd verify``).
+
+    A recording cut short (an episode killed before it closed its file) has no footer: it is
+    accepted with a warning, since the viewer shows what it holds.
+
+    Args:
+        path: the file.
+        warn: where the warning about a cut-short recording goes (default stderr).
+
+    Raises:
+        ExcavsimError: naming the file and what is wrong with it.
+    """
+    shown = shorten(path, 200)
+    try:
+        if not os.path.isfile(path):
+            raise DataFileError(f"no recording at {shown}: give an .rrd file written by `excavsim trench --record "
+                                "FILE.rrd`")
+        with open(path, "rb") as f:
+            head = f.read(len(RRD_MAGIC))
+    except (OSError, ValueError) as exc:
+        why = getattr(exc, "strerror", None) or exc
+        raise DataFileError(f"{shown}: cannot read the recording ({why}); give an .rrd file written by "
+                            "`excavsim trench --record FILE.rrd`") from None
+    if head != RRD_MAGIC:
+        raise DataFileError(f"{shown}: not a Rerun recording (it does not start with {RRD_MAGIC.decode()}); give an "
+                            ".rrd file written by `excavsim trench --record FILE.rrd`")
+    verify = [*rerun_command(path)[:-1], "rrd", "verify"]
+    for footers in ("true", "false"):
+        try:
+            with subprocess.Popen([*verify, "--check-footers", footers, path], stdout=subprocess.PIPE,
+                                  stderr=subprocess.PIPE, text=True, errors="replace") as proc:
+                try:
+                    out, err = proc.communicate(timeout=VERIFY_TIMEOUT_S)
+                except subprocess.TimeoutExpired:
+                    proc.kill()
+                    raise ExcavsimError(f"{shown}: `rerun rrd verify` did not finish in {VERIFY_TIMEOUT_S} s") from None
+        except OSError as exc:
+            raise DependencyError(f"{shown}: cannot run `rerun rrd verify` ({exc.strerror})") from None
+        verified = re.search(r"(\d+) files? verified", out + err)
+        if proc.returncode == 0 and verified and int(verified.group(1)) == 0:
+            raise DataFileError(f"{shown}: a Rerun header and no recording in it (`rerun rrd verify` found nothing "
+                                "to verify); give an .rrd file written by `excavsim trench --record FILE.rrd`")
+        if proc.returncode == 0:
+            if footers == "false":
+                (warn or _stderr)(f"excavsim: warning: {shown} has no footer (the recording was cut short); "
+                                  "replaying what it holds")
+            return
+    lines = [ln for ln in err.splitlines() if ln.strip()]
+    raise DataFileError(f"{shown}: Rerun cannot load this recording: {shorten(lines[-1] if lines else out, 200)}")
+
+
+def _stderr(text: str) -> None:
+    print(text, file=sys.stderr)
 
 
 def has_display() -> bool:
@@ -42,7 +102,7 @@ def replay(path: str | os.PathLike, *, dry_run: bool = False, say: Callable[[str
     """
     p = pathlib.Path(path)
     if not p.is_file():
-        raise ExcavsimError(f"no recording at {p}: give an .rrd file written by `excavsim trench --record FILE.rrd`")
+        raise DataFileError(f"no recording at {p}: give an .rrd file written by `excavsim trench --record FILE.rrd`")
     cmd = rerun_command(p)
     shown = " ".join(cmd)
     if dry_run:
@@ -125,8 +185,8 @@ class HeadlessViewer:
             self.proc = subprocess.Popen(self.command, stdin=subprocess.DEVNULL, stdout=self._log,
                                          stderr=subprocess.STDOUT)
         except OSError as exc:
-            raise ExcavsimError(f"cannot start the Rerun viewer ({exc.strerror}): {' '.join(self.command)}; "
-                                "reinstall excavsim (rerun-sdk installs the `rerun` command)") from None
+            raise DependencyError(f"cannot start the Rerun viewer ({exc.strerror}): {' '.join(self.command)}; "
+                                  "reinstall excavsim (rerun-sdk installs the `rerun` command)") from None
         deadline = time.monotonic() + self.timeout_s
         try:
             while True:
@@ -153,13 +213,13 @@ class HeadlessViewer:
         self._log.seek(0)
         return self._log.read().decode(errors="replace")
 
-    def _failure(self, what: str) -> ExcavsimError:
+    def _failure(self, what: str) -> DependencyError:
         out = self.output()
         tail = _viewer_trouble(out)
         hint = (f" It found no Vulkan graphics adapter: install a Vulkan driver; without a GPU, Mesa's software "
                 f"rasterizer does (Debian/Ubuntu: `apt-get install {VULKAN_PACKAGE}`)." if _no_vulkan(out) else "")
-        return ExcavsimError(f"{what}.{hint}\nviewer command: {' '.join(self.command)}"
-                             + (f"\nviewer output:\n{tail}" if tail else ""))
+        return DependencyError(f"{what}.{hint}\nviewer command: {' '.join(self.command)}"
+                               + (f"\nviewer output:\n{tail}" if tail else ""))
 
     def close(self) -> None:
         """End the viewer (if this object started it)."""
@@ -228,7 +288,7 @@ def screenshots(path: str | os.PathLike, shots: list[tuple[float | None, str | o
     start, end = sim_time_span(path)
     for t, _ in shots:  # before the viewer starts
         if t is not None and not start - 1e-9 <= t <= end + 1e-9:
-            raise ExcavsimError(f"--time {t:g}: the recording spans {start:g} to {end:g} s of simulated time")
+            raise ConfigError(f"--time {t:g}: the recording spans {start:g} to {end:g} s of simulated time")
     written = []
     with HeadlessViewer(size) as viewer:
         viewer.open(path)
@@ -259,7 +319,7 @@ def sim_time_span(path: str | os.PathLike) -> tuple[float, float]:
         if times.size:
             lo, hi = min(lo, times.min() / 1e9), max(hi, times.max() / 1e9)
     if lo > hi:
-        raise ExcavsimError(f"{path} has no sim_time timeline: not a recording of `excavsim trench --record`")
+        raise DataFileError(f"{path} has no sim_time timeline: not a recording of `excavsim trench --record`")
     return float(lo), float(hi)
 
 

@@ -41,7 +41,7 @@ import numpy as np
 import rerun as rr
 import rerun.blueprint as rrb
 
-from excavsim.errors import ExcavsimError
+from excavsim.errors import ConfigError, UsageError
 from excavsim.record.geometry import MAP_RGB, grid_normals, grid_triangles
 from excavsim.record.recorder import recording_id_for
 
@@ -102,7 +102,7 @@ class TruckRecorder:
     def __init__(self, path: str | os.PathLike, *, seed: int = 0):
         self.path = pathlib.Path(path)
         if self.path.suffix != ".rrd":
-            raise ExcavsimError(f"a truck recording must be an .rrd file; given {str(path)!r}")
+            raise ConfigError(f"a truck recording must be an .rrd file; given {str(path)!r}")
         self.seed = int(seed)
         self.rec: rr.RecordingStream | None = None
         self._offset = 0.0
@@ -111,7 +111,7 @@ class TruckRecorder:
 
     def started(self, cfg, base) -> None:
         if self.rec is not None:
-            raise ExcavsimError(f"a TruckRecorder records one run; make a new one for {self.path}")
+            raise UsageError(f"a TruckRecorder records one run; make a new one for {self.path}")
         text = self._config_text(cfg, base)
         rec = rr.RecordingStream("excavsim", recording_id=recording_id_for(self.path.name, self.seed, text),
                                  send_properties=False)
@@ -139,9 +139,9 @@ class TruckRecorder:
 
     def trial(self, trial, cfg, *, cost: float, sq_error: float) -> None:
         if self.rec is None:
-            raise ExcavsimError("TruckRecorder.trial before started")
+            raise UsageError("TruckRecorder.trial before started")
         if trial.trace is None:
-            raise ExcavsimError(f"trial {trial.index + 1} carries no trace: run it with trace=True to record it")
+            raise UsageError(f"trial {trial.index + 1} carries no trace: run it with trace=True to record it")
         rec, tr, k = self.rec, trial.trace, trial.index + 1
         t0 = self._offset
         rec.set_time("trial", sequence=k)

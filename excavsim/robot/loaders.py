@@ -44,7 +44,7 @@ import math
 
 import numpy as np
 
-from excavsim.errors import ExcavsimError
+from excavsim.errors import ConfigError
 
 # (A1 21): the world frame w from frame 0 (x_w = -z_0, y_w = x_0, z_w = -y_0). The thesis' world y_w is our z.
 W_T_0 = np.array([[0.0, 0.0, -1.0, 0.0], [1.0, 0.0, 0.0, 0.0], [0.0, -1.0, 0.0, 0.0], [0.0, 0.0, 0.0, 1.0]])
@@ -61,7 +61,7 @@ def dh_transform(alpha_prev: float, a_prev: float, theta: float, d: float) -> np
 
 def _check_limits(name: str, lo, hi) -> None:
     if not (np.all(np.isfinite(lo)) and np.all(np.isfinite(hi)) and np.all(np.asarray(lo) < np.asarray(hi))):
-        raise ExcavsimError(f"{name}: joint limits must be finite with lower < upper; given {lo!r}, {hi!r}")
+        raise ConfigError(f"{name}: joint limits must be finite with lower < upper; given {lo!r}, {hi!r}")
 
 
 @dataclasses.dataclass(frozen=True, eq=False)
@@ -94,7 +94,7 @@ class FrontLoader:
     def __post_init__(self):
         for name in ("l3", "l4", "floor"):
             if not getattr(self, name) > 0:
-                raise ExcavsimError(f"front loader: {name} must be > 0 m; given {getattr(self, name)!r}")
+                raise ConfigError(f"front loader: {name} must be > 0 m; given {getattr(self, name)!r}")
         _check_limits("front loader", self.lower, self.upper)
 
     def dh_rows(self, q) -> list[tuple[float, float, float, float]]:
@@ -190,7 +190,7 @@ class FrontShovel:
     def __post_init__(self):
         for name in ("l1", "l2", "l3", "floor"):
             if not getattr(self, name) > 0:
-                raise ExcavsimError(f"front shovel: {name} must be > 0 m; given {getattr(self, name)!r}")
+                raise ConfigError(f"front shovel: {name} must be > 0 m; given {getattr(self, name)!r}")
         _check_limits("front shovel", self.lower, self.upper)
 
     def forward(self, q: np.ndarray, base_x: float | np.ndarray = 0.0) -> np.ndarray:

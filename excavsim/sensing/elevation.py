@@ -31,7 +31,7 @@ from collections.abc import Sequence
 import numpy as np
 
 from excavsim.config import ElevationMapConfig
-from excavsim.errors import ExcavsimError
+from excavsim.errors import UsageError, WorldError
 from excavsim.handoff.maps import ElevationMap, RangeImage, ScanGeometry
 
 WALL_MARGIN_M = 0.03
@@ -74,16 +74,16 @@ def calibrate(image: RangeImage, geometry: ScanGeometry, *, reject_m: float = 0.
     measured = image.target_ranges.ravel()
     use = np.isfinite(measured)
     if use.sum() < 2:
-        raise ExcavsimError(f"scanner calibration needs at least two target rays; {int(use.sum())} returned "
-                            "(are the targets hidden?)")
+        raise WorldError(f"scanner calibration needs at least two target rays; {int(use.sum())} returned "
+                         "(are the targets hidden?)")
     # Start from scale 1 and the median offset (robust to a hidden target), then refit without outliers.
     scale, offset = 1.0, float(np.median(measured[use] - surveyed[use]))
     for _ in range(3):
         resid = measured - (scale * surveyed + offset)
         use = np.isfinite(measured) & (np.abs(resid) <= reject_m)
         if use.sum() < 2 or np.ptp(surveyed[use]) <= 0:
-            raise ExcavsimError(f"scanner calibration needs at least two target rays at different ranges; "
-                                f"{int(use.sum())} agree (are the targets hidden?)")
+            raise WorldError(f"scanner calibration needs at least two target rays at different ranges; "
+                             f"{int(use.sum())} agree (are the targets hidden?)")
         a = np.stack([surveyed[use], np.ones(int(use.sum()))], axis=1)
         (scale, offset), *_ = np.linalg.lstsq(a, measured[use], rcond=None)
     residuals = np.where(use, (measured - offset) / scale - surveyed, np.nan).reshape(geometry.target_ranges.shape)
@@ -114,7 +114,7 @@ def fill_unobserved(heights: np.ndarray, observed: np.ndarray) -> np.ndarray:
     h = np.where(observed, heights, -np.inf)
     known = observed.copy()
     if not known.any():
-        raise ExcavsimError("the scans observed no cell of the soil area; is the scanner blocked?")
+        raise WorldError("the scans observed no cell of the soil area; is the scanner blocked?")
     while not known.all():
         pad = np.pad(h, 1, constant_values=-np.inf)
         best = np.full(h.shape, -np.inf)
@@ -191,11 +191,11 @@ def build_map(images: Sequence[RangeImage], geometry: ScanGeometry, config: Elev
     """
     config = config or ElevationMapConfig()
     if not images:
-        raise ExcavsimError("build_map needs at least one range image")
+        raise UsageError("build_map needs at least one range image")
     for im in images:
         if im.ranges.shape != geometry.image_shape:
-            raise ExcavsimError(f"range image of shape {im.ranges.shape} does not match the scanner's "
-                                f"{geometry.image_shape}")
+            raise UsageError(f"range image of shape {im.ranges.shape} does not match the scanner's "
+                             f"{geometry.image_shape}")
     cals = [calibrate(im, geometry) for im in images] if config.calibrate else None
     r = median_ranges(images, cals)
     pts = geometry.origin + geometry.directions * r[..., None]

@@ -52,7 +52,7 @@ from numba.extending import intrinsic
 
 from excavsim import constants
 from excavsim.config import ForceSensorConfig
-from excavsim.errors import ExcavsimError, ModelError
+from excavsim.errors import ConfigError, ModelError, UsageError, WorldError
 from excavsim.handoff.observation import Observation
 from excavsim.readouts import element_id
 
@@ -240,7 +240,7 @@ class ForceSensor:
         except (TypeError, ValueError):
             rate = math.nan
         if not (math.isfinite(rate) and rate > 0.0):
-            raise ExcavsimError(f"ForceSensor rate_hz must be a positive finite number [Hz], got {rate_hz!r}")
+            raise ConfigError(f"ForceSensor rate_hz must be a positive finite number [Hz], got {rate_hz!r}")
         self.rate_hz = rate
         self.period_s = 1.0 / rate
         self.model = model
@@ -338,8 +338,8 @@ class ForceSensor:
             self._t0, self._k, self._last = time, 0, time
             return self.reading(obs)
         if time < self._last:
-            raise ExcavsimError(f"F/T sample time went backwards ({time:.6f} s < last sample {self._last:.6f} s); "
-                                f"call ForceSensor.reset() when a new episode starts")
+            raise UsageError(f"F/T sample time went backwards ({time:.6f} s < last sample {self._last:.6f} s); "
+                             f"call ForceSensor.reset() when a new episode starts")
         # Slot index with a small tolerance so that accumulated float time (n * timestep) lands on it.
         k = math.floor((time - self._t0) * self.rate_hz + 1e-6)
         if k <= self._k:
@@ -360,13 +360,13 @@ def _checked(obs: Observation, n_joints: int) -> tuple[float, np.ndarray, np.nda
         time = float(obs.time)
         arrays = [np.asarray(getattr(obs, name), dtype=float) for name in ("q", "ft_force", "ft_torque")]
     except (AttributeError, TypeError, ValueError) as e:
-        raise ExcavsimError(f"ForceSensor needs an Observation with time, q, ft_force and ft_torque; "
-                            f"got {type(obs).__name__} ({e})") from e
+        raise UsageError(f"ForceSensor needs an Observation with time, q, ft_force and ft_torque; "
+                         f"got {type(obs).__name__} ({e})") from e
     for name, a, shape in zip(("q", "ft_force", "ft_torque"), arrays, ((n_joints,), (3,), (3,))):
         if a.shape != shape:
-            raise ExcavsimError(f"observation {name} must have shape {shape}, got {a.shape}")
+            raise UsageError(f"observation {name} must have shape {shape}, got {a.shape}")
         if not np.all(np.isfinite(a)):
-            raise ExcavsimError(f"observation {name} must be finite, got {a!r}")
+            raise WorldError(f"observation {name} must be finite, got {a!r}")
     if not math.isfinite(time):
-        raise ExcavsimError(f"observation time must be finite, got {time!r}")
+        raise WorldError(f"observation time must be finite, got {time!r}")
     return time, arrays[0], arrays[1], arrays[2]

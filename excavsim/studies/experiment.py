@@ -128,6 +128,47 @@ def run_experiment(exp: ExperimentSpec, out: str | pathlib.Path, *,
     return runs
 
 
+def run_experiments(names: list[str], out: str | pathlib.Path, *, dig_budget: int | None = None, seeds: int = 1,
+                    verbose: bool = False, say: Callable[[str], None] = print) -> None:
+    """``excavsim experiment NAME...``: run the named experiments (``["all"]``: every one of
+    ``configs/experiments``), each into ``out/NAME``, and with several, or with ``seeds > 1``, a
+    comparison table (``out/comparison.txt``).
+
+    Args:
+        names: experiment names or YAML files; every one is checked before anything runs.
+        dig_budget: overrides every run's dig budget.
+        seeds: every run once per seed: its seed, then on by the number of runs (fig114's two runs
+            from seeds 0 and 1 get 0, 2, 4, ... and 1, 3, 5, ...: never the same episode twice).
+        verbose: say every scan and dig.
+        say: where the summaries go.
+    """
+    names = experiment_names() if names == ["all"] else names
+    specs = [load_experiment(n) for n in names]
+    if dig_budget is not None:
+        specs = [s.model_copy(update={"runs": [r.model_copy(update={"dig_budget": dig_budget}) for r in s.runs]})
+                 for s in specs]
+    if seeds > 1:
+        def reseeded(r, i, stride):
+            seed = r.seed + i * stride
+            return r.model_copy(update={"seed": seed, "name": f"{r.name}-s{seed}"})
+
+        specs = [s.model_copy(update={"runs": [reseeded(r, i, len(s.runs)) for r in s.runs
+                                               for i in range(seeds)]}) for s in specs]
+    out = pathlib.Path(out)
+    results = {}
+    for exp in specs:
+        say(f"excavsim experiment {exp.name}: {exp.title}")
+        runs = run_experiment(exp, out / exp.name, progress=say if verbose else None)
+        results[exp.name] = (exp, runs)
+        say((out / exp.name / "summary.txt").read_text())
+        say(f"wrote {out / exp.name}/sections.png, digs.csv, digs.txt, summary.txt\n")
+    if len(results) > 1 or seeds > 1:
+        table = format_comparison(results) + "\n\npooled over each experiment's runs:\n" + format_means(results)
+        (out / "comparison.txt").write_text(table + "\n")
+        say(table)
+        say(f"wrote {out / 'comparison.txt'}")
+
+
 def write_outputs(exp: ExperimentSpec, runs: list[RunResult], out: pathlib.Path) -> list[pathlib.Path]:
     """Write ``sections.png``, ``digs.csv``, ``digs.txt`` and ``summary.txt`` of the runs so far."""
     paths = [plot_sections(exp, runs, out / "sections.png")]

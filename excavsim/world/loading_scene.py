@@ -29,8 +29,7 @@ from dm_control import mjcf
 
 from excavsim import constants
 from excavsim.config import SceneConfig, SoilParams, get_soil, load_scene_config
-from excavsim.errors import ExcavsimError
-from excavsim.handoff.observation import Diverged
+from excavsim.errors import ConfigError, Diverged
 from excavsim.readouts import element_id
 from excavsim.world.soil import SoilModel, Volumes
 
@@ -47,7 +46,7 @@ CONTROL_RATE_HZ = 50.0  # the loading machines' control rate [Hz] (assumed)
 
 def _check_machine(machine: str) -> None:
     if machine not in MACHINES:
-        raise ExcavsimError(f"unknown loading machine {machine!r}; allowed: {', '.join(MACHINES)}")
+        raise ConfigError(f"unknown loading machine {machine!r}; allowed: {', '.join(MACHINES)}")
 
 
 def build_scene(machine: str) -> mjcf.RootElement:
@@ -117,8 +116,8 @@ class LoadingWorld:
         g = self.soil.grid
         h = np.asarray(heights, dtype=float)
         if h.shape != g.heights.shape or not np.all(np.isfinite(h)) or h.min() < 0 or h.max() > g.elevation:
-            raise ExcavsimError(f"terrain must be finite heights of shape {g.heights.shape} within "
-                                f"[0, {g.elevation}] m; given shape {h.shape}")
+            raise ConfigError(f"terrain must be finite heights of shape {g.heights.shape} within "
+                              f"[0, {g.elevation}] m; given shape {h.shape}")
         g.heights[...] = h
         g.take_dirty()
         self.soil.load = 0.0
@@ -163,7 +162,7 @@ class LoadingWorld:
         """
         t = np.asarray(target, dtype=float)
         if t.shape != self._act.shape or not np.all(np.isfinite(t)):
-            raise ExcavsimError(f"target must be {len(self._act)} finite set-points, got {target!r}")
+            raise ConfigError(f"target must be {len(self._act)} finite set-points, got {target!r}")
         d = self.data
         d.ctrl[self._act] = np.clip(t, self.lower, self.upper)
         self.contact = self.soil.step(d, self.control_dt)

@@ -26,7 +26,7 @@ import math
 import numba
 import numpy as np
 
-from excavsim.errors import ExcavsimError
+from excavsim.errors import ConfigError
 
 UNIT_M2 = 0.01  # one "unit of soil" of §7.2.1 [m^2 of the section] (assumed, see the module docstring)
 
@@ -72,13 +72,13 @@ class Pile2D:
     def __init__(self, heights, dx: float, x0: float = 0.0, repose_deg: float = 35.0):
         h = np.array(heights, dtype=float)
         if h.ndim != 1 or h.size < 2:
-            raise ExcavsimError(f"pile heights must be a 1-D array of at least 2 columns; given shape {h.shape}")
+            raise ConfigError(f"pile heights must be a 1-D array of at least 2 columns; given shape {h.shape}")
         if not np.all(np.isfinite(h)) or np.any(h < 0):
-            raise ExcavsimError("pile heights must be finite and >= 0 m")
+            raise ConfigError("pile heights must be finite and >= 0 m")
         if not (math.isfinite(dx) and dx > 0):
-            raise ExcavsimError(f"column width dx must be > 0 m; given {dx!r}")
+            raise ConfigError(f"column width dx must be > 0 m; given {dx!r}")
         if not (0.0 < repose_deg < 90.0):
-            raise ExcavsimError(f"angle of repose must lie in (0, 90) degrees; given {repose_deg!r}")
+            raise ConfigError(f"angle of repose must lie in (0, 90) degrees; given {repose_deg!r}")
         self.heights = h
         self.dx = float(dx)
         self.x0 = float(x0)
@@ -107,9 +107,9 @@ class Pile2D:
         px = np.asarray(path_x, dtype=float)
         pz = np.asarray(path_z, dtype=float)
         if px.ndim != 1 or px.shape != pz.shape or px.size < 2:
-            raise ExcavsimError("a bucket path needs matching 1-D x and z of at least 2 points")
+            raise ConfigError("a bucket path needs matching 1-D x and z of at least 2 points")
         if not (np.all(np.isfinite(px)) and np.all(np.isfinite(pz))) or np.any(np.diff(px) < 0):
-            raise ExcavsimError("a bucket path must be finite with x non-decreasing")
+            raise ConfigError("a bucket path must be finite with x non-decreasing")
         xs = self.xs
         sel = (xs >= px[0]) & (xs <= px[-1])
         cut = np.interp(xs[sel], px, pz)
@@ -130,11 +130,11 @@ def trapezoid_pile(height: float, top: float, foot: float, width: float, dx: flo
     """A pile of ``height`` [m] with a flat ``top`` [m] and faces at repose, its near foot at x = ``foot``,
     in a section ``width`` [m] wide from x = 0."""
     if not (height > 0 and top >= 0 and foot >= 0 and width > 0):
-        raise ExcavsimError("a trapezoid pile needs height > 0, top >= 0, foot >= 0 and width > 0")
+        raise ConfigError("a trapezoid pile needs height > 0, top >= 0, foot >= 0 and width > 0")
     run = height / math.tan(math.radians(repose_deg))
     if foot + 2 * run + top > width:
-        raise ExcavsimError(f"a pile {2 * run + top:.2f} m wide at its base from x = {foot} m does not fit "
-                            f"a section {width} m wide")
+        raise ConfigError(f"a pile {2 * run + top:.2f} m wide at its base from x = {foot} m does not fit "
+                          f"a section {width} m wide")
     n = int(round(width / dx))
     xs = (np.arange(n) + 0.5) * dx
     rise = (xs - foot) / run * height
@@ -153,9 +153,9 @@ def random_pile(seed: int, area_m2: float, *, foot: float, width: float, dx: flo
     The pile's near foot is at ``foot`` [m] (assumed generator; the thesis says only "randomly generated").
     """
     if not (area_m2 > 0 and math.isfinite(area_m2)):
-        raise ExcavsimError(f"pile area must be > 0 m^2; given {area_m2!r}")
+        raise ConfigError(f"pile area must be > 0 m^2; given {area_m2!r}")
     if not (0 <= seed < 2 ** 32):
-        raise ExcavsimError(f"seed must lie in 0 to 2^32 - 1; given {seed!r}")
+        raise ConfigError(f"seed must lie in 0 to 2^32 - 1; given {seed!r}")
     rng = np.random.default_rng(seed)
     n = int(round(width / dx))
     xs = (np.arange(n) + 0.5) * dx
@@ -174,9 +174,9 @@ def random_pile(seed: int, area_m2: float, *, foot: float, width: float, dx: flo
     pile.settle()
     total = pile.area()
     if total <= 0:
-        raise ExcavsimError("random pile: the heaps hold no soil")
+        raise ConfigError("random pile: the heaps hold no soil")
     pile.heights *= area_m2 / total
     pile.settle()
     if pile.heights[-1] > 1e-6:
-        raise ExcavsimError(f"random pile: {area_m2} m^2 does not fit a section {width} m wide")
+        raise ConfigError(f"random pile: {area_m2} m^2 does not fit a section {width} m wide")
     return pile

@@ -17,6 +17,8 @@ import math
 import numpy as np
 from numba import njit
 
+from excavsim.errors import SoilModelError
+
 # 1 / (n + 1) for n = 0..8 receivers: the water level of a cell and its n receivers (see _relax_sweeps).
 _INV_N_PLUS_1 = 1.0 / np.arange(1.0, 10.0)
 # Stay strictly below the reverse-flow bound of the over-relaxation (see _relax_sweeps).
@@ -96,11 +98,11 @@ def settle(
     _check_positive_finite("cell_size_m", cell_size_m)
     _check_positive_finite("tolerance_m", tolerance_m)
     if not (isinstance(repose_rad, (int, float, np.floating)) and 0.0 < repose_rad < 0.5 * math.pi):
-        raise ValueError(f"repose_rad must lie in (0, pi/2) radians, got {repose_rad!r}")
+        raise SoilModelError(f"repose_rad must lie in (0, pi/2) radians, got {repose_rad!r}")
     if not (isinstance(over_relaxation, (int, float, np.floating)) and 1.0 <= over_relaxation < 2.0):
-        raise ValueError(f"over_relaxation must lie in [1, 2), got {over_relaxation!r}")
+        raise SoilModelError(f"over_relaxation must lie in [1, 2), got {over_relaxation!r}")
     if isinstance(max_iterations, bool) or not isinstance(max_iterations, (int, np.integer)) or max_iterations < 0:
-        raise ValueError(f"max_iterations must be a whole number >= 0, got {max_iterations!r}")
+        raise SoilModelError(f"max_iterations must be a whole number >= 0, got {max_iterations!r}")
     nrow, ncol = heights.shape
     row0, row1, col0, col1 = (0, nrow, 0, ncol) if region is None else _check_region(region, heights.shape)
 
@@ -140,7 +142,7 @@ def max_slope_excess(heights: np.ndarray, cell_size_m: float, repose_rad: float)
     """
     h = np.asarray(heights, dtype=np.float64)
     if h.ndim != 2:
-        raise ValueError(f"heights must be 2-D (nrow, ncol), got shape {h.shape}")
+        raise SoilModelError(f"heights must be 2-D (nrow, ncol), got shape {h.shape}")
     s_axis = math.tan(repose_rad) * cell_size_m
     s_diag = s_axis * math.sqrt(2.0)
     pairs = (
@@ -159,27 +161,27 @@ def max_slope_excess(heights: np.ndarray, cell_size_m: float, repose_rad: float)
 def _check_heights(heights: object) -> None:
     """Raise ValueError unless ``heights`` can be settled in place."""
     if not isinstance(heights, np.ndarray):
-        raise ValueError(f"heights must be a numpy array (it is modified in place), got {type(heights).__name__}")
+        raise SoilModelError(f"heights must be a numpy array (it is modified in place), got {type(heights).__name__}")
     if heights.ndim != 2:
-        raise ValueError(f"heights must be 2-D (nrow, ncol), got shape {heights.shape}")
+        raise SoilModelError(f"heights must be 2-D (nrow, ncol), got shape {heights.shape}")
     if heights.dtype != np.float64 or not heights.flags.c_contiguous or not heights.flags.writeable:
-        raise ValueError(
+        raise SoilModelError(
             f"heights must be a writeable float64 C-contiguous array because it is settled in place; got dtype "
             f"{heights.dtype}, C-contiguous {heights.flags.c_contiguous}, writeable {heights.flags.writeable}. "
             "Pass np.ascontiguousarray(heights, dtype=np.float64) and keep that array."
         )
     if heights.size == 0:
-        raise ValueError(f"heights must have at least one cell, got shape {heights.shape}")
+        raise SoilModelError(f"heights must have at least one cell, got shape {heights.shape}")
     if not np.isfinite(heights).all():
         bad = np.argwhere(~np.isfinite(heights))[0]
-        raise ValueError(f"heights must be finite; heights[{bad[0]}, {bad[1]}] = {heights[tuple(bad)]}")
+        raise SoilModelError(f"heights must be finite; heights[{bad[0]}, {bad[1]}] = {heights[tuple(bad)]}")
 
 
 def _check_positive_finite(name: str, value: object) -> None:
     """Raise ValueError unless ``value`` is a finite number > 0."""
     if not (isinstance(value, (int, float, np.floating, np.integer)) and not isinstance(value, bool)
             and math.isfinite(value) and value > 0):
-        raise ValueError(f"{name} must be a finite number > 0, got {value!r}")
+        raise SoilModelError(f"{name} must be a finite number > 0, got {value!r}")
 
 
 def _check_region(region: object, shape: tuple[int, int]) -> tuple[int, int, int, int]:
@@ -188,10 +190,10 @@ def _check_region(region: object, shape: tuple[int, int]) -> tuple[int, int, int
     allowed = f"allowed: (row0, row1, col0, col1) with 0 <= row0 < row1 <= {nrow} and 0 <= col0 < col1 <= {ncol}"
     if (not isinstance(region, (tuple, list)) or len(region) != 4
             or not all(isinstance(v, (int, np.integer)) and not isinstance(v, bool) for v in region)):
-        raise ValueError(f"region must be four whole numbers (row0, row1, col0, col1), got {region!r}; {allowed}")
+        raise SoilModelError(f"region must be four whole numbers (row0, row1, col0, col1), got {region!r}; {allowed}")
     row0, row1, col0, col1 = (int(v) for v in region)
     if not (0 <= row0 < row1 <= nrow and 0 <= col0 < col1 <= ncol):
-        raise ValueError(f"region {tuple(region)} is empty or does not fit the {nrow} x {ncol} grid; {allowed}")
+        raise SoilModelError(f"region {tuple(region)} is empty or does not fit the {nrow} x {ncol} grid; {allowed}")
     return row0, row1, col0, col1
 
 

@@ -40,8 +40,8 @@ import numpy as np
 from dm_control import mjcf
 
 from excavsim.config import RobotConfig, SceneConfig, SoilParams, get_soil, load_robot_config, load_scene_config
-from excavsim.errors import ExcavsimError
-from excavsim.handoff.observation import Diverged, Observation, OutOfTime
+from excavsim.errors import ConfigError, Diverged, OutOfTime
+from excavsim.handoff.observation import Observation
 from excavsim.readouts import ModelIndex
 from excavsim.robot.servo import setpoint_rates
 from excavsim.world.scene import build_physics
@@ -196,7 +196,7 @@ class Simulation:
         if ctrl is not None:
             ctrl = np.asarray(ctrl, dtype=float)
             if ctrl.shape != (len(self._act),) or not np.isfinite(ctrl).all():
-                raise ExcavsimError(f"ctrl must be {len(self._act)} finite set-point rates [rad/s], got {ctrl!r}")
+                raise ConfigError(f"ctrl must be {len(self._act)} finite set-point rates [rad/s], got {ctrl!r}")
             d.ctrl[self._act] = ctrl
         if self.soil_enabled:
             self.contact = self.soil.step(d, self.control_dt)

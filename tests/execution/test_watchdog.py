@@ -20,7 +20,7 @@ from rerun.chunk import RrdReader
 from excavsim.config import load_executor_config
 from excavsim.execution.dig import DigExecutor
 from excavsim.handoff.episode import EpisodeObserver, ObserverGroup, format_episode
-from excavsim.handoff.observation import Diverged, OutOfTime
+from excavsim.errors import Diverged, OutOfTime
 from excavsim.loop.scenario import EpisodeSpec, dig_rows, episode_summary, run_spec
 from excavsim.record import RerunRecorder
 from excavsim.sensing.ft import ForceSensor

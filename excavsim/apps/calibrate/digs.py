@@ -25,7 +25,7 @@ from typing import Any
 
 import numpy as np
 
-from excavsim.errors import ExcavsimError
+from excavsim.errors import ConfigError, DataFileError, ExcavsimError, UsageError
 from excavsim.handoff.episode import EpisodeObserver, ObserverGroup
 from excavsim.handoff.maps import ElevationMap
 from excavsim.learning.dataset import ForceDataset, path_progress
@@ -53,7 +53,7 @@ def removed_volume(before: ElevationMap, after: ElevationMap, path_xz: np.ndarra
         arm: the :class:`~excavsim.robot.kinematics.PlanarArm`; waist: the arm plane [rad]; width [m].
     """
     if before.heights.shape != after.heights.shape:
-        raise ExcavsimError(f"maps of different grids: {before.heights.shape} and {after.heights.shape}")
+        raise UsageError(f"maps of different grids: {before.heights.shape} and {after.heights.shape}")
     xc, yc = before.centres()
     gx, gy = np.meshgrid(xc, yc)
     o, e1 = arm.plane_to_world(waist, np.array([[0.0, 0.0], [1.0, 0.0]]))
@@ -116,7 +116,7 @@ def record_digs(path, *, truth: str = "wedge", soil: str | None = None, digs: in
     from excavsim.world.simulation import Simulation
 
     if digs < 1:
-        raise ExcavsimError(f"record_digs needs digs >= 1; given {digs}")
+        raise ConfigError(f"record_digs needs digs >= 1; given {digs}")
     t: dict[str, Any] = {"model": truth, **(QUIET if quiet else {})}
     cfg = ResolvedSpec(EpisodeSpec(name="calibrate", goal="straight", soil=soil, seed=seed, scene={"truth": t}))
     sim = Simulation(cfg.robot, cfg.scene, seed=seed)
@@ -206,14 +206,14 @@ def dataset_from_recording(rec: dict[str, Any], *, arm, waist: float, width: flo
 
     ft_t, ft = rec["ft_time"], rec["ft_tip"]
     if ft_t.size == 0:
-        raise ExcavsimError("the recording has no F/T samples in the tip frame (ft/tip/*): it was not recorded "
+        raise DataFileError("the recording has no F/T samples in the tip frame (ft/tip/*): it was not recorded "
                             "by `excavsim trench --record` or `excavsim calibrate --record-digs N --rrd FILE`")
     if not rec["maps"]:
-        raise ExcavsimError("the recording has no scanned maps (world/soil/scan)")
+        raise DataFileError("the recording has no scanned maps (world/soil/scan)")
     plans = [(t, _PLAN.match(s)) for t, s in rec["log"] if _PLAN.match(s)]
     ends = {int(m.group(1)): t for t, s in rec["log"] if (m := _DUG.match(s))}
     if not plans:
-        raise ExcavsimError("the recording's log names no planned trenching dig ('plan k: k .. m, alpha ..')")
+        raise DataFileError("the recording's log names no planned trenching dig ('plan k: k .. m, alpha ..')")
     q_t, q = rec["joint_time"], np.radians(rec["joint_deg"])
     parts, actions, volumes = [], {}, {}
     maps = rec["maps"]  # (time, ElevationMap) in time order
@@ -266,7 +266,7 @@ def dataset_from_recording(rec: dict[str, Any], *, arm, waist: float, width: flo
         if after:
             volumes[k] = removed_volume(emap, after[0], tip[:, :2], arm, waist, width)
     if not parts:
-        raise ExcavsimError("no logged dig of the recording has F/T samples with the tip below the scanned surface")
+        raise DataFileError("no logged dig of the recording has F/T samples with the tip below the scanned surface")
     return ForceDataset.concat(parts, meta=_meta("unknown", rec.get("soil", "unknown"), int(rec.get("seed", 0)),
                                                  False, width, actions, volumes))
 

@@ -46,7 +46,7 @@ from collections.abc import Callable
 
 import numpy as np
 
-from excavsim.errors import ExcavsimError
+from excavsim.errors import ConfigError, DataFileError, UsageError
 from excavsim.learning import identify
 from excavsim.learning.dataset import ForceDataset
 
@@ -290,24 +290,24 @@ def parse_fixes(model: str, items: list[str] | None) -> dict[str, float]:
         name, eq, text = str(item).partition("=")
         name = name.strip()
         if not eq or not name:
-            raise ExcavsimError(f"--fix {item!r}: give NAME=VALUE; for --model {model}: {allowed}")
+            raise ConfigError(f"--fix {item!r}: give NAME=VALUE; for --model {model}: {allowed}")
         if model == "wedge":
             name = WEDGE_FIX_ALIASES.get(name, name)
         if name not in ranges:
-            raise ExcavsimError(f"--fix {item!r}: {name!r} is not a parameter of the {model} fit; allowed: {allowed}")
+            raise ConfigError(f"--fix {item!r}: {name!r} is not a parameter of the {model} fit; allowed: {allowed}")
         try:
             value = float(text)
         except ValueError:
             value = math.nan
         lo, hi = ranges[name]
         if not (math.isfinite(value) and lo <= value <= hi):
-            raise ExcavsimError(f"--fix {item!r}: {name} must be a number in [{lo:g}, {hi:g}]; allowed: {allowed}")
+            raise ConfigError(f"--fix {item!r}: {name} must be a number in [{lo:g}, {hi:g}]; allowed: {allowed}")
         if name in out:
-            raise ExcavsimError(f"--fix {item!r}: {name} is held twice")
+            raise ConfigError(f"--fix {item!r}: {name} is held twice")
         out[name] = value
     if model == "wedge" and len(out) == len(WEDGE_FIX):
-        raise ExcavsimError("--fix holds every parameter of the wedge (c_pa, phi_deg, delta_deg, gamma_n_m3): "
-                            "nothing is left to fit; hold at most three")
+        raise ConfigError("--fix holds every parameter of the wedge (c_pa, phi_deg, delta_deg, gamma_n_m3): "
+                          "nothing is left to fit; hold at most three")
     return out
 
 
@@ -549,25 +549,25 @@ def calibrate(record: str | pathlib.Path | ForceDataset, model: str, out: str | 
     from excavsim.config import get_soil, load_scene_config
 
     if model not in ("wedge", "dimaio"):
-        raise ExcavsimError(f"unknown model {model!r}; allowed: wedge, dimaio")
+        raise ConfigError(f"unknown model {model!r}; allowed: wedge, dimaio")
     fixed = parse_fixes(model, [f"{k}={v!r}" for k, v in (fixed or {}).items()])
     if not (isinstance(brittleness, (int, float)) and 0.0 <= brittleness < 1.0):
-        raise ExcavsimError(f"brittleness must be a number in [0, 1) (the share of the failure force lost at "
-                            f"each failure; 0: eq. 8's crest); given {brittleness!r}")
+        raise ConfigError(f"brittleness must be a number in [0, 1) (the share of the failure force lost at "
+                          f"each failure; 0: eq. 8's crest); given {brittleness!r}")
     if not (isinstance(rate_per_decade, (int, float)) and 0.0 <= rate_per_decade <= 1.0):
-        raise ExcavsimError(f"rate_per_decade must be a number in [0, 1] (the cohesion's rise per tenfold digging "
-                            f"speed; 0: none); given {rate_per_decade!r}")
+        raise ConfigError(f"rate_per_decade must be a number in [0, 1] (the cohesion's rise per tenfold digging "
+                          f"speed; 0: none); given {rate_per_decade!r}")
     if isinstance(record, ForceDataset):
         data, label = record, name or "recording"
     else:
         record = pathlib.Path(record)
         if record.suffix == ".rrd":
-            raise ExcavsimError(f"{record}: a Rerun recording is read by the command line (`excavsim calibrate "
-                                f"{record.name}`), or pass the data set excavsim.apps.calibrate.digs."
-                                "dataset_from_recording made of it")
+            raise UsageError(f"{record}: a Rerun recording is read by the command line (`excavsim calibrate "
+                             f"{record.name}`), or pass the data set excavsim.apps.calibrate.digs."
+                             "dataset_from_recording made of it")
         data, label = ForceDataset.load(record), name or record.stem
     if len(data) < 10:
-        raise ExcavsimError(f"{label}: {len(data)} samples; calibrating needs at least 10")
+        raise DataFileError(f"{label}: {len(data)} samples; calibrating needs at least 10")
     out = pathlib.Path(out)
     out.mkdir(parents=True, exist_ok=True)
     base = get_soil(soil or data.meta.get("soil") if (soil or data.meta.get("soil", "unknown") != "unknown")
@@ -684,3 +684,46 @@ def record_digs(path: str | pathlib.Path, *, truth: str = "wedge", soil: str | N
     from excavsim.apps.calibrate.digs import record_digs as _record
 
     return _record(path, truth=truth, soil=soil, digs=digs, seed=seed, quiet=quiet, observer=observer, say=say)
+
+
+def calibrate_file(record: str | pathlib.Path, model: str, out: str | pathlib.Path, *, soil: str | None = None,
+                   rerun_digs: bool = True, fixed: dict[str, float] | None = None, brittleness: float = 0.0,
+                   rate_per_decade: float = 0.0, record_digs_n: int | None = None, truth: str = "wedge",
+                   seed: int = 0, quiet: bool = False, rrd: str | None = None,
+                   say: Callable[[str], None] = print) -> dict[str, Fit]:
+    """``excavsim calibrate RECORD``: :func:`calibrate` on a force data set file or on a Rerun
+    recording (``.rrd``: its F/T, joint angles, scans and plans are read), first digging
+    ``record_digs_n`` random feasible digs into ``record`` when asked.
+
+    Args:
+        record: the force data set (.npz, .parquet, .csv) or Rerun recording (.rrd).
+        record_digs_n: dig this many digs on the ``truth`` world first (seeded by ``seed``; ``quiet``:
+            its rate effect, failure-cycle drops, heterogeneity and the F/T's disturbance off) and save
+            their record as ``record``; ``rrd``: also record that episode to this Rerun file.
+        The rest: as :func:`calibrate`.
+    """
+    record = pathlib.Path(record)
+    if record_digs_n:
+        say(f"excavsim calibrate: recording {record_digs_n} digs on the {truth} truth into {record}"
+            + (f" (and the episode into {rrd})" if rrd else ""))
+        observer = None
+        if rrd:
+            from excavsim.record import RerunRecorder
+
+            observer = RerunRecorder(rrd)
+        record_digs(record, truth=truth, soil=soil, digs=record_digs_n, seed=seed, quiet=quiet, observer=observer,
+                    say=say)
+    options = dict(soil=soil, rerun_digs=rerun_digs, fixed=fixed, brittleness=brittleness,
+                   rate_per_decade=rate_per_decade, say=say)
+    if record.suffix == ".rrd":
+        from excavsim.apps.calibrate.digs import recording_dataset
+        from excavsim.record.reading import read_recording
+
+        try:
+            data = recording_dataset(read_recording(record))
+        except DataFileError as exc:  # what the recording lacks, said with its name
+            if str(exc).startswith(f"{record}:"):
+                raise
+            raise DataFileError(f"{record}: {exc}") from None
+        return calibrate(data, model, out, name=record.stem, **options)
+    return calibrate(record, model, out, **options)

@@ -34,7 +34,7 @@ from pathlib import Path
 import numpy as np
 
 from excavsim.config import SoilParams, get_soil, load_scene_config
-from excavsim.errors import ExcavsimError
+from excavsim.errors import ConfigError, GoalError
 from excavsim.execution.playback import (DepthDual, Demonstration, FixedImpedance, ImpedancePlayback, PlaybackRun,
                                          VariableImpedance, demonstration_from_joints, demonstration_from_record)
 from excavsim.handoff.dig import DigPlan
@@ -129,8 +129,8 @@ def play(demo: Demonstration, soil: SoilParams, label: str, law, seed: int = 0) 
     q[0] = demo.waist
     q[1:4], ok = rig.arm.inverse(demo.pose[0])
     if not ok:
-        raise ExcavsimError(f"playback: the demonstration's first pose {np.round(demo.pose[0], 3).tolist()} (x, z [m], "
-                            "pitch [rad]) is out of the arm's reach")
+        raise GoalError(f"playback: the demonstration's first pose {np.round(demo.pose[0], 3).tolist()} (x, z [m], "
+                        "pitch [rad]) is out of the arm's reach")
     go_to(sim, q, rig.executor_cfg)
     return ImpedancePlayback(sim, rig.arm, rig.executor.ft, law).run(demo, soil=label)
 
@@ -215,11 +215,11 @@ def seed_range(text: str) -> list[int]:
         try:
             a, b = int(lo), int(hi) if sep else int(lo)
         except ValueError:
-            raise ExcavsimError(f"--seeds: {part.strip()[:40]!r} is not a seed or a range; {allowed}") from None
+            raise ConfigError(f"--seeds: {part.strip()[:40]!r} is not a seed or a range; {allowed}") from None
         if not 0 <= a <= b < 2 ** 31:
-            raise ExcavsimError(f"--seeds: {part.strip()[:40]!r} is not an increasing range of seeds; {allowed}")
+            raise ConfigError(f"--seeds: {part.strip()[:40]!r} is not an increasing range of seeds; {allowed}")
         if len(seeds) + b - a >= MAX_SEEDS:
-            raise ExcavsimError(f"--seeds: more than {MAX_SEEDS} seeds given; {allowed}")
+            raise ConfigError(f"--seeds: more than {MAX_SEEDS} seeds given; {allowed}")
         seeds += [s for s in range(a, b + 1) if s not in seeds]
     return seeds
 
@@ -285,7 +285,7 @@ def run_seeds(seeds: list[int], out: Path | None = None, *, sweep: bool = False,
     unless ``demo`` is given, and replays it in worlds of that seed), then :func:`seed_table` and
     :func:`seed_verdict`; writes ``seeds.csv`` into ``out``. Returns ``{seed: table}``."""
     if not seeds:
-        raise ExcavsimError("run_seeds: no seeds given")
+        raise ConfigError("run_seeds: no seeds given")
     tables = {}
     for s in seeds:
         tables[s] = run_playback(None, seed=s, sweep=sweep, demo=demo, progress=lambda line: None)
@@ -449,3 +449,38 @@ def plot_duality(path: Path) -> None:
     fig.tight_layout()
     fig.savefig(path, dpi=80)
     plt.close(fig)
+
+
+def demonstration_from_recording(path: str, dig: int, out: str | Path, *,
+                                 say: Callable[[str], None] = print) -> Path:
+    """``excavsim playback --from-rrd``: dig number ``dig`` (1-based) of a Rerun recording as a
+    demonstration, written to ``out/rrd_demonstration.json``; returns that path."""
+    from excavsim.record.demo_reading import read_dig
+
+    recorded = read_dig(path, dig)
+    demo = demonstration_from_signals(recorded.joint_times, recorded.joints, recorded.ft_times, recorded.ft_tip,
+                                      recorded.path_world, source=f"{path}, dig {recorded.dig}")
+    out = Path(out)
+    out.mkdir(parents=True, exist_ok=True)
+    saved = demo.save(out / "rrd_demonstration.json")
+    say(f"wrote {saved}: dig {recorded.dig} of {path} ({len(demo.times)} samples, {demo.times[-1]:.2f} s); "
+        f"play it back with: excavsim playback --demo {saved}")
+    return saved
+
+
+def run_chapter6(out: str | Path, *, seed: int = 0, seeds: list[int] | None = None, sweep: bool = True,
+                 demo_path: str | None = None, say: Callable[[str], None] = print) -> None:
+    """``excavsim playback``: the chapter-6 experiment (:func:`run_playback`), or over ``seeds``
+    (:func:`run_seeds`), with the demonstration of ``demo_path`` instead of a recorded one when given."""
+    from excavsim.execution.demonstration import load_demonstration
+
+    say("excavsim playback: demonstrate a dig, replay it in a stiffer and a softer soil with fixed high, moderate, "
+        "low and variable impedance (DiMaio 1998 §3.3, ch. 6)")
+    demo = load_demonstration(demo_path) if demo_path else None
+    out = Path(out)
+    if seeds is not None:
+        say(f"over seeds {', '.join(map(str, seeds))}: each seed records its own demonstration"
+            + (" (here: the given one)" if demo is not None else "") + " and replays it in worlds of that seed")
+        run_seeds(seeds, out, sweep=sweep, demo=demo)
+        return
+    run_playback(out, seed=seed, sweep=sweep, demo=demo)

@@ -16,11 +16,12 @@ from __future__ import annotations
 import sys
 import time
 from collections.abc import Callable, Iterable, Iterator
+from pathlib import Path
 
 import numpy as np
 
 from excavsim.config import get_soil
-from excavsim.errors import ExcavsimError
+from excavsim.errors import GoalError, UsageError
 from excavsim.execution.demonstration import Demonstration, plane_state
 from excavsim.execution.teleop import FINISH, HELP, TeleopOptions, apply_key, keys_of
 from excavsim.handoff.episode import EpisodeObserver
@@ -63,7 +64,7 @@ def teleoperate(keys: Iterable[str], *, seed: int = 0, soil: str = DEMO_SOIL,
     pose = plan.poses[0] + np.array([0.0, START_HEIGHT_M, 0.0])
     q_start, ok = rig.arm.inverse(pose)
     if not ok:
-        raise ExcavsimError("teleop: the start pose above the demonstration dig is out of reach")
+        raise GoalError("teleop: the start pose above the demonstration dig is out of reach")
     obs_hooks = observer or EpisodeObserver()
     mask, z_goal = trench_footprint(sim, rig.goal, rig.width)
     h0, v0, wall0 = sim.soil.grid.heights.copy(), sim.soil.initial_volume, time.perf_counter()
@@ -111,7 +112,7 @@ def _drive(keys, sim, rig, pose, q_start, waist, options, on_key, soil: str) -> 
         if len(poses) >= options.max_keys * options.ticks_per_key:
             break
     if len(poses) < 2:
-        raise ExcavsimError(f"teleop: no key moved the arm, so there is no demonstration ({HELP})")
+        raise UsageError(f"teleop: no key moved the arm, so there is no demonstration ({HELP})")
     n = len(poses)
     return Demonstration(np.arange(n) * sim.control_dt, np.array(poses), np.array(forces), sim.control_dt, waist,
                          f"teleoperation, {n_keys} keys, {n} samples", soil), n_keys
@@ -126,8 +127,8 @@ def tty_keys(stream=None) -> Iterator[str]:
     """
     stream = sys.stdin if stream is None else stream
     if not (hasattr(stream, "isatty") and stream.isatty()):
-        raise ExcavsimError("playback --teleop: standard input is not a terminal, so keys cannot be read one by "
-                            f"one; run it in a terminal, or give the keys with --keys SEQUENCE ({HELP})")
+        raise UsageError("playback --teleop: standard input is not a terminal, so keys cannot be read one by "
+                         f"one; run it in a terminal, or give the keys with --keys SEQUENCE ({HELP})")
     import termios
     import tty
 
@@ -144,3 +145,39 @@ def tty_keys(stream=None) -> Iterator[str]:
                 return
     finally:
         termios.tcsetattr(fd, termios.TCSADRAIN, saved)
+
+
+def teleop_session(out: str | Path, *, keys: Iterable[str] | None = None, seed: int = 0, record: str | None = None,
+                   live: str | None = None, say: Callable[[str], None] = print) -> Path:
+    """``excavsim playback --teleop``: drive the tip by ``keys`` (default: the terminal's) from 10 cm
+    above the demonstration dig, saying each key's pose and force, and write the demonstration to
+    ``out/teleop_demonstration.json``; returns that path.
+
+    Args:
+        record: a Rerun file to record the session to.
+        live: stream the session to a Rerun viewer: "" spawns one, else its address.
+    """
+    import math
+
+    observer = None
+    if record or live is not None:
+        from excavsim.record import RerunRecorder
+        from excavsim.record.live import viewer_url
+
+        url = viewer_url(live or None) if live is not None else None
+        if url:
+            say(f"streaming the session live to {url}")
+        observer = RerunRecorder(record, live=url)
+    keys = keys if keys is not None else tty_keys()
+    say(f"excavsim playback --teleop: drive the bucket tip from 10 cm above the demonstration dig; {HELP}")
+    demo = teleoperate(keys, seed=seed, observer=observer, on_key=lambda k, p, f: say(
+        f"{k}: tip x {p[0]:.2f} m z {p[1]:.2f} m pitch {math.degrees(p[2]):.0f} deg | F radial {f[0]:7.0f} N "
+        f"vertical {f[1]:7.0f} N"))
+    if record:
+        say(f"recorded to {record}; replay it with: excavsim replay {record}")
+    out = Path(out)
+    out.mkdir(parents=True, exist_ok=True)
+    path = demo.save(out / "teleop_demonstration.json")
+    say(f"wrote {path} ({len(demo.times)} samples, {demo.times[-1]:.2f} s); play it back with: "
+        f"excavsim playback --demo {path}")
+    return path

@@ -50,7 +50,7 @@ from typing import Any
 
 import yaml
 
-from excavsim.errors import ExcavsimError
+from excavsim.errors import ConfigError, DependencyError, UsageError
 from excavsim.handoff.episode import EpisodeObserver
 from excavsim.studies.campaign.grid import (OVERRIDE_SECTIONS, CampaignSpec, Episode, check_campaign, episode_id,
                                          expand_grid, load_campaign, parse_campaign)
@@ -287,8 +287,8 @@ def _import_ray():
     except ImportError:
         ray = None
     if not hasattr(ray, "remote"):  # missing, or a bare ``ray/`` folder (Ray's /tmp/ray) seen as a namespace
-        raise ExcavsimError("running a campaign on Ray needs Ray, an optional extra: pip install 'excavsim[ray]' "
-                            "(or run without --ray on local processes)")
+        raise DependencyError("running a campaign on Ray needs Ray, an optional extra: pip install 'excavsim[ray]' "
+                              "(or run without --ray on local processes)")
     return ray
 
 
@@ -302,8 +302,8 @@ def _ray_results(tasks: list[dict], address: str, workers: int | None) -> Iterat
             else:
                 ray.init(address=address, log_to_driver=False)
         except (ConnectionError, RuntimeError, ValueError) as exc:
-            raise ExcavsimError(f"cannot start or reach Ray at {address!r}: {exc}; give 'local' for a "
-                                "cluster on this machine, 'auto' or HOST:PORT for a running one") from None
+            raise DependencyError(f"cannot start or reach Ray at {address!r}: {exc}; give 'local' for a "
+                                  "cluster on this machine, 'auto' or HOST:PORT for a running one") from None
     remote = ray.remote(num_cpus=1, max_retries=1)(run_episode_task)
     pending = {remote.remote(t): t for t in tasks}
     try:
@@ -389,8 +389,8 @@ def _exclusive(out: pathlib.Path) -> Iterator[None]:
         try:
             fcntl.flock(f, fcntl.LOCK_EX | fcntl.LOCK_NB)
         except BlockingIOError:
-            raise ExcavsimError(f"{out} is in use by another campaign run; wait for it to end or choose "
-                                "another --out directory") from None
+            raise UsageError(f"{out} is in use by another campaign run; wait for it to end or choose "
+                             "another --out directory") from None
         yield
 
 
@@ -444,7 +444,7 @@ def run_campaign(spec: CampaignSpec, out_dir: str | pathlib.Path, *, workers: in
     """
     say = progress or (lambda _s: None)
     if workers is not None and workers < 1:
-        raise ExcavsimError(f"workers must be at least 1; given {workers}")
+        raise ConfigError(f"workers must be at least 1; given {workers}")
     if ray_address:
         _import_ray()
     episodes = check_campaign(spec, source=f"campaign {spec.name}")
@@ -456,8 +456,8 @@ def run_campaign(spec: CampaignSpec, out_dir: str | pathlib.Path, *, workers: in
             tmp.unlink()
         done = {p.stem for p in ep_dir.glob("*.json")}
         if done and not resume:
-            raise ExcavsimError(f"{out} already holds {len(done)} episode result(s); run with --resume to run "
-                                "only the missing episodes, or choose another --out directory")
+            raise UsageError(f"{out} already holds {len(done)} episode result(s); run with --resume to run "
+                             "only the missing episodes, or choose another --out directory")
         ids = {e.id for e in episodes}
         if stale := done - ids:
             say(f"note: {len(stale)} result file(s) in {ep_dir} are not episodes of this campaign "
@@ -470,8 +470,8 @@ def run_campaign(spec: CampaignSpec, out_dir: str | pathlib.Path, *, workers: in
                 done.discard(ep_id)
         todo = [e for e in episodes if e.id not in done]
         if spec.record and todo and recorder is None:
-            raise ExcavsimError(f"campaign {spec.name} has record: true but no recorder was given: pass "
-                                "recorder=excavsim.record.RerunRecorder (the CLI does)")
+            raise UsageError(f"campaign {spec.name} has record: true but no recorder was given: pass "
+                             "recorder=excavsim.record.RerunRecorder (the CLI does)")
         write_atomic(out / "campaign.yaml", yaml.safe_dump(spec.model_dump(mode="json"), sort_keys=False))
 
         n = min(workers or os.cpu_count() or 1, max(len(todo), 1))

@@ -23,7 +23,7 @@ import numpy as np
 
 from excavsim import constants
 from excavsim.config import SceneConfig, load_scene_config
-from excavsim.errors import ExcavsimError
+from excavsim.errors import ConfigError, GoalError
 from excavsim.robot.extract import arm_from_model
 from excavsim.world.simulation import Simulation
 
@@ -72,7 +72,7 @@ def scene_with_truth(**truth) -> SceneConfig:
     base = load_scene_config()
     bad = sorted(set(truth) - set(type(base.truth).model_fields))
     if bad:
-        raise ExcavsimError(f"unknown truth term(s) {bad}; allowed: {sorted(type(base.truth).model_fields)}")
+        raise ConfigError(f"unknown truth term(s) {bad}; allowed: {sorted(type(base.truth).model_fields)}")
     return base.model_copy(update={"truth": base.truth.model_copy(update=truth)})
 
 
@@ -103,8 +103,8 @@ class KinematicDrive:
         pose = np.asarray(pose, float)
         q3, ok = self.arm.inverse(pose)
         if not ok:
-            raise ExcavsimError(f"tip pose {np.round(pose, 3).tolist()} (x, z [m], pitch [rad]) is out of the "
-                                "T3's reach; allowed: a pose inside the workspace over the soil box")
+            raise GoalError(f"tip pose {np.round(pose, 3).tolist()} (x, z [m], pitch [rad]) is out of the "
+                            "T3's reach; allowed: a pose inside the workspace over the soil box")
         q = np.r_[0.0, q3, 0.0, 0.0]
         dt = self.sim.control_dt
         d.qpos[:6] = q

@@ -24,7 +24,7 @@ from collections.abc import Callable, Sequence
 import numpy as np
 
 from excavsim.config import SoilParams, get_soil, load_planner_config, load_scene_config
-from excavsim.errors import ExcavsimError
+from excavsim.errors import ConfigError
 from excavsim.studies.figures import drags
 from excavsim.mechanics.wedge import critical_beta, wedge_factors, wedge_force
 from excavsim.mechanics.wedge_inertia import inertial_force
@@ -331,7 +331,7 @@ def check_names(names: Sequence[str] | None) -> list[str]:
     names = list(dict.fromkeys(names or table))
     unknown = [n for n in names if n not in table]
     if unknown:
-        raise ExcavsimError(f"unknown figure(s) {unknown}; allowed: {', '.join(table)} (or none for all)")
+        raise ConfigError(f"unknown figure(s) {unknown}; allowed: {', '.join(table)} (or none for all)")
     return names
 
 

@@ -21,7 +21,7 @@ from typing import Any
 
 import numpy as np
 
-from excavsim.errors import ExcavsimError
+from excavsim.errors import ConfigError, GoalError
 from excavsim.learning.dataset import ForceDataset
 from excavsim.loop.samples import DigSamples
 
@@ -72,7 +72,7 @@ def collect_dataset(*, soil: str | None = None, digs: int = 30, seed: int = 0, g
     from excavsim.world.simulation import Simulation
 
     if digs < 1 or digs_per_bed < 1:
-        raise ExcavsimError(f"collect_dataset needs digs >= 1 and digs_per_bed >= 1; given {digs}, {digs_per_bed}")
+        raise ConfigError(f"collect_dataset needs digs >= 1 and digs_per_bed >= 1; given {digs}, {digs_per_bed}")
     say = progress or (lambda _s: None)
     spec = EpisodeSpec(name="learn", goal=goal, soil=soil, seed=seed, **(overrides or {}))
     cfg = ResolvedSpec(spec)
@@ -88,8 +88,8 @@ def collect_dataset(*, soil: str | None = None, digs: int = 30, seed: int = 0, g
                              planner_cfg=cfg.planner, executor_cfg=cfg.executor, sensing_cfg=cfg.sensing, digs=source,
                              observer=collector)
         if not result.digs:
-            raise ExcavsimError(f"no feasible dig sweeping {100 * min_volume_fraction:.0f} % of the bucket in "
-                                f"a fresh bed of {sim.scene.soil} for goal {goal!r}: lower min_volume_fraction")
+            raise GoalError(f"no feasible dig sweeping {100 * min_volume_fraction:.0f} % of the bucket in "
+                            f"a fresh bed of {sim.scene.soil} for goal {goal!r}: lower min_volume_fraction")
         bed += 1
     return ForceDataset.concat(parts, meta={"soil": sim.scene.soil, "seed": str(seed), "goal": goal,
                                             "digs": str(len(parts)), "bucket_width_m": repr(collector.rig.width),

@@ -20,7 +20,7 @@ from typing import Any
 import numpy as np
 
 from excavsim.config import get_soil
-from excavsim.errors import ExcavsimError
+from excavsim.errors import ConfigError
 from excavsim.learning.bases import get_basis
 from excavsim.learning.dataset import ForceDataset
 from excavsim.learning.evaluate import (cross_validate, format_table4, format_table5, large_force_errors,
@@ -76,17 +76,17 @@ def run_learn(*, soil: str | None = None, digs: int = 30, seed: int = 0, out: st
     """
     say = progress
     if digs < 1:
-        raise ExcavsimError(f"--digs must be at least 1; given {digs}")
+        raise ConfigError(f"--digs must be at least 1; given {digs}")
     if folds < 2:
-        raise ExcavsimError(f"--folds must be at least 2; given {folds}")
+        raise ConfigError(f"--folds must be at least 2; given {folds}")
     if split not in (*SPLITS, "both"):
-        raise ExcavsimError(f"--split must be one of {', '.join((*SPLITS, 'both'))}; given {split!r}")
+        raise ConfigError(f"--split must be one of {', '.join((*SPLITS, 'both'))}; given {split!r}")
     if not 0.0 < forgetting <= 1.0:
-        raise ExcavsimError(f"--forgetting must lie in (0, 1]; given {forgetting}")
+        raise ConfigError(f"--forgetting must lie in (0, 1]; given {forgetting}")
     if episodes < 1 or dig_budget < 1:
-        raise ExcavsimError(f"--episodes and --dig-budget must be at least 1; given {episodes}, {dig_budget}")
+        raise ConfigError(f"--episodes and --dig-budget must be at least 1; given {episodes}, {dig_budget}")
     if method not in METHODS:
-        raise ExcavsimError(f"--method must be one of {', '.join(METHODS)}; given {method!r}")
+        raise ConfigError(f"--method must be one of {', '.join(METHODS)}; given {method!r}")
     if soil is not None:
         get_soil(soil)  # an unknown name fails here, listing the presets
     out = pathlib.Path(out)
@@ -95,8 +95,8 @@ def run_learn(*, soil: str | None = None, digs: int = 30, seed: int = 0, out: st
         data = ForceDataset.load(path)
         say(f"loaded {len(data)} samples of {data.n_digs} digs from {path}")
         if soil and data.meta.get("soil", soil) != soil:
-            raise ExcavsimError(f"{path} holds data of soil {data.meta['soil']!r}, not {soil!r}: drop --soil or "
-                                f"--dataset")
+            raise ConfigError(f"{path} holds data of soil {data.meta['soil']!r}, not {soil!r}: drop --soil or "
+                              f"--dataset")
     else:
         from excavsim.studies.learning.collect import collect_dataset
 
@@ -104,19 +104,19 @@ def run_learn(*, soil: str | None = None, digs: int = 30, seed: int = 0, out: st
         data = collect_dataset(soil=soil, digs=digs, seed=seed, progress=say)
         say(f"saved {len(data)} samples of {data.n_digs} digs to {data.save(path)}")
     if len(data) < 10 * folds:
-        raise ExcavsimError(f"{len(data)} samples are too few for {folds}-fold cross-validation; collect more digs")
+        raise ConfigError(f"{len(data)} samples are too few for {folds}-fold cross-validation; collect more digs")
     soil_name = data.meta.get("soil") or soil or "testbed_sand"
     nominal = get_soil(soil_name)
     width = bucket_width(data)
     report: dict[str, Any] = {"dataset": str(path), "samples": len(data), "digs": data.n_digs, "soil": soil_name,
-                              "folds": folds, "table4": {}, "table5": {}}
+                            "folds": folds, "table4": {}, "table5": {}}
     splits = list(SPLITS) if split == "both" else [split]
     results = {}
     for s in splits:
         say(f"\n{folds}-fold cross-validation, {SPLITS[s]}:")
         t0 = time.perf_counter()
         results[s] = cross_validate(data, soil=nominal, width=width, folds=folds, seed=seed, by_dig=(s == "digs"),
-                                    progress=say)
+                                  progress=say)
         say(f"  [{time.perf_counter() - t0:.0f} s]\n")
         report["table4"][s] = {f"{r.method}/{r.basis or '-'}": round(r.mae, 2) for r in results[s]}
     if len(results) == 2:
@@ -129,11 +129,11 @@ def run_learn(*, soil: str | None = None, digs: int = 30, seed: int = 0, out: st
     costs = measure_costs(data, soil=nominal, width=width, seed=seed)
     say(format_table5(costs))
     report["table5"] = {c.method: {"train_s": c.train_s, "query_ms": c.query_ms, "batch_us": c.batch_us,
-                                   "bytes": c.nbytes} for c in costs}
+                                 "bytes": c.nbytes} for c in costs}
     say("\n" + format_weights(GlobalRegression(get_basis("mechanics")).fit(data.samples, data.forces)))
     fig_split = "digs" if "digs" in results else splits[0]
     png = plot_large_force_errors(out / "fig81_large_force_errors.png", results[fig_split], data,
-                                  title=f"Fig. 81: errors on forces above 300 N ({SPLITS[fig_split]}, mechanics basis)")
+                                title=f"Fig. 81: errors on forces above 300 N ({SPLITS[fig_split]}, mechanics basis)")
     errs = large_force_errors(results[fig_split], data)
     report["fig81"] = {k: {"n": int(e.size), "mean": float(e.mean()), "mae": float(np.abs(e).mean())}
                        for k, e in errs.items()}
@@ -143,12 +143,12 @@ def run_learn(*, soil: str | None = None, digs: int = 30, seed: int = 0, out: st
         limit = f"wrist limit {wrist_limit:.0f} N m" if wrist_limit else "configured wrist limit"
         say(f"\nclosed-loop comparison: {episodes} episodes of at most {dig_budget} digs in {soil_name}, {limit}")
         rows = compare_predictors(soil=soil_name, episodes=episodes, seed=seed + 100, dig_budget=dig_budget,
-                                  method=method, forgetting=forgetting, prior=data, overrides=overrides,
-                                  progress=say)
+                                method=method, forgetting=forgetting, prior=data, overrides=overrides,
+                                progress=say)
         say(format_comparison(rows))
         report["compare"] = {r.predictor: {"digs": r.total("digs"), "stalls": r.total("stalls"),
-                                           "dug_l_per_dig": r.mean("dug_l_per_dig"),
-                                           "removed_fraction": r.mean("removed_fraction")} for r in rows}
+                                         "dug_l_per_dig": r.mean("dug_l_per_dig"),
+                                         "removed_fraction": r.mean("removed_fraction")} for r in rows}
     report["arguments"] = {"soil": soil, "digs": digs, "seed": seed, "folds": folds, "split": split,
                            "episodes": episodes, "dig_budget": dig_budget, "wrist_limit": wrist_limit,
                            "method": method, "forgetting": forgetting}
@@ -204,7 +204,7 @@ def compare_predictors(*, soil: str | None = None, episodes: int = 2, seed: int 
         row = ComparisonRow(name, [], [])
         for e in range(episodes):
             spec = EpisodeSpec(name=f"compare-{e}", goal=goal, soil=soil, seed=seed + e, dig_budget=dig_budget,
-                               **(overrides or {}))
+                             **(overrides or {}))
             observer = make()
             summary = episode_summary(run_spec(spec, observer=observer))
             row.summaries.append(summary)

@@ -25,7 +25,7 @@ import threading
 from collections.abc import Callable, Iterator
 
 from excavsim import constants
-from excavsim.errors import ExcavsimError
+from excavsim.errors import ConfigError, DependencyError, ExcavsimError, UsageError
 
 # Runs in the worktree: reads jobs ({"name", "spec"} per line) from the file argv[2], prints one JSON
 # line per finished episode. Kept to APIs that older commits have too.
@@ -50,7 +50,7 @@ def _git(args: list[str], repo: pathlib.Path) -> subprocess.CompletedProcess:
     try:
         return subprocess.run(["git", "-C", str(repo), *args], capture_output=True, text=True, check=False)
     except FileNotFoundError:
-        raise ExcavsimError("--against needs git on PATH") from None
+        raise DependencyError("--against needs git on PATH") from None
 
 
 def resolve_ref(ref: str, repo: pathlib.Path = constants.REPO_ROOT) -> str:
@@ -60,11 +60,11 @@ def resolve_ref(ref: str, repo: pathlib.Path = constants.REPO_ROOT) -> str:
         ExcavsimError: ``repo`` is not a git checkout, or ``ref`` names no commit there.
     """
     if _git(["rev-parse", "--git-dir"], repo).returncode != 0:
-        raise ExcavsimError(f"--against needs a git checkout; {repo} is not one")
+        raise UsageError(f"--against needs a git checkout; {repo} is not one")
     done = _git(["rev-parse", "--verify", "--quiet", "--end-of-options", f"{ref}^{{commit}}"], repo)
     if done.returncode != 0 or not done.stdout.strip():
-        raise ExcavsimError(f"git ref {ref!r} does not exist in {repo}; give a commit, branch or tag "
-                            "(e.g. HEAD, HEAD~1, main or a commit hash)")
+        raise ConfigError(f"git ref {ref!r} does not exist in {repo}; give a commit, branch or tag "
+                          "(e.g. HEAD, HEAD~1, main or a commit hash)")
     return done.stdout.strip()
 
 

@@ -42,7 +42,7 @@ from pydantic import Field, field_validator
 
 from excavsim import constants
 from excavsim.config import load_config, read_text_file
-from excavsim.errors import ExcavsimError
+from excavsim.errors import ConfigError, DataFileError, ExcavsimError, UsageError, shorten
 from excavsim.studies.regress import stats as rs
 from excavsim.loop.scenario import EpisodeSpec, episode_summary, run_spec
 
@@ -117,9 +117,9 @@ def parse_seeds(text: str) -> int | list[int]:
     ``a,b,c`` (a list).
 
     Raises:
-        ExcavsimError: anything else.
+        ConfigError: anything else.
     """
-    bad = ExcavsimError(f"--seeds: give a count N, a range A-B or a list a,b,c of seeds >= 0; given {text!r}")
+    bad = ConfigError(f"--seeds: give a count N, a range A-B or a list a,b,c of seeds >= 0; given {text!r}")
     try:
         if "," in text:
             seeds = [int(s) for s in text.split(",") if s.strip()]
@@ -150,12 +150,12 @@ def load_scenarios(directory: pathlib.Path = REGRESS_DIR, *, only: list[str] | N
     directory = pathlib.Path(directory)
     files = {f.stem: f for f in sorted(directory.glob("*.yaml"))}
     if not files:
-        raise ExcavsimError(f"no regression scenarios (*.yaml) in {directory}")
+        raise ConfigError(f"no regression scenarios (*.yaml) in {directory}")
     if only:
         unknown = [n for n in only if n not in files]
         if unknown:
-            raise ExcavsimError(f"unknown scenario(s) {', '.join(unknown)} in {directory}; "
-                                f"the scenarios are: {', '.join(files)}")
+            raise ConfigError(f"unknown scenario(s) {', '.join(unknown)} in {directory}; "
+                              f"the scenarios are: {', '.join(files)}")
         files = {n: f for n, f in files.items() if n in only}
     out = {}
     for name, path in files.items():
@@ -237,32 +237,38 @@ def load_baseline(path: pathlib.Path) -> dict[str, Sample]:
     """The baseline's samples by scenario.
 
     Raises:
-        ExcavsimError: the file is missing, not JSON, or in another format (the message says how to
-            write it).
+        DataFileError: the file is missing, not JSON, in another format or with a malformed entry (the
+            message names it and says how to write it).
     """
     path = pathlib.Path(path)
     rewrite = "write it with `excavsim regress --update` (or compare two checkouts with --against REF, " \
               "which needs no baseline)"
     if not path.exists():
-        raise ExcavsimError(f"no baseline at {path}; {rewrite}")
+        raise DataFileError(f"no baseline at {path}; {rewrite}")
     try:
         doc = json.loads(read_text_file(path, "baseline"))
-    except json.JSONDecodeError as exc:
-        raise ExcavsimError(f"{path}: not valid JSON ({exc}); re{rewrite}") from None
+    except ConfigError as exc:  # not a readable text file (the message names it)
+        raise DataFileError(f"{exc}; re{rewrite}") from None
+    except (ValueError, RecursionError) as exc:
+        raise DataFileError(f"{path}: not valid JSON ({type(exc).__name__}: {shorten(exc)}); re{rewrite}") from None
     if not isinstance(doc, dict) or doc.get("format") != BASELINE_FORMAT:
-        raise ExcavsimError(f"{path} is not a distribution baseline (format {BASELINE_FORMAT}; older baselines "
+        raise DataFileError(f"{path} is not a distribution baseline (format {BASELINE_FORMAT}; older baselines "
                             f"held one episode per scenario); re{rewrite}")
     out = {}
-    for name, sc in doc["scenarios"].items():
-        n = len(sc["seeds"])
-        rows = [{} for _ in range(n)]
-        columns = {"end": sc.get("end"), "sim_s": sc.get("sim_s"),
-                   **{m: st["values"] for m, st in sc.get("metrics", {}).items()}}
-        for key, vals in columns.items():
-            if vals is not None and len(vals) == n:
-                for row, v in zip(rows, vals, strict=True):
-                    row[key] = v
-        out[name] = Sample(list(sc["seeds"]), rows)
+    try:
+        for name, sc in doc["scenarios"].items():
+            n = len(sc["seeds"])
+            rows = [{} for _ in range(n)]
+            columns = {"end": sc.get("end"), "sim_s": sc.get("sim_s"),
+                       **{m: st["values"] for m, st in sc.get("metrics", {}).items()}}
+            for key, vals in columns.items():
+                if vals is not None and len(vals) == n:
+                    for row, v in zip(rows, vals, strict=True):
+                        row[key] = v
+            out[name] = Sample(list(sc["seeds"]), rows)
+    except (KeyError, TypeError, AttributeError, ValueError) as exc:  # a field missing or of another shape
+        raise DataFileError(f"{path}: a scenario entry is malformed ({type(exc).__name__}: {shorten(exc)}); "
+                            f"re{rewrite}") from None
     return out
 
 
@@ -492,14 +498,14 @@ def run_against(directory: pathlib.Path = REGRESS_DIR, *, ref: str | None = None
             that does not exist, or a failed run at ``ref``.
     """
     if (ref is None) == (against_dir is None):
-        raise ExcavsimError("run_against needs exactly one of a git ref and a scenario directory")
+        raise UsageError("run_against needs exactly one of a git ref and a scenario directory")
     goldens = load_scenarios(directory, only=only, seeds=seeds)
     if against_dir is not None:
         others = load_scenarios(against_dir)
         absent = [n for n in goldens if n not in others]
         if absent:
-            raise ExcavsimError(f"{against_dir} lacks the scenario(s) {', '.join(absent)} of {directory}; "
-                                f"it has: {', '.join(others)}")
+            raise ConfigError(f"{against_dir} lacks the scenario(s) {', '.join(absent)} of {directory}; "
+                              f"it has: {', '.join(others)}")
         reference = run_goldens({n: others[n] for n in goldens}, seeds_of=goldens, label=f"{against_dir} ",
                                 progress=progress)
         now = run_goldens(goldens, label="now ", progress=progress)

@@ -51,10 +51,9 @@ from excavsim import constants
 from excavsim.config import load_sensing_config
 from excavsim.config.loading_mujoco import (LOADING_MUJOCO_YAML, LoadingCampaign, LoadingMujocoConfig, PileLane,
                                              load_loading_campaign, load_loading_mujoco_config)
-from excavsim.errors import ExcavsimError
+from excavsim.errors import ConfigError, Diverged, ExcavsimError, GoalError, UsageError
 from excavsim.execution import loading_script as ls
 from excavsim.handoff.maps import ElevationMap
-from excavsim.handoff.observation import Diverged
 from excavsim.tasks.load import planar as ld
 from excavsim.planning import loading as lp
 from excavsim.sensing.elevation import build_map
@@ -186,8 +185,8 @@ def pile_section(world: LoadingWorld, pile: PileLane) -> tuple[np.ndarray, np.nd
     x = np.array([pile.foot, pile.foot + run, pile.foot + run + pile.top, pile.foot + 2 * run + pile.top])
     g = world.soil.grid
     if x[-1] > g.x1 - 0.1:
-        raise ExcavsimError(f"a pile {pile.height} m high with a {pile.top} m top from x = {pile.foot} m ends at "
-                            f"x = {x[-1]:.2f} m, beyond the lane's end at {g.x1 - 0.1:.2f} m")
+        raise ConfigError(f"a pile {pile.height} m high with a {pile.top} m top from x = {pile.foot} m ends at "
+                          f"x = {x[-1]:.2f} m, beyond the lane's end at {g.x1 - 0.1:.2f} m")
     return x, np.array([0.0, pile.height, pile.height, 0.0])
 
 
@@ -296,7 +295,7 @@ def joint_path(machine, poses: np.ndarray, base_x: float) -> tuple[np.ndarray, s
     idx = np.flatnonzero(ok)
     if idx.size == 0 or not ok[idx[0]:idx[-1] + 1].all():
         bad = len(ok) - idx.size if idx.size == 0 else int((~ok[idx[0]:idx[-1] + 1]).sum())
-        raise ExcavsimError(f"{bad} poses of the planned dig are out of the machine's reach")
+        raise GoalError(f"{bad} poses of the planned dig are out of the machine's reach")
     kept = slice(int(idx[0]), int(idx[-1]) + 1)
     return q[kept], kept
 
@@ -317,7 +316,7 @@ def run_episode(name: str, *, seed: int = 0, cfg: LoadingMujocoConfig | None = N
         account: the delivered/spilled account to keep (a new one when None; tests read it at every step).
     """
     if name not in MACHINES:
-        raise ExcavsimError(f"unknown loading machine {name!r}; allowed: {', '.join(MACHINES)}")
+        raise ConfigError(f"unknown loading machine {name!r}; allowed: {', '.join(MACHINES)}")
     cfg = cfg or load_mujoco_config()
     cfg2d = cfg2d or ld.load_loading_config()
     world = LoadingWorld(name, soil=cfg.soil, seed=seed)
@@ -542,3 +541,68 @@ def format_campaign(rows: list[tuple[str, int, MujocoRun]], two_d: dict[str, ld.
                      f"{per.mean():6.1f} ± {per.std():3.1f} {eff.mean():5.0f} ± {eff.std():2.0f}% "
                      f"{spill.mean():5.3f} ± {spill.std():.3f} | {two:>22} | {thesis}")
     return "\n".join(lines)
+
+
+def write_campaign(campaign: str | pathlib.Path, out: str | pathlib.Path, *, cfg2d: ld.LoadingConfig,
+                   mujoco_config: str | pathlib.Path | None = None, say=print) -> bool:
+    """``excavsim load --campaign``: the campaign file's machines over its seeds in MuJoCo, judged
+    together beside the 2-D simulation of the same pile; the table goes to ``out/campaign.txt``.
+
+    Args:
+        campaign: the campaign file (e.g. ``configs/campaigns/loading_mujoco.yaml``).
+        cfg2d: the 2-D loading configuration (the machines' numbers).
+        mujoco_config: overrides the campaign's MuJoCo loading configuration.
+
+    Returns:
+        Whether every episode finished its work.
+    """
+    spec = load_campaign(campaign)
+    mcfg = load_mujoco_config(mujoco_config or spec.mujoco_config)
+    say(f"excavsim load --campaign: {', '.join(spec.machines)} x seeds {spec.seeds} in MuJoCo, pile "
+        f"{mcfg.pile.height:g} m high, soil {mcfg.soil}")
+    rows = run_campaign(spec, cfg=mcfg, cfg2d=cfg2d, progress=say)
+    two_d = {name: same_pile_2d(name, mcfg, cfg2d) for name in spec.machines}
+    table = format_campaign(rows, two_d, cfg2d.units_m2)
+    out = pathlib.Path(out)
+    out.mkdir(parents=True, exist_ok=True)
+    (out / "campaign.txt").write_text(table + "\n")
+    say(table)
+    say(f"wrote {out / 'campaign.txt'}")
+    return all(r.done for _, _, r in rows)
+
+
+def run_episodes(*, cfg2d: ld.LoadingConfig, machine: str | None = None, seed: int = 0,
+                 mujoco_config: str | pathlib.Path | None = None, record: str | None = None, say=print) -> bool:
+    """``excavsim load --mujoco``: a loading episode of each machine (or of ``machine``) in MuJoCo,
+    said run by run and compared.
+
+    Args:
+        cfg2d: the 2-D loading configuration (the machines' numbers).
+        machine: one of :data:`MACHINES` (default both).
+        seed: the episodes' seed.
+        mujoco_config: the MuJoCo loading configuration (default ``configs/loading_mujoco.yaml``).
+        record: a Rerun file to record the episode to (one machine only).
+
+    Returns:
+        Whether every episode finished its work.
+    """
+    mcfg = load_mujoco_config(mujoco_config)
+    names = [machine] if machine else list(MACHINES)
+    if record and len(names) > 1:
+        raise UsageError("--record writes one episode: give --machine loader or --machine shovel with it")
+    rows = []
+    for name in names:
+        say(f"excavsim load --mujoco: front {name}, pile {mcfg.pile.height:g} m high, soil {mcfg.soil}, seed {seed}")
+        observer = None
+        if record:
+            from excavsim.record.loading import LoadingRecorder
+
+            observer = LoadingRecorder(record)
+        run = run_episode(name, seed=seed, cfg=mcfg, cfg2d=cfg2d, observer=observer, progress=say)
+        say(format_run(run))
+        rows.append((name, run))
+        if record:
+            say(f"recorded to {record}")
+    if len(rows) > 1:
+        say("\n" + format_comparison(rows))
+    return all(r.done for _, r in rows)

@@ -28,7 +28,7 @@ import pathlib
 import numpy as np
 
 from excavsim.config.loading import LOADING_MACHINES, LOADING_YAML, LoadingConfig, load_loading_config
-from excavsim.errors import ExcavsimError
+from excavsim.errors import ConfigError
 from excavsim.planning import loading as lp
 from excavsim.robot.loaders import FrontLoader, FrontShovel
 from excavsim.world.pile2d import Pile2D, random_pile, trapezoid_pile
@@ -60,7 +60,7 @@ def make_machine(cfg: LoadingConfig, name: str) -> FrontLoader | FrontShovel:
                            np.radians([m.theta1_range_deg[0], m.theta2_range_deg[0], m.theta3_range_deg[0]]),
                            np.radians([m.theta1_range_deg[1], m.theta2_range_deg[1], m.theta3_range_deg[1]]),
                            m.track_front, m.floor)
-    raise ExcavsimError(f"unknown machine {name!r} (allowed: {', '.join(MACHINES)})")
+    raise ConfigError(f"unknown machine {name!r} (allowed: {', '.join(MACHINES)})")
 
 
 def make_rules(cfg: LoadingConfig, capacity_units: float, force_limit_kn_m: float | None = None, *,
@@ -196,7 +196,7 @@ def study(cfg_path: str | pathlib.Path | None = None, *, runs: int | None = None
     cfg = load_loading_config(cfg_path)
     n = cfg.study.runs if runs is None else int(runs)
     if n < 1:
-        raise ExcavsimError(f"the study needs at least one run; given {runs!r}")
+        raise ConfigError(f"the study needs at least one run; given {runs!r}")
     jobs = [(None if cfg_path is None else str(cfg_path), m, f, seed + i)
             for m in MACHINES for f in cfg.study.force_limits_kn_m for i in range(n)]
     if workers > 1:
@@ -363,3 +363,69 @@ def figure_study(res: dict, path: pathlib.Path) -> None:
     ax.legend()
     fig.tight_layout()
     fig.savefig(path, dpi=110)
+
+
+def write_study(cfg_path: str | pathlib.Path | None, out: str | pathlib.Path, *, runs: int | None = None,
+                workers: int = 1, seed: int = 0, say=print) -> None:
+    """``excavsim load --study``: Fig. 112 (efficiency against the force limit over random piles, both
+    machines) into ``out/fig112.png`` and ``fig112.txt``, saying the table.
+
+    Args:
+        cfg_path: the loading configuration (default ``configs/loading.yaml``).
+        runs: runs per force limit and machine (default the configuration's).
+        workers: processes.
+        seed: the first random pile's seed.
+    """
+    cfg = load_loading_config(cfg_path)
+    out = pathlib.Path(out)
+    out.mkdir(parents=True, exist_ok=True)
+    say(f"excavsim load --study: Fig. 112, {runs or cfg.study.runs} runs per force limit and machine, "
+        f"each removing {cfg.study.remove_units:.0f} units from a random pile")
+    res = study(cfg_path, runs=runs, workers=workers, seed=seed)
+    table = format_study(res)
+    (out / "fig112.txt").write_text(table + "\n")
+    figure_study(res, out / "fig112.png")
+    say(table)
+    say(f"wrote {out / 'fig112.png'}, {out / 'fig112.txt'}")
+
+
+def write_figures(cfg: LoadingConfig, out: str | pathlib.Path, *, machine: str | None = None, say=print) -> None:
+    """``excavsim load``: the 2-D loading runs of §7.2.1 (Figs. 108, 109 and, for the loader, 111
+    with the force limit) and the constraints of both machines, written as figures and tables into
+    ``out`` and compared with the thesis' numbers.
+
+    Args:
+        cfg: the loading configuration.
+        machine: one of :data:`MACHINES` (default both).
+        say: where the runs and the comparison go.
+    """
+    out = pathlib.Path(out)
+    out.mkdir(parents=True, exist_ok=True)
+    u = cfg.units_m2
+    names = [machine] if machine else list(MACHINES)
+    rows, paths = [], []
+    plans = {}
+    for name in MACHINES:
+        spec = getattr(cfg.machines, name)
+        plans[name] = lp.plan(make_machine(cfg, name), terrain_of(make_pile(cfg)), make_rules(cfg, spec.capacity_units))
+    figure_constraints(plans, out / "constraints.png")
+    paths.append(out / "constraints.png")
+    runs = [(n, False) for n in names] + ([("loader", True)] if "loader" in names else [])
+    for name, force in runs:
+        fig, key = {("loader", False): ("fig108", "loader"), ("shovel", False): ("fig109", "shovel"),
+                    ("loader", True): ("fig111", "loader_force")}[(name, force)]
+        label = f"{fig} front {name}" + (f", force <= {cfg.fig111_force_limit_kn_m:g} kN/m" if force else "")
+        say(f"{label}:")
+        run = run_machine(cfg, name, force=force)
+        spec = getattr(cfg.machines, name)
+        rules = make_rules(cfg, spec.capacity_units, cfg.fig111_force_limit_kn_m if force else None)
+        say(format_run(run, u, rules.exit_heading))
+        figure_sequence(run, make_machine(cfg, name), rules, cfg.pile.dx, out / f"{fig}.png", label)
+        (out / f"{fig}.txt").write_text(format_run(run, u, rules.exit_heading) + "\n")
+        paths += [out / f"{fig}.png", out / f"{fig}.txt"]
+        rows.append((label, run, THESIS[key]))
+    table = format_comparison(rows, u)
+    (out / "comparison.txt").write_text(table + "\n")
+    say("\nbeside the thesis (§7.2.1; 1 unit of soil = %g m^2 of the section):" % u)
+    say(table)
+    say("wrote " + ", ".join(str(p) for p in paths + [out / "comparison.txt"]))

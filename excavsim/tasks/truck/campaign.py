@@ -22,7 +22,7 @@ from pathlib import Path
 import numpy as np
 
 from excavsim.config import get_soil
-from excavsim.errors import ExcavsimError
+from excavsim.errors import ConfigError
 from excavsim.tasks.truck import trial as truck
 
 
@@ -72,11 +72,11 @@ def run_campaign(*, seeds: Sequence[int], soils: Sequence[str], trials: int,
         get_soil(s)  # ConfigError (an ExcavsimError) naming the presets
     window = cfg.initial_trials
     if trials < 2 * window:
-        raise ExcavsimError(f"a campaign run needs at least {2 * window} trials (first and last {window}); "
-                            f"given {trials}")
+        raise ConfigError(f"a campaign run needs at least {2 * window} trials (first and last {window}); "
+                          f"given {trials}")
     if retarget is not None and not window <= retarget[0] <= trials - window:
-        raise ExcavsimError(f"the target can move before trial {window + 1} ... {trials - window + 1} of a "
-                            f"{trials}-trial run (a window before and after it); given {retarget[0] + 1}")
+        raise ConfigError(f"the target can move before trial {window + 1} ... {trials - window + 1} of a "
+                          f"{trials}-trial run (a window before and after it); given {retarget[0] + 1}")
     runs: list[RunSummary] = []
     rows: list[dict] = []
     for soil in soils:
@@ -109,6 +109,25 @@ def run_campaign(*, seeds: Sequence[int], soils: Sequence[str], trials: int,
             for row in rows:
                 w.writerow({k: (f"{v:.6g}" if isinstance(v, float) else v) for k, v in row.items()})
         (out / "truck_campaign.txt").write_text(format_table(runs, window) + "\n")
+    return runs
+
+
+def compare(*, seeds: Sequence[int], soils: Sequence[str] | None, trials: int, out: Path,
+            retarget: tuple[int, float, float] | None = None, cfg: truck.TruckConfig | None = None,
+            say: Callable[[str], None] = print) -> list[RunSummary]:
+    """``excavsim tune --compare``: :func:`run_campaign` over ``soils`` (default the scene's) with a
+    line per run and the table said at the end."""
+    from excavsim.config import load_scene_config
+
+    cfg = cfg or truck.load_truck_config()
+    soils = list(soils or [load_scene_config().soil])
+    say(f"excavsim tune --compare: tuned vs untuned{' and a moved target' if retarget else ''}, "
+        f"{trials} trials, seeds {' '.join(map(str, seeds))}, soils {' '.join(soils)} "
+        "(Rowe 1997 §6.2)")
+    runs = run_campaign(seeds=seeds, soils=soils, trials=trials, retarget=retarget, cfg=cfg, out=Path(out),
+                        progress=say)
+    say(format_table(runs, cfg.initial_trials))
+    say(f"wrote {Path(out) / 'truck_campaign.csv'} and truck_campaign.txt")
     return runs
 
 

@@ -33,9 +33,9 @@ from pathlib import Path
 import numpy as np
 
 from excavsim import constants
-from excavsim.config import load_robot_config, load_sensing_config
+from excavsim.config import get_soil, load_robot_config, load_sensing_config
 from excavsim.config.truck import TRUCK_YAML, load_truck_file
-from excavsim.errors import ExcavsimError
+from excavsim.errors import GoalError
 from excavsim.execution.mass_script import (BOOM, BUCKET, FRACTIONS, STICK, SWING, TUNED, MassParams, TimingModel,
                                             TruckSite, compute_params, follow_path, mass_script, run_joint_script)
 from excavsim.handoff.maps import ElevationMap
@@ -204,7 +204,7 @@ def dig(sim: Simulation, cfg: TruckConfig, arm) -> np.ndarray:
     """The fixed dig of §6.2: to the first pose at the dig face, then along the dig path. Returns q (6,)."""
     start, ok = arm.inverse(cfg.dig_path[0])
     if not ok:
-        raise ExcavsimError(f"the dig path's first pose {cfg.dig_path[0]} is out of reach")
+        raise GoalError(f"the dig path's first pose {cfg.dig_path[0]} is out of reach")
     go_to(sim, np.r_[cfg.dig_swing, start, 0.0, 0.0], _MoveCfg())
     return follow_path(sim, arm, cfg.dig_path, cfg.dig_speed, cfg.dig_swing)
 
@@ -441,3 +441,47 @@ def write_results(trials: list[Trial], cfg: TruckConfig, out: Path) -> tuple[Pat
     fig.savefig(png, dpi=120)
     plt.close(fig)
     return csv_path, png
+
+
+def tune_and_report(trials: int, cfg: TruckConfig, out: Path, *, seed: int = 0, soil: str | None = None,
+                    retarget: tuple[int, float, float] | None = None, record: str | None = None,
+                    say: Callable[[str], None] = print) -> list[Trial]:
+    """``excavsim tune``: :func:`tune` with a line per trial, the first and last windows' means, and
+    the results written into ``out`` (:func:`write_results`).
+
+    Args:
+        trials: how many trials.
+        cfg: the truck configuration.
+        out: the output directory.
+        seed: the world's seed.
+        soil: a soil preset (default the scene's).
+        retarget: (trial index, r [m], theta [rad]) of a target move.
+        record: a Rerun file to record the trials to.
+        say: where the lines go.
+    """
+    if soil:
+        get_soil(soil)  # ConfigError naming the presets, before any trial
+    say(f"excavsim tune: {trials} truck-loading trials, target r = {cfg.site.r_d} m, theta = "
+        f"{math.degrees(cfg.site.theta_d):.1f} deg (Rowe 1997 §6.2)")
+
+    def show(t: Trial) -> None:
+        say(f"  {t.index + 1:3d} {t.source:16s} cost {trial_cost(t, cfg):8.2f}  time {t.time_s:5.2f} s  "
+            f"r {t.pile.r:.3f} m  theta {math.degrees(t.pile.theta):5.1f} deg  {t.outcome}  ({t.wall_s:.2f} s wall)")
+
+    observer = None
+    if record:
+        from excavsim.record.truck import TruckRecorder
+        observer = TruckRecorder(record, seed=seed)
+    done = tune(trials, cfg, seed=seed, progress=show, retarget=retarget, soil=soil, observer=observer)
+    csv_path, png = write_results(done, cfg, Path(out))
+    k = min(cfg.initial_trials, len(done))
+    costs = [trial_cost(t, cfg) for t in done]
+    times = [t.time_s for t in done]
+    err2 = [placement_error2(t, cfg) for t in done]
+    say(f"first {k}: mean cost {sum(costs[:k]) / k:.2f}, time {sum(times[:k]) / k:.2f} s, squared error "
+        f"{sum(err2[:k]) / k:.4f} m^2; last {k}: mean cost {sum(costs[-k:]) / k:.2f}, time "
+        f"{sum(times[-k:]) / k:.2f} s, squared error {sum(err2[-k:]) / k:.4f} m^2")
+    say(f"wrote {csv_path} and {png}")
+    if record:
+        say(f"recorded to {record}; replay it with: excavsim replay {record}")
+    return done

@@ -417,3 +417,25 @@ def test_calibrate_fix_on_the_command_line(sand, tmp_path, capsys):
     assert not (tmp_path / "new.npz").exists()
     assert main(["calibrate", "--table-5-3", "--fix", "rho=1", "--out", str(tmp_path)]) == 2
     assert "--table-5-3 identifies" in capsys.readouterr().err
+
+
+@pytest.mark.parametrize("header_keeps_forces", [False, True])
+def test_calibrate_on_a_csv_without_the_force_columns_names_the_file_and_the_columns(tmp_path, capsys,
+                                                                                     header_keeps_forces):
+    """A CSV force record whose rows lack fx and fz (with or without them in the header) is refused
+    with exit 2 and a message naming the file and what is missing; it ended in an IndexError (exit 1)."""
+    from excavsim.cli import main
+    from excavsim.learning.dataset import COLUMNS, ForceDataset
+
+    full = tmp_path / "full.csv"
+    ForceDataset({c: np.arange(12.0) for c in COLUMNS}, {"soil": "testbed_sand"}).save(full)
+    meta, header, *rows = full.read_text().splitlines()
+    keep = [i for i, c in enumerate(COLUMNS) if c not in ("fx", "fz")]
+    cut = tmp_path / "no_forces.csv"
+    cut.write_text("\n".join([meta, header if header_keeps_forces else ",".join(COLUMNS[i] for i in keep),
+                              *(",".join(r.split(",")[i] for i in keep) for r in rows)]) + "\n")
+    assert main(["calibrate", str(cut), "--out", str(tmp_path / "out"), "--no-rerun"]) == 2
+    err = capsys.readouterr().err
+    assert err.startswith("excavsim: error: ") and str(cut) in err and "Traceback" not in err
+    assert ("line 3 has 26 values under a header of 28 columns" in err if header_keeps_forces
+            else "missing the column(s) fx, fz" in err)

@@ -278,7 +278,7 @@ def test_a_recorded_loading_episode_passes_rerun_verify_and_holds_its_entities(t
 
 
 def test_a_divergence_ends_the_episode_with_its_reason_instead_of_a_crash():
-    from excavsim.handoff.observation import Diverged
+    from excavsim.errors import Diverged
 
     count = {"n": 0}
 

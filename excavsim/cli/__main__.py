@@ -1,0 +1,7 @@
+"""``python -m excavsim.cli``: the ``excavsim`` command."""
+
+import sys
+
+from excavsim.cli import main
+
+sys.exit(main())
