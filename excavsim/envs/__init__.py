@@ -9,12 +9,13 @@
 Importing this module registers both with Gymnasium (``gymnasium.make("excavsim/TrenchDig-v0",
 spec=...)``; install ``excavsim[envs]``). :mod:`excavsim.envs.dm` has the same environments with a
 dm_env face (:class:`~excavsim.envs.dm.DmTrenchDig`, :class:`~excavsim.envs.dm.DmTrenchJoint`), which
-needs only dm-env. The cores (:mod:`excavsim.envs.core`) know neither library.
+needs only dm-env. The cores (:mod:`excavsim.envs.core`, :mod:`excavsim.envs.joint_core`) know neither library.
 """
 
 from __future__ import annotations
 
-from excavsim.envs.core import DIG_WEIGHTS, JOINT_WEIGHTS, OUTCOMES, DigCore, EnvError, JointCore
+from excavsim.envs.core import DIG_WEIGHTS, OUTCOMES, DigCore, EnvError
+from excavsim.envs.joint_core import JOINT_WEIGHTS, JointCore
 
 __all__ = ["DIG_WEIGHTS", "DIG_ENV_ID", "JOINT_ENV_ID", "JOINT_WEIGHTS", "OUTCOMES", "DigCore", "EnvError",
            "JointCore", "register"]

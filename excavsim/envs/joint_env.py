@@ -1,6 +1,6 @@
 """``excavsim/TrenchJoint-v0``: set-point rates of the arm's servos at the control rate (Gymnasium).
 
-:class:`TrenchJointEnv` is the Gymnasium face of :class:`~excavsim.envs.core.JointCore`.
+:class:`TrenchJointEnv` is the Gymnasium face of :class:`~excavsim.envs.joint_core.JointCore`.
 """
 
 from __future__ import annotations
@@ -10,7 +10,8 @@ from typing import Any
 import gymnasium as gym
 import numpy as np
 
-from excavsim.envs.core import EnvError, JointCore
+from excavsim.envs.core import EnvError
+from excavsim.envs.joint_core import JointCore
 from excavsim.envs.dig_env import _episode_seed
 from excavsim.envs.spaces import dict_space
 
@@ -18,7 +19,7 @@ from excavsim.envs.spaces import dict_space
 class TrenchJointEnv(gym.Env):
     """The trenching world at the control rate (100 Hz): the agent drives the servos.
 
-    See :class:`~excavsim.envs.core.JointCore` for the rules. Spaces:
+    See :class:`~excavsim.envs.joint_core.JointCore` for the rules. Spaces:
 
     * action: ``Box(4,)`` float64 in [-1, 1]: the set-point rates of waist, shoulder, elbow and
       wrist pitch as fractions of their flow limits (the wrist's yaw and roll hold their home angles);
@@ -36,7 +37,7 @@ class TrenchJointEnv(gym.Env):
 
     Args:
         spec, weights, max_time_s, scan_period_s, patch_size, patch_spacing_m, robot_path,
-            scene_path: as :class:`~excavsim.envs.core.JointCore`.
+            scene_path: as :class:`~excavsim.envs.joint_core.JointCore`.
         render_mode: only None.
     """
 
