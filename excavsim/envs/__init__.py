@@ -43,7 +43,8 @@ def register() -> bool:
         gymnasium.register(DIG_ENV_ID, entry_point="excavsim.envs.dig_env:TrenchDigEnv")
     for env_id, task in ((JOINT_ENV_ID, TRENCH_TASK), (JOINT_DIG_ENV_ID, DIG_TASK)):
         if env_id not in registry:
-            gymnasium.register(env_id, entry_point="excavsim.envs.joint_env:TrenchJointEnv", kwargs=dict(task))
+            gymnasium.register(env_id, entry_point="excavsim.envs.joint_env:TrenchJointEnv", kwargs=dict(task),
+                               vector_entry_point="excavsim.envs.batched:BatchedJointEnv")
     return True
 
 

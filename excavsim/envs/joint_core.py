@@ -182,7 +182,8 @@ class JointCore:
         self._load = float(sim.soil.load)
         self.over = False
         self.steps = 0
-        obs = self._observation(sim.observe())
+        self.reading = sim.observe()
+        obs = self._observation(self.reading)
         self._potential = self._depth_potential()
         return obs, {"time_s": 0.0, "map_removed_fraction": self._frac, "map_done": self._done,
                      "start": "home" if start is None else "near_soil",
@@ -265,11 +266,18 @@ class JointCore:
         """The step's result when the world diverged (or ran out of wall-clock time): terminated, reward 0."""
         self.over = True
         sim = self.sim
-        return (self._observation(sim.observe()), 0.0, True, False,
+        self.reading = sim.observe()
+        return (self._observation(self.reading), 0.0, True, False,
                 {"time_s": sim.time - self.t0, "diverged": str(exc)})
 
     def after_step(self, obs) -> tuple[dict[str, np.ndarray], float, bool, bool, dict[str, Any]]:
         """The step's observation, reward, ends and info once the world has stepped (the second half of :meth:`step`)."""
+        step = self.account(obs)
+        return self.finish(step, self._observation(obs))
+
+    def account(self, obs) -> dict[str, Any]:
+        """The bookkeeping of a step the world has taken: the reward's terms but the shaping, the
+        ends, the info; rescans when a scan is due. :meth:`finish` completes it with the observation."""
         sim = self.sim
         self.steps += 1
         w = self.weights
@@ -286,14 +294,10 @@ class JointCore:
         elapsed = sim.time - self.t0
         if sim.time - self._scanned_at >= self.scan_period_s - 1e-9:
             self._scan()
-        observation = self._observation(obs)
-        potential = self._depth_potential()
         terms = {"cut": 1000 * w["cut_per_l"] * d_removed, "load": 1000 * w["load_per_l"] * d_load,
                  "dump": 1000 * w["dump_per_l"] * d_spoil, "overdig": -1000 * w["overdig_per_l"] * d_over,
                  "saturation": -w["saturation_per_s"] * saturated * dt, "stall": -w["stall_per_s"] * stalled * dt,
-                 "depth": potential - self._potential, "time": -w["time_per_s"] * dt}
-        self._potential = potential
-        reward = sum(terms.values())
+                 "depth": 0.0, "time": -w["time_per_s"] * dt}
         terminated = bool(self._done)
         truncated = not terminated and elapsed >= self.max_time_s - 1e-9
         self.over = terminated or truncated
@@ -301,7 +305,18 @@ class JointCore:
                 "spoil_l": 1000 * (spoil - self._spoil0), "load_l": 1000 * load, "saturated_joints": saturated,
                 "stalled_joints": stalled, "reward_terms": terms, "map_removed_fraction": self._frac,
                 "map_done": bool(self._done)}
-        return observation, float(reward), terminated, truncated, info
+        return {"terms": terms, "terminated": terminated, "truncated": truncated, "info": info}
+
+    def finish(self, step: dict[str, Any], observation: dict[str, np.ndarray]
+               ) -> tuple[dict[str, np.ndarray], float, bool, bool, dict[str, Any]]:
+        """The step's result from :meth:`account`'s ``step`` and the observation (which set the tip's
+        depth): the shaping term and the reward."""
+        potential = self._depth_potential()
+        terms = step["terms"]
+        terms["depth"] = potential - self._potential
+        self._potential = potential
+        reward = sum(terms.values())
+        return observation, float(reward), step["terminated"], step["truncated"], step["info"]
 
     def _depth_potential(self) -> float:
         """``depth_per_m`` x the tip's depth below the scanned surface inside the footprint (capped)."""
@@ -310,6 +325,18 @@ class JointCore:
         return 0.0
 
     def _observation(self, obs) -> dict[str, np.ndarray]:
+        tip, pitch, wrench = self.tip_and_wrench(obs)
+        terrain, goal, depth, inside = self.layout.patches(self.emap.heights[None], np.array([tip]))
+        self._tip_depth, self._tip_inside = float(depth[0]), bool(inside[0])
+        return {"q": np.asarray(obs.q, dtype=np.float32), "qdot": np.asarray(obs.qdot, dtype=np.float32),
+                "ft": wrench.astype(np.float32),
+                "tip": np.array([tip[0], tip[1], tip[2], pitch], dtype=np.float32),
+                "patch": np.stack([terrain[0], goal[0]]).astype(np.float32),
+                "time_left": np.array([max(self.max_time_s - (self.sim.time - self.t0), 0.0)], dtype=np.float32)}
+
+    def tip_and_wrench(self, obs) -> tuple[tuple[float, float, float], float, np.ndarray]:
+        """The tip's world position (x, y, z) [m] and pitch [rad] from the robot's kinematic model,
+        and the F/T reading about the tip (6,) [N, N m] (zeros when the reading is not finite)."""
         arm = self.rig.arm
         q = obs.q
         x, z, pitch = forward_pose(self._arm_params, float(q[1]), float(q[2]), float(q[3]))
@@ -322,29 +349,74 @@ class JointCore:
             wrench = np.concatenate([ft[0], ft[1]])
         except ExcavsimError:  # a non-finite reading (a diverged world): report zeros
             wrench = np.zeros(6)
-        px, py = tip[0] + self._off_x, tip[1] + self._off_y
-        terrain = self.emap.height_at(px, py) - tip[2]
-        r = self.resolved
-        w = self._waist
-        cw, sw = math.cos(w), math.sin(w)
-        radial = px * cw + py * sw
-        lateral = -px * sw + py * cw
-        inside = (np.abs(lateral) <= self.rig.width / 2) & (radial >= r.goal.near_x_m) & (radial <= r.goal.far_x_m)
-        goal = np.where(inside, goal_profile(r.goal, radial), r.goal.surface_z_m) - tip[2]
-        tip_radial, tip_lateral = tip[0] * cw + tip[1] * sw, -tip[0] * sw + tip[1] * cw
-        self._tip_inside = (abs(tip_lateral) <= self.rig.width / 2 and r.goal.near_x_m <= tip_radial <= r.goal.far_x_m)
-        self._tip_depth = float(self.emap.height_at(np.array([tip[0]]), np.array([tip[1]]))[0]) - tip[2]
-        return {"q": np.asarray(q, dtype=np.float32), "qdot": np.asarray(obs.qdot, dtype=np.float32),
-                "ft": wrench.astype(np.float32),
-                "tip": np.array([tip[0], tip[1], tip[2], pitch], dtype=np.float32),
-                "patch": np.stack([terrain, goal]).astype(np.float32),
-                "time_left": np.array([max(self.max_time_s - (self.sim.time - self.t0), 0.0)], dtype=np.float32)}
+        return tip, pitch, wrench
+
+    @property
+    def layout(self) -> PatchLayout:
+        """The height patch's geometry on this core's map and goal (valid after :meth:`reset`)."""
+        e, r = self.emap, self.resolved
+        key = (e.x0, e.y0, e.cell, e.heights.shape)
+        if getattr(self, "_layout_key", None) != key:
+            self._layout = PatchLayout(e.x0, e.y0, e.cell, e.heights.shape, self._off_x, self._off_y, r.goal,
+                                       self.rig.width)
+            self._layout_key = key
+        return self._layout
 
     def close(self) -> None:
         """Free the world; a closed core cannot be reset (closing twice is fine)."""
         self.sim = None
         self.over = True
         self._closed = True
+
+
+class PatchLayout:
+    """The height patches of many copies of one world at once (one copy: the single environment).
+
+    The copies share the map's grid (origin, cell, shape) and the goal; each has its own map heights
+    and tip. The arithmetic is :meth:`ElevationMap.height_at <excavsim.handoff.maps.ElevationMap.height_at>`'s
+    and :func:`~excavsim.handoff.goal.goal_profile`'s, element by element, so that the batched
+    environment's patches equal the single one's to the bit.
+    """
+
+    def __init__(self, x0: float, y0: float, cell: float, shape: tuple[int, int], off_x: np.ndarray,
+                 off_y: np.ndarray, goal, width: float):
+        self.x0, self.y0, self.cell = x0, y0, cell
+        self.ny, self.nx = shape
+        self.off_x, self.off_y = off_x, off_y
+        self.goal, self.half_width = goal, width / 2
+        w = math.radians(goal.waist_deg)
+        self.cw, self.sw = math.cos(w), math.sin(w)
+
+    def heights_at(self, heights: np.ndarray, x: np.ndarray, y: np.ndarray) -> np.ndarray:
+        """Bilinear heights of maps ``heights`` (N, ny, nx) at points ``x``, ``y`` (N, ...) [m]."""
+        ny, nx = self.ny, self.nx
+        u = np.clip((x - self.x0) / self.cell - 0.5, 0, nx - 1)
+        v = np.clip((y - self.y0) / self.cell - 0.5, 0, ny - 1)
+        c0 = np.minimum(u.astype(np.int64), nx - 2)
+        r0 = np.minimum(v.astype(np.int64), ny - 2)
+        fu, fv = u - c0, v - r0
+        n = np.arange(len(heights)).reshape((-1,) + (1,) * (x.ndim - 1))
+        h = heights
+        return ((1 - fu) * (1 - fv) * h[n, r0, c0] + fu * (1 - fv) * h[n, r0, c0 + 1]
+                + (1 - fu) * fv * h[n, r0 + 1, c0] + fu * fv * h[n, r0 + 1, c0 + 1])
+
+    def patches(self, heights: np.ndarray, tips: np.ndarray):
+        """For maps ``heights`` (N, ny, nx) and tips ``tips`` (N, 3) [m]: the terrain and goal patches
+        (N, P, P) relative to the tip, the tip's depth below the map (N,) and whether the tip is
+        inside the goal's footprint (N,)."""
+        tx, ty, tz = tips[:, 0, None, None], tips[:, 1, None, None], tips[:, 2, None, None]
+        px, py = tx + self.off_x, ty + self.off_y
+        terrain = self.heights_at(heights, px, py) - tz
+        g = self.goal
+        radial = px * self.cw + py * self.sw
+        lateral = -px * self.sw + py * self.cw
+        inside = (np.abs(lateral) <= self.half_width) & (radial >= g.near_x_m) & (radial <= g.far_x_m)
+        goal = np.where(inside, goal_profile(g, radial), g.surface_z_m) - tz
+        t_radial = tips[:, 0] * self.cw + tips[:, 1] * self.sw
+        t_lateral = -tips[:, 0] * self.sw + tips[:, 1] * self.cw
+        tip_inside = (np.abs(t_lateral) <= self.half_width) & (t_radial >= g.near_x_m) & (t_radial <= g.far_x_m)
+        depth = self.heights_at(heights, tips[:, 0:1], tips[:, 1:2])[:, 0] - tips[:, 2]
+        return terrain, goal, depth, tip_inside
 
 
 def _check_start(start: Any) -> str:
