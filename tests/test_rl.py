@@ -114,6 +114,22 @@ def test_a_256_step_ppo_run_with_the_default_policy():
         venv.close()
 
 
+def test_sac_with_the_default_policy_learns_a_few_steps():
+    _sb3()
+    import torch
+    from stable_baselines3 import SAC
+    from stable_baselines3.common.env_util import make_vec_env
+
+    torch.set_num_threads(1)
+    venv = make_vec_env(JOINT_DIG_ENV_ID, n_envs=1, seed=0, env_kwargs=kwargs_of(JOINT_DIG_ENV_ID))
+    try:
+        model = SAC("MultiInputPolicy", venv, learning_starts=32, batch_size=32, seed=0, device="cpu")
+        model.learn(total_timesteps=64)
+        assert model.num_timesteps == 64 and model.replay_buffer.size() == 64
+    finally:
+        venv.close()
+
+
 # -- Gymnasium -----------------------------------------------------------------------------------
 def test_gymnasium_env_checker_passes_on_the_single_dig_task():
     env = gym.make(JOINT_DIG_ENV_ID, **kwargs_of(JOINT_DIG_ENV_ID))
