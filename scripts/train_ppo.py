@@ -102,7 +102,16 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--out", default="docs/notes/2026-12-02-ppo-baseline.md")
     parser.add_argument("--quick", action="store_true", help="two evaluation seeds (a smoke run)")
     parser.add_argument("--work", default="/tmp/excavsim-ppo", help="model, statistics and curve data")
+    parser.add_argument("--note-only", action="store_true",
+                        help="rewrite the note from a finished run's --work directory (no training)")
     args = parser.parse_args(argv)
+    work = pathlib.Path(args.work)
+    if args.note_only:
+        meta = json.loads((work / "run.json").read_text())
+        write_note(pathlib.Path(args.out), json.loads((work / "results.json").read_text()),
+                   np.loadtxt(work / "curve.csv", delimiter=",", ndmin=2), meta["steps"], meta["wall"], meta["cpu"],
+                   argparse.Namespace(**meta["args"]))
+        return 0
 
     import gymnasium as gym
     import torch
@@ -114,7 +123,6 @@ def main(argv: list[str] | None = None) -> int:
     import excavsim.envs  # noqa: F401 - registers the environments
 
     torch.set_num_threads(1)
-    work = pathlib.Path(args.work)
     work.mkdir(parents=True, exist_ok=True)
     venv = VecNormalize(make_vec_env(ENV_ID, n_envs=args.n_envs, seed=args.seed, vec_env_cls=DummyVecEnv),
                         norm_obs=True, norm_reward=True, clip_obs=10.0)
@@ -150,6 +158,8 @@ def main(argv: list[str] | None = None) -> int:
     model.save(work / "ppo")
     venv.save(str(work / "vecnormalize.pkl"))
     np.savetxt(work / "curve.csv", np.array(curve.rows), delimiter=",", header="steps,return,removed_l,wall_s")
+    (work / "run.json").write_text(json.dumps({"steps": model.num_timesteps, "wall": train_wall, "cpu": train_cpu,
+                                               "args": {k: v for k, v in vars(args).items() if k != "note_only"}}))
     print(f"trained {model.num_timesteps} steps in {train_wall:.0f} s wall, {train_cpu:.0f} s CPU", flush=True)
 
     env = gym.make(ENV_ID)
@@ -185,12 +195,13 @@ def write_note(out: pathlib.Path, results: dict, curve: np.ndarray, steps: int, 
     png = out.with_suffix(".png")
     fig, (a1, a2) = plt.subplots(1, 2, figsize=(10, 3.6))
     if len(curve):
-        k = max(1, len(curve) // 50)
-        smooth = lambda v: np.convolve(v, np.ones(k) / k, mode="valid")  # noqa: E731
-        a1.plot(curve[:, 0], curve[:, 1], ".", ms=2, alpha=0.3)
-        a1.plot(curve[k - 1:, 0], smooth(curve[:, 1]), "-")
-        a2.plot(curve[:, 0], curve[:, 2], ".", ms=2, alpha=0.3)
-        a2.plot(curve[k - 1:, 0], smooth(curve[:, 2]), "-")
+        # the copies end their episodes together: average per training step, then over 3 of those
+        steps_at, inverse = np.unique(curve[:, 0], return_inverse=True)
+        k = min(3, len(steps_at))
+        for ax, col in ((a1, 1), (a2, 2)):
+            per_step = np.bincount(inverse, curve[:, col]) / np.bincount(inverse)
+            ax.plot(curve[:, 0], curve[:, col], ".", ms=2, alpha=0.3, label="episodes")
+            ax.plot(steps_at[k - 1:], np.convolve(per_step, np.ones(k) / k, mode="valid"), "-", label="mean")
     for a, lab in ((a1, "episode return"), (a2, "soil removed in the goal [L]")):
         a.set_xlabel("training steps")
         a.set_ylabel(lab)
@@ -202,8 +213,12 @@ def write_note(out: pathlib.Path, results: dict, curve: np.ndarray, steps: int, 
     def row(name: str, rs: list[dict], key: str = "return", removed: str = "removed_l") -> str:
         ret = np.array([r[key] for r in rs])
         rem = np.array([r[removed] for r in rs])
-        return (f"| {name} | {ret.mean():.2f} ± {ret.std():.2f} | {rem.mean():.2f} ± {rem.std():.2f} | "
-                f"{int(np.sum(rem > 0.05))} / {len(rs)} | {np.mean([r['overdig_l'] for r in rs]):.2f} |")
+        head = (f"| {name} | {ret.mean():.2f} ± {ret.std():.2f} | {rem.mean():.2f} ± {rem.std():.2f} | "
+                f"{int(np.sum(rem > 0.05))} / {len(rs)} |")
+        if key != "return":  # the whole dig: its end state is the executor's park, not comparable
+            return head + " | | |"
+        return head + (f" {np.mean([r['overdig_l'] for r in rs]):.2f} | {np.mean([r['load_l'] for r in rs]):.1f} | "
+                       f"{np.mean([r['spoil_l'] for r in rs]):.1f} |")
 
     lines = [
         "# PPO baseline on the single-dig task (2026-12-02)",
@@ -215,8 +230,8 @@ def write_note(out: pathlib.Path, results: dict, curve: np.ndarray, steps: int, 
         f"{SEEDS[0]}-{SEEDS[-1]} (600 steps, 6 s simulated, each).",
         "",
         "| policy | return (mean ± sd) | soil removed in the goal [L] | seeds with soil removed (> 0.05 L) "
-        "| over-dig [L] |",
-        "|---|---|---|---|---|",
+        "| over-dig [L] | in the bucket at the end [L] | to the spoil [L] |",
+        "|---|---|---|---|---|---|---|",
         row("PPO (deterministic)", results["ppo"]),
         row("random", results["random"]),
         row("scripted executor, first 600 steps", results["scripted"]),
@@ -232,7 +247,10 @@ def write_note(out: pathlib.Path, results: dict, curve: np.ndarray, steps: int, 
         lines.append(f"| {s} | {p['return']:.2f} / {p['removed_l']:.2f} | {r['return']:.2f} / {r['removed_l']:.2f} | "
                      f"{c['return']:.2f} / {c['removed_l']:.2f} | {c['full_return']:.2f} / {c['full_removed_l']:.2f} "
                      f"({c['full_steps']}) |")
-    lines += ["", f"![learning curve]({png.name})", ""]
+    lines += ["", "Per seed, PPO: in the bucket at the end / to the spoil / over-dig [L]: "
+              + "; ".join(f"{s} {r['load_l']:.1f} / {r['spoil_l']:.1f} / {r['overdig_l']:.2f}"
+                          for s, r in zip(SEEDS, results["ppo"])) + ".",
+              "", f"![learning curve]({png.name})", ""]
     out.parent.mkdir(parents=True, exist_ok=True)
     out.write_text("\n".join(lines))
     print("\n".join(lines))
