@@ -254,7 +254,11 @@ class JointCore:
         """The six servos' set-point rates [rad/s] for ``action`` (the first half of :meth:`step`)."""
         if self.over:
             raise EnvError("the episode has ended (or never started): call reset() first")
-        a = check_vector(action, self.action_low, self.action_high, "the joint action (rates in [-1, 1])")
+        return self.checked_rates(check_vector(action, self.action_low, self.action_high,
+                                               "the joint action (rates in [-1, 1])"))
+
+    def checked_rates(self, a: np.ndarray) -> np.ndarray:
+        """:meth:`rates` of an action (4,) float64 already checked (the batched environment checks all at once)."""
         sim = self.sim
         rates = self._rates
         rates[:4] = np.clip(a, -1.0, 1.0) * self._rate_limit[:4]
