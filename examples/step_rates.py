@@ -3,7 +3,7 @@
     python examples/step_rates.py [--digs N] [--joint-steps N] [--tiny]
 
 TrenchDig-v0 runs the planner policy on the default episode (the sand trench; each step scans,
-plans, digs and settles); TrenchJoint-v0 runs uniform random set-point rates from its home pose
+plans, digs and settles); TrenchJoint-v0 runs uniform random set-point rates from its near-soil start
 (a rescan every simulated second included). Resets are timed apart. ``--tiny`` uses the coarse
 scans and planner grid of configs/campaigns/tiny.yaml on the small trench, as the tests do.
 """

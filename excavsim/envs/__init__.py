@@ -3,28 +3,37 @@
 * ``excavsim/TrenchDig-v0`` (:class:`~excavsim.envs.dig_env.TrenchDigEnv`): one step per dig, the
   action Singh's trenching action (k, alpha, d1); the episode is the loop of ``excavsim trench``
   with the agent in the planner's place.
-* ``excavsim/TrenchJoint-v0`` (:class:`~excavsim.envs.joint_env.TrenchJointEnv`): one step per
-  control period, the action the servos' set-point rates.
+* ``excavsim/TrenchJoint-v0`` and ``excavsim/TrenchJointDig-v0``
+  (:class:`~excavsim.envs.joint_env.TrenchJointEnv`): one step per control period, the action the
+  servos' set-point rates; the first the whole trench (3,000 steps), the second one dig (600 steps,
+  the single-dig task the PPO baseline learns). Both start with the bucket just above the soil.
 
-Importing this module registers both with Gymnasium (``gymnasium.make("excavsim/TrenchDig-v0",
+Importing this module registers them with Gymnasium (``gymnasium.make("excavsim/TrenchDig-v0",
 spec=...)``; install ``excavsim[envs]``). :mod:`excavsim.envs.dm` has the same environments with a
 dm_env face (:class:`~excavsim.envs.dm.DmTrenchDig`, :class:`~excavsim.envs.dm.DmTrenchJoint`), which
-needs only dm-env. The cores (:mod:`excavsim.envs.core`) know neither library.
+needs only dm-env. The cores (:mod:`excavsim.envs.core`, :mod:`excavsim.envs.joint_core`) know neither library.
 """
 
 from __future__ import annotations
 
-from excavsim.envs.core import DIG_WEIGHTS, JOINT_WEIGHTS, OUTCOMES, DigCore, EnvError, JointCore
+from excavsim.envs.core import DIG_WEIGHTS, OUTCOMES, DigCore, EnvError
+from excavsim.envs.joint_core import DIG_TASK, JOINT_WEIGHTS, TRENCH_TASK, JointCore
 
-__all__ = ["DIG_WEIGHTS", "DIG_ENV_ID", "JOINT_ENV_ID", "JOINT_WEIGHTS", "OUTCOMES", "DigCore", "EnvError",
-           "JointCore", "register"]
+__all__ = ["DIG_WEIGHTS", "DIG_ENV_ID", "ENV_IDS", "JOINT_DIG_ENV_ID", "JOINT_ENV_ID", "JOINT_WEIGHTS", "OUTCOMES",
+           "DigCore", "EnvError", "JointCore", "register"]
 
 DIG_ENV_ID = "excavsim/TrenchDig-v0"
 JOINT_ENV_ID = "excavsim/TrenchJoint-v0"
+JOINT_DIG_ENV_ID = "excavsim/TrenchJointDig-v0"
+ENV_IDS = (DIG_ENV_ID, JOINT_ENV_ID, JOINT_DIG_ENV_ID)
+"""Every environment this package registers."""
 
 
 def register() -> bool:
-    """Register both environments with Gymnasium (done on import); False when Gymnasium is not installed."""
+    """Register the environments of :data:`ENV_IDS` with Gymnasium (done on import); False when
+    Gymnasium is not installed. The joint-level ones also register the batched vector environment
+    (:class:`~excavsim.envs.batched.BatchedJointEnv`) as their ``vector_entry_point``, which
+    ``gymnasium.make_vec(..., vectorization_mode="vector_entry_point")`` uses."""
     try:
         import gymnasium
     except ImportError:
@@ -32,8 +41,10 @@ def register() -> bool:
     registry = gymnasium.envs.registration.registry
     if DIG_ENV_ID not in registry:
         gymnasium.register(DIG_ENV_ID, entry_point="excavsim.envs.dig_env:TrenchDigEnv")
-    if JOINT_ENV_ID not in registry:
-        gymnasium.register(JOINT_ENV_ID, entry_point="excavsim.envs.joint_env:TrenchJointEnv")
+    for env_id, task in ((JOINT_ENV_ID, TRENCH_TASK), (JOINT_DIG_ENV_ID, DIG_TASK)):
+        if env_id not in registry:
+            gymnasium.register(env_id, entry_point="excavsim.envs.joint_env:TrenchJointEnv", kwargs=dict(task),
+                               vector_entry_point="excavsim.envs.batched:BatchedJointEnv")
     return True
 
 

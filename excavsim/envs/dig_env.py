@@ -12,7 +12,8 @@ from typing import Any
 import gymnasium as gym
 import numpy as np
 
-from excavsim.envs.core import DigCore, EnvError, check_seed
+from excavsim.envs.core import DigCore, EnvError, check_seed, check_vector
+from excavsim.envs.render import RENDER_MODES, FrameRenderer, check_render_mode
 from excavsim.envs.spaces import dict_space
 
 
@@ -22,7 +23,9 @@ class TrenchDigEnv(gym.Env):
     See :class:`~excavsim.envs.core.DigCore` for the rules (snapping to the planner's grid, the
     nearest allowed cell for an infeasible one, the fallback). Spaces:
 
-    * action: ``Box(3,)`` float64 from the planner grid's (k_min, alpha_min, d1_min) to its maxima;
+    * action: ``Box(3,)`` float32 from the planner grid's (k_min, alpha_min, d1_min) to its maxima
+      (in metres and radians, deliberately: the planner's units); with ``normalize_action=True``
+      ``Box(3,)`` in [-1, 1], mapped linearly onto that box (-1 the minima, 1 the maxima);
     * observation: ``Dict`` of ``elevation``, ``goal_mask``, ``goal_depth`` (lateral x radial
       float32 grids around the goal, from the scanned map), ``ft`` (the last dig's peak and mean F/T
       force in the soil [N]), ``outcome`` (``Discrete``, an index of
@@ -45,20 +48,29 @@ class TrenchDigEnv(gym.Env):
     without a seed runs the spec's seed first, then seeds drawn from :attr:`np_random`.
 
     Args:
-        spec, weights, fallback, window_margin_m, window_half_width_m, observer, robot_path, scene_path:
-            as :class:`~excavsim.envs.core.DigCore`.
-        render_mode: only None (record episodes with ``observer=excavsim.record.RerunRecorder(...)``).
+        spec, weights, fallback, window_margin_m, window_half_width_m, observer, robot_path,
+            scene_path: as :class:`~excavsim.envs.core.DigCore`.
+        normalize_action: the action in [-1, 1] (above) instead of the planner's units.
+        render_mode: None (the default) or ``"rgb_array"``: :meth:`render` returns a frame of the
+            world between digs from MuJoCo's offscreen renderer (:mod:`excavsim.envs.render`); to
+            record whole episodes use ``observer=excavsim.record.RerunRecorder(...)``.
+        render_size: (width, height) of the frames [pixels].
     """
 
-    metadata = {"render_modes": []}
+    metadata = {"render_modes": list(RENDER_MODES), "render_fps": 1}  # a frame per dig
 
-    def __init__(self, spec=None, *, render_mode: str | None = None, **kwargs: Any):
-        if render_mode is not None:
-            raise EnvError(f"render_mode must be None (no render modes); given {render_mode!r}")
-        self.render_mode = None
+    def __init__(self, spec=None, *, render_mode: str | None = None, normalize_action: bool = False,
+                 render_size: tuple[int, int] = (480, 360), **kwargs: Any):
+        self.render_mode = check_render_mode(render_mode)
         self.core = DigCore(spec, **kwargs)
-        self.action_space = gym.spaces.Box(self.core.action_low, self.core.action_high, dtype=np.float64)
+        self.normalize_action = bool(normalize_action)
+        if self.normalize_action:
+            self.action_space = gym.spaces.Box(-1.0, 1.0, shape=self.core.action_low.shape, dtype=np.float32)
+        else:
+            self.action_space = gym.spaces.Box(self.core.action_low.astype(np.float32),
+                                               self.core.action_high.astype(np.float32), dtype=np.float32)
         self.observation_space = dict_space(self.core.fields)
+        self._frames = FrameRenderer(*render_size)
         self._resets = 0
 
     @property
@@ -78,10 +90,28 @@ class TrenchDigEnv(gym.Env):
 
     def step(self, action):
         """Dig ``action`` (k, alpha, d1); returns (observation, reward, terminated, truncated, info)."""
+        if self.normalize_action:
+            ones = np.ones(self.core.action_low.shape)
+            a = check_vector(action, -ones, ones, "the normalized dig action")
+            low, high = self.core.action_low, self.core.action_high
+            action = low + (np.clip(a, -1.0, 1.0) + 1.0) / 2.0 * (high - low)
         return self.core.step(action)
 
+    def render(self):
+        """The frame now (the world between digs), (height, width, 3) uint8, with
+        ``render_mode="rgb_array"``; None without a render mode or before the first reset.
+
+        Raises:
+            EnvError: no OpenGL backend works in this process.
+        """
+        sim = getattr(self.core, "_sim", None)
+        if self.render_mode is None or sim is None:
+            return None
+        return self._frames.render(sim.model, sim.data)
+
     def close(self):
-        """Abandon the running episode (closing twice is fine)."""
+        """Abandon the running episode and free the renderer (closing twice is fine)."""
+        self._frames.close()
         self.core.close()
 
     def __del__(self):

@@ -20,7 +20,8 @@ import dm_env
 import numpy as np
 from dm_env import specs
 
-from excavsim.envs.core import MAX_SEED, DigCore, Field, JointCore, check_seed
+from excavsim.envs.core import MAX_SEED, DigCore, Field, check_seed
+from excavsim.envs.joint_core import JointCore
 
 
 def field_spec(name: str, field: Field) -> specs.Array:
@@ -102,12 +103,12 @@ class DmTrenchDig(_DmFace):
 
 class DmTrenchJoint(_DmFace):
     """``TrenchJoint`` with a dm_env face: one step per control period, the action four set-point
-    rates in [-1, 1] (see :class:`~excavsim.envs.core.JointCore` and
+    rates in [-1, 1] (see :class:`~excavsim.envs.joint_core.JointCore` and
     :class:`~excavsim.envs.joint_env.TrenchJointEnv`).
 
     Args:
         spec: the world; seed: the first episode's seed (see the module docstring); the rest as
-            :class:`~excavsim.envs.core.JointCore`.
+            :class:`~excavsim.envs.joint_core.JointCore`.
     """
 
     _core_class = JointCore

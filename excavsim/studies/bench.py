@@ -637,6 +637,84 @@ def bench_campaign(*, episodes: int = 8) -> list[Row]:
     ]
 
 
+def bench_envs(*, copies: int = 8, steps: int = 200, seed: int = 0) -> list[Row]:
+    """Throughput of the joint-level environment (``excavsim/TrenchJointDig-v0``, uniform random
+    actions from the bucket's near-soil start, no episode end within the timing): one environment,
+    Gymnasium's ``make_vec`` in ``sync`` and ``async`` (forkserver) modes and the batched vector
+    environment (:class:`~excavsim.envs.batched.BatchedJointEnv`, the ``vector_entry_point``), each
+    with ``copies`` copies stepped ``steps`` times, beside bare ``mj_step`` of the same control steps
+    (the scene's substeps with the same servo rates, no soil, no observation). Steps/s from CPU time
+    (this process; ``async``'s workers are not counted there, so it reports wall time) and wall time.
+    Target: the batched environment at >= 50 % of bare MuJoCo's rate (issue 36)."""
+    import multiprocessing
+
+    import gymnasium as gym
+    import mujoco
+
+    import excavsim.envs  # noqa: F401 - registers the environments
+    from excavsim.envs.joint_core import DIG_TASK, JointCore
+
+    env_id = "excavsim/TrenchJointDig-v0"
+    horizon = {"max_time_s": 2 * steps / 100 + 10}  # no episode ends while timed
+    rng = np.random.default_rng(seed)
+    actions = rng.uniform(-1, 1, (steps, copies, 4)).astype(np.float32)
+
+    def timed(fn) -> tuple[float, float]:
+        c0, w0 = time.process_time(), time.perf_counter()
+        fn()
+        return time.process_time() - c0, time.perf_counter() - w0
+
+    rows: list[Row] = []
+
+    def add(name: str, n: int, cpu: float, wall: float, note: str, cpu_valid: bool = True) -> float:
+        rate_cpu, rate_wall = n / cpu if cpu_valid else math.nan, n / wall
+        rows.append(Row(f"envs: {name}, steps/s (CPU)", rate_cpu, "steps/s", note))
+        rows.append(Row(f"envs: {name}, steps/s (wall)", rate_wall, "steps/s", note))
+        return rate_cpu if cpu_valid else rate_wall
+
+    # bare MuJoCo: the same scene and control steps, the servos' rates of the random actions
+    core = JointCore(None, **{**DIG_TASK, **horizon})
+    core.reset(seed)
+    sim = core.sim
+    model, data, substeps = sim.model, sim.data, sim.substeps
+    rates = actions[:, 0, :].astype(np.float64) * sim.rate_limit[:4]
+    ctrl = data.ctrl
+    act = sim._act[:4]
+
+    def bare():
+        for k in range(steps):
+            ctrl[act] = rates[k]
+            mujoco.mj_step(model, data, substeps)
+
+    bare_cpu, bare_wall = timed(bare)
+    bare_rate = add("bare mj_step", steps, bare_cpu, bare_wall, f"{substeps} substeps per control step, no soil")
+    core.close()
+
+    env = gym.make(env_id, **horizon)
+    env.reset(seed=seed)
+    cpu, wall = timed(lambda: [env.step(actions[k, 0]) for k in range(steps)])
+    env.close()
+    single = add("single", steps, cpu, wall, "one TrenchJointDig-v0")
+
+    multiprocessing.set_forkserver_preload(["excavsim.envs.joint_env"])
+    results = {}
+    for mode, kwargs in (("sync", {}), ("async", {"vector_kwargs": {"context": "forkserver"}}), ("batched", {})):
+        vmode = "vector_entry_point" if mode == "batched" else mode
+        venv = gym.make_vec(env_id, num_envs=copies, vectorization_mode=vmode, **kwargs, **horizon)
+        venv.reset(seed=seed)
+        venv.step(actions[0])  # warm: the batched soil kernel compiles on its first call
+        cpu, wall = timed(lambda: [venv.step(actions[k]) for k in range(steps)])
+        venv.close()
+        results[mode] = add(f"{mode} x {copies}", steps * copies, cpu, wall,
+                            "wall only: the workers' CPU is not this process's" if mode == "async"
+                            else f"{copies} copies", cpu_valid=mode != "async")
+    rows.append(Row("envs: single / bare mj_step (CPU)", single / bare_rate, "x", "the same control steps"))
+    rows.append(Row("envs: batched / bare mj_step (CPU)", results["batched"] / bare_rate, "x",
+                    f"{copies} copies; target 0.5 (issue 36)", target=0.5, sense=">="))
+    rows.append(Row("envs: batched / single (CPU)", results["batched"] / single, "x", "steps/s ratio"))
+    return rows
+
+
 BENCHMARKS: dict[str, Callable[[], list[Row]]] = {
     "step": bench_step_rate,
     "kinematics": bench_kinematics,
@@ -649,6 +727,7 @@ BENCHMARKS: dict[str, Callable[[], list[Row]]] = {
     "episode": bench_episode,
     "coldstart": bench_coldstart,
     "campaign": bench_campaign,
+    "envs": bench_envs,
 }
 
 

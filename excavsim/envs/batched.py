@@ -1,0 +1,348 @@
+"""N copies of the joint-level world stepped together in one process: Gymnasium's ``vector_entry_point``.
+
+:class:`BatchedJointEnv` is what ``gymnasium.make_vec("excavsim/TrenchJointDig-v0", num_envs=N)``
+gives (its default vectorization mode, or ``vectorization_mode="vector_entry_point"``). Each copy
+is a :class:`~excavsim.envs.joint_core.JointCore` with its own world; one step of the batch:
+
+1. the actions of all copies are checked at once and turned into the servos' set-point rates;
+2. the soil of every copy steps in **one compiled call** (:func:`soil_steps`, a loop over the
+   copies around the world's own kernel :func:`~excavsim.world.kernels.soil_step`, on the same
+   arrays the copies' :class:`~excavsim.world.soil.SoilModel` own), instead of one call per copy;
+3. MuJoCo steps each copy's physics (``mj_step`` over the control period's substeps, the soil's
+   wrench held), with the world's watchdog;
+4. the rewards are accounted per copy, and the height patches of all copies are computed in one
+   vectorized pass (:class:`~excavsim.envs.joint_core.PatchLayout`) on their maps stacked.
+
+The copies step exactly as N single environments do, to the bit (tests/test_rl.py checks it):
+the world's per-step code is the same, in the same order. A copy whose soil uses DiMaio's model
+(``truth.model: dimaio``) steps its soil on its own (the batched kernel is the wedge model's).
+
+Autoreset follows Gymnasium's ``NEXT_STEP`` mode (as ``SyncVectorEnv``): the step after a copy's
+episode ended resets it (its action is ignored, its reward 0) and returns its first observation.
+"""
+
+from __future__ import annotations
+
+from typing import Any
+
+import gymnasium as gym
+import mujoco
+import numba
+import numpy as np
+from gymnasium.vector.utils import batch_space
+from numba.typed import List
+
+from excavsim.envs.core import EnvError, check_seed
+from excavsim.envs.joint_core import JointCore
+from excavsim.envs.render import RENDER_MODES, FrameRenderer, check_render_mode
+from excavsim.envs.spaces import dict_space
+from excavsim.handoff.observation import Diverged
+from excavsim.world.kernels import soil_step
+
+_OBJ_BODY = mujoco.mjtObj.mjOBJ_BODY
+
+
+@numba.njit(cache=True)
+def soil_steps(active, heights, strength, grids, mj_arrays, vel6, buckets, edges, surfaces, tables, rocks, params,
+               dt_s, states, pressures, outs, boxes, early_out, clear):
+    """One control step of the soil of every active copy: :func:`~excavsim.world.kernels.soil_step`
+    on each copy's arrays (typed lists, one entry per copy; ``vel6`` (N, 6)); ``clear[i]`` is
+    whether copy ``i`` took the kernel's clear-of-the-terrain early-out."""
+    for i in range(len(heights)):
+        if active[i]:
+            clear[i] = soil_step(heights[i], strength[i], grids[i], mj_arrays[i], vel6[i], buckets[i], edges[i],
+                                 surfaces[i], tables[i], rocks[i], params[i], dt_s, states[i], pressures[i], outs[i],
+                                 boxes[i], early_out)
+
+
+_SOIL_LISTS = ("heights", "strength", "grids", "mj_arrays", "buckets", "edges", "surfaces", "tables", "rocks",
+               "params", "states", "pressures", "outs", "boxes")
+
+
+def _soil_arrays(sim) -> dict[str, Any]:
+    """The arrays of a copy's soil model that its kernel reads and writes (the model's own, not copies)."""
+    soil, d = sim.soil, sim.data
+    return {"heights": soil.grid.heights, "strength": soil.strength, "grids": soil._grid_record,
+            "mj_arrays": (d.xpos, d.xmat, d.xipos, d.site_xmat), "buckets": soil._bucket_record,
+            "edges": soil._edge, "surfaces": soil._surface, "tables": soil._table, "rocks": soil.rocks,
+            "params": soil.params, "states": soil._state, "pressures": soil._pressure, "outs": soil._out,
+            "boxes": soil._box_body}
+
+
+class BatchedJointEnv(gym.vector.VectorEnv):
+    """``num_envs`` copies of :class:`~excavsim.envs.joint_env.TrenchJointEnv` stepped in one process,
+    the soil in one compiled call (see the module docstring).
+
+    Spaces: the single environment's, batched (``Dict`` of (N, ...) float32 boxes; actions (N, 4)
+    float32 in [-1, 1]). ``infos`` hold the single environment's numbers as (N,) arrays with
+    Gymnasium's ``_name`` masks.
+
+    Seeding: ``reset(seed=s)`` seeds copy ``i`` with ``s + i``; a list gives one seed per copy;
+    without a seed the first reset uses the spec's seed plus ``i``; autoresets draw seeds from
+    :attr:`np_random`.
+
+    Args:
+        num_envs: the number of copies (>= 1).
+        render_mode: None or ``"rgb_array"`` (:meth:`render` gives one frame per copy).
+        kwargs: as :class:`~excavsim.envs.joint_core.JointCore` (the task's spec, weights, horizon, start...).
+    """
+
+    metadata = {"render_modes": list(RENDER_MODES), "autoreset_mode": gym.vector.AutoresetMode.NEXT_STEP}
+
+    def __init__(self, num_envs: int = 4, spec=None, *, render_mode: str | None = None,
+                 render_size: tuple[int, int] = (480, 360), **kwargs: Any):
+        if isinstance(num_envs, bool) or not isinstance(num_envs, (int, np.integer)) or num_envs < 1:
+            raise EnvError(f"num_envs must be an integer >= 1; given {num_envs!r}")
+        kwargs.pop("max_episode_steps", None)  # make_vec passes the spec's; the core ends its episodes itself
+        self.num_envs = int(num_envs)
+        self.render_mode = check_render_mode(render_mode)
+        self.cores = [JointCore(spec, **kwargs) for _ in range(self.num_envs)]
+        core = self.cores[0]
+        self.single_observation_space = dict_space(core.fields)
+        self.single_action_space = gym.spaces.Box(-1.0, 1.0, shape=core.action_low.shape, dtype=np.float32)
+        self.observation_space = batch_space(self.single_observation_space, self.num_envs)
+        self.action_space = batch_space(self.single_action_space, self.num_envs)
+        self.metadata = {"render_modes": list(RENDER_MODES), "autoreset_mode": gym.vector.AutoresetMode.NEXT_STEP,
+                         "render_fps": round(1.0 / core.control_dt)}
+        self._frames = [FrameRenderer(*render_size) for _ in range(self.num_envs)]
+        self._autoreset = np.zeros(self.num_envs, dtype=bool)
+        self._soil: dict[str, List] | None = None
+        self._vel = np.zeros((self.num_envs, 6))
+        self._clear = np.zeros(self.num_envs, dtype=np.bool_)
+        self._maps: np.ndarray | None = None
+        self._map_of: list[Any] = [None] * self.num_envs
+        self._obs: dict[str, np.ndarray] | None = None
+        self._resets = 0
+
+    # -- reset ----------------------------------------------------------------------------------
+    def reset(self, *, seed: int | list[int] | None = None, options: dict[str, Any] | None = None):
+        """Reset every copy (see the class docstring for seeding); ``options`` go to each copy's
+        :meth:`JointCore.reset <excavsim.envs.joint_core.JointCore.reset>`. Returns (observations, infos)."""
+        if seed is None:
+            if self._resets == 0:
+                base = self.cores[0].spec.seed
+                super().reset(seed=base)
+                seeds = [(base + i) % 2**32 for i in range(self.num_envs)]
+            else:
+                super().reset()
+                seeds = [int(s) for s in self.np_random.integers(0, 2**32, self.num_envs)]
+        elif isinstance(seed, (list, tuple, np.ndarray)):
+            if len(seed) != self.num_envs:
+                raise EnvError(f"seed must be one integer or a list of {self.num_envs} (one per copy); given {seed!r}")
+            seeds = [check_seed(s) for s in seed]
+            super().reset(seed=seeds[0])
+        else:
+            check_seed(seed)
+            super().reset(seed=int(seed))
+            seeds = [(int(seed) + i) % 2**32 for i in range(self.num_envs)]
+        self._resets += 1
+        infos: dict[str, Any] = {}
+        for i, s in enumerate(seeds):
+            self.cores[i].reset(s, options)
+            self._attach(i)
+            infos = self._add_info(infos, self._reset_info(i), i)
+        self._autoreset[:] = False
+        self._obs = self._observe(np.ones(self.num_envs, dtype=bool), [c.reading for c in self.cores])
+        for i in range(self.num_envs):
+            self.cores[i]._potential = self.cores[i]._depth_potential()
+        return self._copy_obs(), infos
+
+    def _reset_info(self, i: int) -> dict[str, Any]:
+        core = self.cores[i]
+        return {"time_s": 0.0, "map_removed_fraction": core._frac, "map_done": bool(core._done)}
+
+    def _attach(self, i: int) -> None:
+        """Point the batched kernel's lists at copy ``i``'s fresh world."""
+        sim = self.cores[i].sim
+        arrays = _soil_arrays(sim)
+        if self._soil is None:
+            self._soil = {name: List([arrays[name]] * self.num_envs) for name in _SOIL_LISTS}
+        else:
+            for name in _SOIL_LISTS:
+                self._soil[name][i] = arrays[name]
+        emap = self.cores[i].emap
+        if self._maps is None or self._maps.shape[1:] != emap.heights.shape:
+            self._maps = np.zeros((self.num_envs,) + emap.heights.shape)
+        self._maps[i] = emap.heights
+        self._map_of[i] = emap
+
+    # -- step -----------------------------------------------------------------------------------
+    def step(self, actions):
+        """Step every copy (resetting those whose episode ended at the last step); returns
+        (observations, rewards, terminations, truncations, infos)."""
+        if self._obs is None:
+            raise EnvError("call reset() before step()")
+        a = np.asarray(actions, dtype=np.float64)
+        n = self.num_envs
+        if a.shape != (n, 4):
+            raise EnvError(f"actions must have shape ({n}, 4); given shape {a.shape}")
+        if not np.all(np.isfinite(a)) or np.any(np.abs(a) > 1.0 + 1e-6):
+            raise EnvError(f"actions must be finite rates in [-1, 1]; given {a!r}")
+        rewards = np.zeros(n)
+        terminated = np.zeros(n, dtype=bool)
+        truncated = np.zeros(n, dtype=bool)
+        infos: dict[str, Any] = {}
+        resetting = self._autoreset.copy()
+        active = ~resetting
+        for i in np.flatnonzero(resetting):
+            self.cores[i].reset(int(self.np_random.integers(0, 2**32)))
+            self._attach(i)
+            infos = self._add_info(infos, self._reset_info(i), i)
+        soil = self._soil
+        batched = np.zeros(n, dtype=bool)
+        for i in np.flatnonzero(active):
+            core = self.cores[i]
+            sim = core.sim
+            if core.over:
+                raise EnvError(f"copy {i}'s episode has ended without its autoreset: call reset() first")
+            sim.data.ctrl[sim._act] = core.checked_rates(a[i])
+            if sim.diverged is None and sim.soil_enabled and sim.soil.dimaio is None and sim.soil.early_out:
+                mujoco.mj_objectVelocity(sim.model, sim.data, _OBJ_BODY, sim.soil._body_id, self._vel[i], 0)
+                batched[i] = True
+        dt = self.cores[0].sim.control_dt if n else 0.0
+        soil_steps(batched, soil["heights"], soil["strength"], soil["grids"], soil["mj_arrays"], self._vel,
+                   soil["buckets"], soil["edges"], soil["surfaces"], soil["tables"], soil["rocks"], soil["params"],
+                   dt, soil["states"], soil["pressures"], soil["outs"], soil["boxes"], True, self._clear)
+        observations: list[Any] = [None] * n
+        diverged: dict[int, BaseException] = {}
+        for i in np.flatnonzero(active):
+            sim = self.cores[i].sim
+            try:
+                observations[i] = _physics_step(sim, bool(batched[i]), bool(self._clear[i]))
+            except Diverged as exc:
+                diverged[i] = exc
+        steps: dict[int, dict[str, Any]] = {}
+        for i in np.flatnonzero(active):
+            core = self.cores[i]
+            if i in diverged:
+                _obs, _r, terminated[i], truncated[i], info = core.diverged(diverged[i])
+                observations[i] = core.reading
+                infos = self._add_info(infos, info, i)
+                continue
+            steps[i] = core.account(observations[i])
+            if core.emap is not self._map_of[i]:  # rescanned
+                self._maps[i] = core.emap.heights
+                self._map_of[i] = core.emap
+        for i in np.flatnonzero(resetting):
+            observations[i] = self.cores[i].reading
+        obs = self._observe(np.ones(n, dtype=bool), observations)
+        for i in np.flatnonzero(resetting):
+            self.cores[i]._potential = self.cores[i]._depth_potential()
+        stepped = []
+        for i, step in steps.items():
+            _o, rewards[i], terminated[i], truncated[i], info = self.cores[i].finish(step, None)
+            stepped.append((i, info))
+        infos = self._step_infos(infos, stepped)
+        self._obs = obs
+        self._autoreset = terminated | truncated
+        return self._copy_obs(), rewards, terminated, truncated, infos
+
+    def _step_infos(self, infos: dict[str, Any], stepped: list[tuple[int, dict[str, Any]]]) -> dict[str, Any]:
+        """The stepped copies' infos as (N,) arrays with their ``_name`` masks, built directly (the
+        base class's ``_add_info``, copy by copy, costs more than a copy's soil step); the copies that
+        were reset or diverged this step have theirs added over them."""
+        if not stepped:
+            return infos
+        n = self.num_envs
+        mask = np.zeros(n, dtype=bool)
+        index = [i for i, _ in stepped]
+        mask[index] = True
+        out: dict[str, Any] = {}
+        first = stepped[0][1]
+        for key, value in first.items():
+            if key == "reward_terms":
+                terms = {}
+                for term in value:
+                    arr = np.zeros(n)
+                    arr[index] = [info["reward_terms"][term] for _, info in stepped]
+                    terms[term], terms[f"_{term}"] = arr, mask.copy()
+                out[key], out[f"_{key}"] = terms, mask.copy()
+                continue
+            arr = np.zeros(n, dtype=bool if isinstance(value, bool) else
+                           np.int64 if isinstance(value, int) else np.float64)
+            arr[index] = [info[key] for _, info in stepped]
+            out[key], out[f"_{key}"] = arr, mask.copy()
+        for key, value in infos.items():  # reset or diverged copies, added before
+            if key.startswith("_") or key not in out or isinstance(value, dict):
+                out.setdefault(key, value)
+                continue
+            m = infos[f"_{key}"]
+            out[key] = out[key].astype(np.result_type(out[key], value))
+            out[key][m] = value[m]
+            out[f"_{key}"] = out[f"_{key}"] | m
+        return out
+
+    def _observe(self, which: np.ndarray, observations: list[Any]) -> dict[str, np.ndarray]:
+        """The observations of all copies (the single environment's, computed together), and each
+        copy's tip depth for its shaping."""
+        n = self.num_envs
+        core0 = self.cores[0]
+        p = core0.patch_size
+        tips = np.zeros((n, 3))
+        out = {"q": np.zeros((n, 6), np.float32), "qdot": np.zeros((n, 6), np.float32),
+               "ft": np.zeros((n, 6), np.float32), "tip": np.zeros((n, 4), np.float32),
+               "patch": np.zeros((n, 2, p, p), np.float32), "time_left": np.zeros((n, 1), np.float32)}
+        for i in np.flatnonzero(which):
+            core, obs = self.cores[i], observations[i]
+            tip, pitch, wrench = core.tip_and_wrench(obs)
+            tips[i] = tip
+            out["q"][i] = obs.q
+            out["qdot"][i] = obs.qdot
+            out["ft"][i] = wrench
+            out["tip"][i] = (tip[0], tip[1], tip[2], pitch)
+            out["time_left"][i, 0] = max(core.max_time_s - (core.sim.time - core.t0), 0.0)
+        terrain, goal, depth, inside = core0.layout.patches(self._maps, tips)
+        out["patch"][:, 0] = terrain
+        out["patch"][:, 1] = goal
+        for i in np.flatnonzero(which):
+            self.cores[i]._tip_depth, self.cores[i]._tip_inside = float(depth[i]), bool(inside[i])
+        return out
+
+    def _copy_obs(self) -> dict[str, np.ndarray]:
+        return {k: v.copy() for k, v in self._obs.items()}
+
+    def render(self):
+        """One frame per copy (a tuple) with ``render_mode="rgb_array"``; None without a render mode."""
+        if self.render_mode is None or self.cores[0].sim is None:
+            return None
+        return tuple(f.render(c.sim.model, c.sim.data) for f, c in zip(self._frames, self.cores))
+
+    def close_extras(self, **kwargs: Any) -> None:
+        """Free the worlds and the renderers."""
+        for f in self._frames:
+            f.close()
+        for c in self.cores:
+            c.close()
+
+
+def _physics_step(sim, batched: bool, clear: bool):
+    """The rest of :meth:`Simulation.step <excavsim.world.simulation.Simulation.step>` once the
+    copy's soil kernel has run in the batch (``batched``; otherwise the soil steps here, on its own):
+    the soil's bookkeeping, its wrench held on the bucket, MuJoCo's substeps, the watchdog; the
+    observation after it. The same operations in the same order as ``Simulation.step``."""
+    d = sim.data
+    if sim.diverged is not None:
+        raise Diverged(f"the simulation diverged earlier and cannot go on: {sim.diverged}")
+    if sim.soil_enabled:
+        if batched:
+            sim.soil.clear_steps += int(clear)
+            sim.contact = sim.soil._after_step(d, sim.control_dt)
+        else:
+            sim.contact = sim.soil.step(d, sim.control_dt)
+        sim._xfrc_bucket[:] = sim.contact.wrench
+    else:
+        sim._xfrc_bucket[:] = 0.0
+    before = float(d.time)
+    mujoco.mj_step(sim.model, d, sim.substeps)
+    sim.steps += 1
+    why = sim._watchdog(before)
+    if why is not None:
+        sim.diverged = f"{why} in the control step from t = {sim._clock:.3f} s (step {sim.steps})"
+        raise Diverged(f"the simulation diverged: {sim.diverged}")
+    sim._clock = float(d.time)
+    for hook in sim.step_hooks:
+        hook(sim)
+    return sim.observe()
+
+
+__all__ = ["BatchedJointEnv", "soil_steps"]
