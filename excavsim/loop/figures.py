@@ -305,6 +305,16 @@ def _planner_figures() -> list[Figure]:
             Figure("fig91", "planning time per dig over three episodes (500/1000 N m, objectives)", fp.fig91)]
 
 
+def _sensing_figures() -> list[Figure]:
+    from excavsim.loop import figures_sensing as fs
+
+    return [Figure("fig96", "range and reflectance images, edges, filtered pixels (testbed scanner)", fs.fig96),
+            Figure("fig97", "an elevation map and its error; the 8-seed map-error table (testbed scanner)", fs.fig97),
+            Figure("fig98", "ranges to four targets over 100 scans: noise about a slow drift", fs.fig98),
+            Figure("fig99", "a 10 % range scale error on a profile, and the contact adjustment", fs.fig99),
+            Figure("fig102", "least-squares fit of measured against surveyed target ranges", fs.fig102)]
+
+
 FORCE_FIGURES = [
     Figure("fig20", "tip-frame z force on a 10 deg approach for rakes 10, 15, 20 deg (world)", fig20),
     Figure("fig54", "force trace of one horizontal drag, 9-point smoothed, beside eq. 8 (world)", fig54),
@@ -317,7 +327,7 @@ FORCE_FIGURES = [
 
 def figures() -> dict[str, Figure]:
     """Every figure by name, in the thesis' order."""
-    table = {f.name: f for f in FORCE_FIGURES + _planner_figures()}
+    table = {f.name: f for f in FORCE_FIGURES + _planner_figures() + _sensing_figures()}
     return dict(sorted(table.items(), key=lambda kv: int(kv[0][3:])))
 
 
