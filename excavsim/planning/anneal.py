@@ -55,7 +55,8 @@ from excavsim.planning import kernel
 from excavsim.planning.constraints import shaping
 from excavsim.planning.feasibility import prune_along_d1
 from excavsim.planning.objectives import OBJECTIVES, choose
-from excavsim.planning.search import TrenchPlanner
+# TrenchPlanner (excavsim.planning.search) appears in annotations only: search imports this module for
+# its ``search: anneal`` (TrenchPlanner.plan), so importing it back would make a cycle.
 
 __all__ = ["OBJECTIVES", "AnnealOptions", "AnnealResult", "CellEvaluator", "anneal", "cell_energy", "search"]
 # Energy of an infeasible cell, per objective: above every feasible energy (see the module docstring).
