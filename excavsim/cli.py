@@ -176,12 +176,21 @@ def _cmd_trench(args: argparse.Namespace) -> int:
         from excavsim.loop.episode import MapWriter
 
         observer = ObserverGroup(observer, MapWriter(args.save_maps))
+    timer = None
+    if args.timing:  # Table 7 side by side
+        from excavsim.handoff.episode import ObserverGroup
+        from excavsim.loop.timing import Table7Timer
+
+        timer = Table7Timer()
+        observer = ObserverGroup(observer, timer)
     goal = spec.goal if isinstance(spec.goal, str) else (spec.goal.name or "inline goal")
     print(f"excavsim trench: {goal} trench, {spec.dig_budget} digs at most, soil {spec.soil or 'of the scene'}, "
           f"seed {spec.seed}")
     result = run_spec(spec, progress=print, observer=observer, robot_path=args.robot_config,
                       scene_path=args.scene_config)
     print(format_episode(result))
+    if timer is not None:
+        print(timer.table())
     if args.record:
         print(f"recorded to {args.record}; replay it with: excavsim replay {args.record}")
     if args.save_maps:
@@ -931,6 +940,9 @@ def build_parser() -> argparse.ArgumentParser:
     trench.add_argument("--robot-config", metavar="YAML", help="servo configuration (default configs/robot.yaml)")
     trench.add_argument("--scene-config", metavar="YAML", help="scene configuration (default configs/scene.yaml)")
     trench.add_argument("--seed", type=_seed, help=f"episode seed (0 to {MAX_SEED}, default 0)")
+    trench.add_argument("--timing", action="store_true",
+                        help="print Table 7 (§7.3): the mean per-cycle perception, feasible-set, selection, set-up "
+                             "and execution times beside the thesis' Sparc 10 numbers")
     trench.set_defaults(func=_cmd_trench)
 
     replay = sub.add_parser("replay", help="open a recorded episode (.rrd) in the Rerun viewer")

@@ -75,6 +75,9 @@ class PlanResult:
     masks: dict[str, np.ndarray]
     counts: dict[str, int]
     seconds: float
+    # wall seconds of the feasible set's construction and of the selection (the objective's choice
+    # and the chosen dig's path): Table 7's two planning rows
+    timings: dict[str, float] = dataclasses.field(default_factory=dict)
 
 
 class TrenchPlanner:
@@ -328,6 +331,7 @@ class TrenchPlanner:
     def _result(self, surface, t0, k, alpha, d1, res_j, res_r, res, masks, limiting, counts, exclude
                 ) -> PlanResult:
         """The choice among the feasible cells and its path: the :class:`PlanResult` of :meth:`plan`."""
+        t_select = time.perf_counter()
         cfg = self.cfg
         n = k.size
         shape = self.grid_shape
@@ -362,6 +366,7 @@ class TrenchPlanner:
             limiting=limiting.reshape(shape),
             masks={c: m.reshape(shape) for c, m in masks.items()}, counts=counts,
             seconds=time.perf_counter() - t0,
+            timings={"feasible_s": t_select - t0, "select_s": time.perf_counter() - t_select},
         )
 
     def check_action(self, emap: ElevationMap, action: tuple[float, float, float, float],
