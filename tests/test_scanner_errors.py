@@ -4,6 +4,7 @@ off by default (the default scanner's ranges are today's), each random one has i
 from __future__ import annotations
 
 import math
+import re
 
 import numpy as np
 import pytest
@@ -168,3 +169,20 @@ def test_the_testbed_config_turns_every_term_on():
     assert s.testbed_errors and s.beam_divergence_mrad > 0 and s.incidence_bias_m > 0 and s.reflectance_bias_m > 0
     assert s.reflectance_image and s.mount_offset_m > 0 and s.soil_reflectance_texture > 0
     assert cfg.map.calibrate_pose and cfg.map.edge_filter_m > 0
+
+
+def test_the_scanner_and_learning_figures_are_drawn_by_the_figures_command(tmp_path, capsys):
+    from excavsim.cli import main
+    from excavsim.loop.figures import figures
+
+    names = figures()
+    for n in ("fig68", "fig69", "fig70", "fig71", "fig72", "fig73", "fig74", "fig75", "fig76", "fig77", "fig78",
+              "fig79", "fig80", "fig96", "fig97", "fig98", "fig99", "fig102"):
+        assert n in names
+    assert main(["figures", "fig69", "fig102", "--out", str(tmp_path)]) == 0
+    out = capsys.readouterr().out
+    for n in ("fig69", "fig102"):
+        assert (tmp_path / f"{n}.png").read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
+    # eq. 18's exact basis fits best, the straight line worst (Fig. 69); the calibration finds a scale
+    assert "exact (eq. 18): RMS 0.1" in out
+    assert re.search(r"scale (0\.9|1\.0)\d+ \(true", out)
