@@ -186,3 +186,17 @@ def test_the_scanner_and_learning_figures_are_drawn_by_the_figures_command(tmp_p
     # eq. 18's exact basis fits best, the straight line worst (Fig. 69); the calibration finds a scale
     assert "exact (eq. 18): RMS 0.1" in out
     assert re.search(r"scale (0\.9|1\.0)\d+ \(true", out)
+
+
+def test_the_testbed_campaign_uses_the_testbed_config_s_scanner():
+    """configs/campaigns/sensing_testbed.yaml repeats sensing_testbed.yaml's error terms: they must agree."""
+    import yaml
+
+    camp = yaml.safe_load((constants.CONFIGS_DIR / "campaigns" / "sensing_testbed.yaml").read_text())
+    testbed, default = load_sensing_config(TESTBED), load_sensing_config()
+    changed = {k for k in ScannerConfig.model_fields if getattr(testbed.scanner, k) != getattr(default.scanner, k)}
+    assert set(camp["base"]["sensing"]["scanner"]) == changed
+    for k, v in camp["base"]["sensing"]["scanner"].items():
+        assert getattr(testbed.scanner, k) == v, k
+    for k, v in camp["base"]["sensing"]["map"].items():
+        assert getattr(testbed.map, k) == v, k
