@@ -41,8 +41,10 @@ episode's seed sequence, so turning one on changes no other's draws:
 * **occlusion**: truthful from the cast (rays stop at the soil and the walls); with a footprint, the
   shadow's edge is mixed;
 * **mount position error** (assumed, stream ``mount``): the scanner's true origin is off the surveyed
-  one by ``N(0, mount_offset_m)`` per axis per episode; the ranges to the targets change with it,
-  so the range calibration's scale and offset (Fig. 102) absorb most of it.
+  one by ``N(0, mount_offset_m)`` per axis per episode. The range calibration's scale and offset
+  (Fig. 102) absorb only its part along the rays; the mind's pose calibration against the same
+  targets (:func:`excavsim.sensing.elevation.calibrate_pose`) finds its x and y, not its z (the
+  targets are on vertical walls), which the walls' tops (levelling) see.
 
 :class:`LaserScanner` belongs to the world: it reads the true terrain. What the robot's mind knows
 of it is :class:`ScanGeometry` (the calibrated pose, the ray directions and the surveyed target
