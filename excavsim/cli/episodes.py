@@ -42,7 +42,7 @@ def _cmd_trench(args: argparse.Namespace) -> int:
     spec = parse_config({**spec.model_dump(), **{k: v for k, v in given.items() if v is not None}}, EpisodeSpec,
                         source="the command line")
     run_with_outputs(spec, robot_path=args.robot_config, scene_path=args.scene_config, record=args.record,
-                     live=args.live, save_maps=args.save_maps)
+                     live=args.live, save_maps=args.save_maps, timing=args.timing)
     return 0
 
 
@@ -122,6 +122,9 @@ def register(sub: argparse._SubParsersAction) -> None:
     trench.add_argument("--live", nargs="?", const="", metavar="ADDRESS",
                         help="stream the episode to a Rerun viewer as it runs: alone, spawn one (needs a display); "
                              "with PORT, HOST:PORT or rerun+http://HOST:PORT/proxy, a running viewer (`rerun`)")
+    trench.add_argument("--timing", action="store_true",
+                        help="print Table 7 (§7.3): the mean per-cycle perception, feasible-set, selection, set-up "
+                             "and execution times beside the thesis' Sparc 10 numbers")
     trench.add_argument("--save-maps", metavar="DIR", type=out_dir,
                         help="save every scanned elevation map (for `plan --map`)")
     trench.add_argument("--robot-config", metavar="YAML", help="servo configuration (default configs/robot.yaml)")

@@ -72,6 +72,9 @@ class PlannerGrid(StrictModel):
                 _axis_len(self.d1_min_m, self.d1_max_m, self.d1_step_m))
 
 
+SEARCHES = ("exhaustive", "anneal")
+
+
 class PlannerConfig(StrictModel):
     """``configs/planner.yaml``: the trenching action's rules, the search grid and the objective."""
 
@@ -99,6 +102,12 @@ class PlannerConfig(StrictModel):
     auxiliary: str = Field(default="peak_torque", description="eq. 44's auxiliary criterion J2 among the digs over "
                            "the volume threshold: peak_torque | cumulative_torque")
     min_volume_fraction: float = Field(default=0.05, ge=0, le=1, description="below this: no dig")
+    search: str = Field(default="exhaustive", description="how plan() searches the grid: exhaustive (ch. 6) | "
+                        "anneal (simulated annealing, §6.3: excavsim.planning.anneal)")
+    anneal_iterations: int = Field(default=20, ge=0, le=10_000, description="search: anneal: iterations per plan")
+    anneal_chains: int = Field(default=16, ge=1, le=1024, description="search: anneal: Metropolis chains")
+    anneal_seed: int = Field(default=0, ge=0, description="search: anneal: seed of the planner's annealing generator "
+                             "(one per planner: an episode's plans draw from it in turn)")
     shaping_tolerance_m: float = Field(default=0.005, ge=0, le=0.1)
     fallback_clearance_m: float = Field(default=0.01, ge=0, le=0.2,
                                         description="boundary-following digs stay this far above the goal [m]")
@@ -147,6 +156,8 @@ class PlannerConfig(StrictModel):
         allowed = ("volume", "peak_torque", "cumulative_torque", "lexicographic")
         if self.objective not in allowed:
             raise ValueError(f"objective={self.objective!r}; allowed: {', '.join(allowed)}")
+        if self.search not in SEARCHES:
+            raise ValueError(f"search={self.search!r}; allowed: {', '.join(SEARCHES)}")
         if self.auxiliary not in ("peak_torque", "cumulative_torque"):
             raise ValueError(f"auxiliary={self.auxiliary!r}; allowed: peak_torque, cumulative_torque")
         if sorted(self.curl_radii_m) != list(self.curl_radii_m) or min(self.curl_radii_m) <= 0:

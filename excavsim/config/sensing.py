@@ -38,6 +38,37 @@ class ScannerConfig(StrictModel):
     outlier_probability: float = Field(default=0.002, ge=0, le=1, description="probability of a wild range per ray")
     max_range_m: float = Field(default=8.0, gt=0, le=100, description="no return beyond this range [m]")
     target_rays: int = Field(default=3, ge=1, le=15, description="rays per side of the patch aimed at each target")
+    # -- the testbed's errors (configs/sensing_testbed.yaml); all off by default, so the default scanner's
+    # ranges are those it gave before they existed (a test holds them equal) --------------------------
+    beam_divergence_mrad: float = Field(
+        default=0.0, ge=0, le=50,
+        description="full divergence of the beam (1/e^2) [mrad]; 0 = a line beam, no footprint, no mixed pixels",
+    )
+    incidence_bias_m: float = Field(
+        default=0.0, ge=0, le=0.5, description="range bias k (1/cos(incidence) - 1), long, on oblique surfaces [m]"
+    )
+    reflectance_bias_m: float = Field(
+        default=0.0, ge=-0.5, le=0.5,
+        description="range walk k ln(soil_reflectance / reflectance): dark surfaces read long for k > 0 [m]",
+    )
+    reflectance_image: bool = Field(default=False, description="return a reflectance image with each range image")
+    reflectance_noise: float = Field(default=0.0, ge=0, le=1, description="std of the reflectance image's noise")
+    soil_reflectance: float = Field(default=0.3, gt=0, le=1, description="mean reflectance of the soil")
+    soil_reflectance_texture: float = Field(
+        default=0.0, ge=0, le=0.9, description="relative std of the soil's reflectance from cell to cell, per episode"
+    )
+    wall_reflectance: float = Field(default=0.5, gt=0, le=1, description="reflectance of the box's walls")
+    target_reflectance: float = Field(default=0.1, gt=0, le=1, description="reflectance of the (dark) target plates")
+    mount_offset_m: float = Field(
+        default=0.0, ge=0, le=0.5,
+        description="std of the mount's position error per axis, per episode [m] (the targets' fit absorbs it)",
+    )
+
+    @property
+    def testbed_errors(self) -> bool:
+        """True when any of the testbed's error terms (footprint, biases, reflectance, mount offset) is on."""
+        return bool(self.beam_divergence_mrad or self.incidence_bias_m or self.reflectance_bias_m
+                    or self.reflectance_image or self.mount_offset_m)
 
     @model_validator(mode="after")
     def _rays(self) -> ScannerConfig:
@@ -54,7 +85,15 @@ class ElevationMapConfig(StrictModel):
     cell_size_m: float = Field(default=0.05, ge=0.01, le=0.5, description="map cell size [m]")
     n_scans: int = Field(default=10, ge=1, le=100, description="range images median-filtered per map")
     calibrate: bool = Field(default=True, description="fit scale and offset to the surveyed targets every scan")
+    calibrate_pose: bool = Field(
+        default=False, description="fit the mount's pose error (x, y, rotation) to the targets with the scales"
+    )
     level: bool = Field(default=True, description="level the map to the surveyed tops of the box's walls")
+    edge_filter_m: float = Field(
+        default=0.0, ge=0, le=1,
+        description="drop pixels whose range jumps by more than this from a neighbour's (Fig. 96's filtered "
+                    "pixels: mixed pixels at edges) [m]; 0 = keep all",
+    )
 
 
 class ForceSensorConfig(StrictModel):

@@ -45,11 +45,16 @@ class ScanGeometry:
 
 @dataclasses.dataclass(frozen=True)
 class RangeImage:
-    """One scan: ranges along the image rays and the target rays [m]; NaN where there was no return."""
+    """One scan: ranges along the image rays and the target rays [m]; NaN where there was no return.
+
+    ``reflectance`` is the brightness of each image pixel (0-1, Fig. 96's reflectance image) when the
+    scanner returns one, else None.
+    """
 
     time: float
     ranges: np.ndarray
     target_ranges: np.ndarray
+    reflectance: np.ndarray | None = None
 
 
 @dataclasses.dataclass(frozen=True)

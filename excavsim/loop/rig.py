@@ -11,6 +11,7 @@ the scanner's view, scan ten images into a map, come back over the box.
 from __future__ import annotations
 
 import dataclasses
+import time
 from collections.abc import Callable
 
 import numpy as np
@@ -55,6 +56,10 @@ class Rig:
     capacity: float
     home: np.ndarray
     park: np.ndarray
+    # Table 7's timing hooks (read by excavsim.loop.timing.Table7Timer; nothing else reads them): the
+    # last scan's wall seconds of range acquisition and of map building, the last moves' simulated
+    # and wall seconds (the dig tool's set-up).
+    timings: dict[str, float] = dataclasses.field(default_factory=dict)
 
 
 def make_rig(sim: Simulation, *, seed: int = 0, goal: TrenchGoal | None = None,
@@ -112,22 +117,33 @@ def go_to(sim: Simulation, q: np.ndarray, cfg: ExecutorConfig) -> None:
             break
 
 
+def _timed_move(sim: Simulation, rig: Rig, q: np.ndarray, name: str) -> None:
+    """:func:`go_to` ``q``, its simulated and wall seconds kept in ``rig.timings[name + "_sim_s"/"_wall_s"]``."""
+    t_sim, t_wall = sim.time, time.perf_counter()
+    go_to(sim, q, rig.executor_cfg)
+    rig.timings[name + "_sim_s"] = float(sim.time - t_sim)
+    rig.timings[name + "_wall_s"] = time.perf_counter() - t_wall
+
+
 def park(sim: Simulation, rig: Rig) -> None:
     """Swing the arm out of the scanner's view (the ``park`` keyframe)."""
-    go_to(sim, rig.park, rig.executor_cfg)
+    _timed_move(sim, rig, rig.park, "park")
 
 
 def go_home(sim: Simulation, rig: Rig) -> None:
     """Bring the arm back over the box (the ``home`` keyframe), ready for a dig."""
-    go_to(sim, rig.home, rig.executor_cfg)
+    _timed_move(sim, rig, rig.home, "home")
 
 
 def scan(sim: Simulation, rig: Rig) -> tuple[ElevationMap, MapAccuracy]:
     """Scan ``n_scans`` range images, build the elevation map, and its accuracy against the truth
     (privileged, for logs and metrics; the map is all the mind gets)."""
     cfg = rig.sensing_cfg
+    t0 = time.perf_counter()
     images = [rig.scanner.scan(sim.time) for _ in range(cfg.map.n_scans)]
+    t1 = time.perf_counter()
     emap, cals = build_map(images, rig.scanner.geometry, cfg.map)
+    rig.timings["acquisition_wall_s"], rig.timings["map_wall_s"] = t1 - t0, time.perf_counter() - t1
     return emap, map_accuracy(emap, sim.soil.grid.surface_z, cals)
 
 

@@ -163,7 +163,7 @@ def run_spec(spec: EpisodeSpec, *, progress: Callable[[str], None] | None = None
 
 def run_with_outputs(spec: EpisodeSpec, *, robot_path: str | None = None, scene_path: str | None = None,
                      record: str | None = None, live: str | None = None, save_maps: str | None = None,
-                     say: Callable[[str], None] = print):
+                     timing: bool = False, say: Callable[[str], None] = print):
     """``excavsim trench``: check every file of ``spec``, then run it with its outputs, saying the
     episode, its summary and where the outputs went.
 
@@ -174,6 +174,8 @@ def run_with_outputs(spec: EpisodeSpec, *, robot_path: str | None = None, scene_
         live: stream the episode to a Rerun viewer: "" spawns one, else its address (checked before
             the episode starts).
         save_maps: a directory for every scanned elevation map (``map_NN.npz``).
+        timing: also say Table 7 (Singh 1995 §7.3): the mean per-cycle perception, feasible-set,
+            selection, set-up and execution times beside the thesis' Sparc 10 numbers.
         say: where the lines go.
 
     Returns:
@@ -195,11 +197,19 @@ def run_with_outputs(spec: EpisodeSpec, *, robot_path: str | None = None, scene_
         from excavsim.loop.episode import MapWriter
 
         observer = ObserverGroup(observer, MapWriter(save_maps))
+    timer = None
+    if timing:
+        from excavsim.loop.timing import Table7Timer
+
+        timer = Table7Timer()
+        observer = ObserverGroup(observer, timer)
     goal = spec.goal if isinstance(spec.goal, str) else (spec.goal.name or "inline goal")
     say(f"excavsim trench: {goal} trench, {spec.dig_budget} digs at most, soil {spec.soil or 'of the scene'}, "
         f"seed {spec.seed}")
     result = run_spec(spec, progress=say, observer=observer, robot_path=robot_path, scene_path=scene_path)
     say(format_episode(result))
+    if timer is not None:
+        say(timer.table())
     if record:
         say(f"recorded to {record}; replay it with: excavsim replay {record}")
     if save_maps:

@@ -55,9 +55,10 @@ from excavsim.planning import kernel
 from excavsim.planning.constraints import shaping
 from excavsim.planning.feasibility import prune_along_d1
 from excavsim.planning.objectives import OBJECTIVES, choose
-from excavsim.planning.search import TrenchPlanner
+# TrenchPlanner (excavsim.planning.search) appears in annotations only: search imports this module for
+# its ``search: anneal`` (TrenchPlanner.plan), so importing it back would make a cycle.
 
-__all__ = ["OBJECTIVES", "AnnealOptions", "AnnealResult", "CellEvaluator", "anneal", "cell_energy"]
+__all__ = ["OBJECTIVES", "AnnealOptions", "AnnealResult", "CellEvaluator", "anneal", "cell_energy", "search"]
 # Energy of an infeasible cell, per objective: above every feasible energy (see the module docstring).
 _PENALTY = {"lexicographic": 3.0, "volume": 1.0, "peak_torque": 3.0, "cumulative_torque": 3.0}
 _CUM_SCALE_M = 0.1  # cumulative-torque energy scale: the torque limits' sum over this path length [m]
@@ -146,8 +147,10 @@ class CellEvaluator:
         emap: the scanned elevation map.
     """
 
-    def __init__(self, planner: TrenchPlanner, emap: ElevationMap):
+    def __init__(self, planner: TrenchPlanner, emap: ElevationMap, *, limits: np.ndarray | None = None,
+                 exclude: np.ndarray | None = None):
         self.planner = planner
+        self.limits = planner.limits if limits is None else np.asarray(limits, dtype=float)
         cfg = planner.cfg
         self.surface = planner.surface(emap)
         self.shape = planner.grid_shape
@@ -163,6 +166,9 @@ class CellEvaluator:
         self.j = np.full(n, -1)
         self.radius = np.zeros(n)
         self.res = {key: np.full(n, np.nan) for key in ("volume", "peak", "cum")}
+        self.masks: dict[str, np.ndarray] = {}  # per constraint, on the evaluated cells (kernel only)
+        # cells not to choose (plan's ``exclude``): the search treats them as infeasible
+        self.excluded = np.zeros(n, bool) if exclude is None else np.asarray(exclude, dtype=bool).reshape(-1)
 
     def __call__(self, cells: np.ndarray) -> np.ndarray:
         """Evaluate ``cells`` (m,) flat indices (repeats allowed); returns their feasibility (m,) bool.
@@ -176,11 +182,13 @@ class CellEvaluator:
         if todo.size:
             p = self.planner
             if p.uses_kernel():
-                out = kernel.evaluate_cells(p.feasibility(self.surface, self.vmax), p.grid_k, p.grid_alpha,
-                                            p.grid_d1, todo)
+                out = kernel.evaluate_cells(p.feasibility(self.surface, self.vmax, limits=self.limits), p.grid_k,
+                                            p.grid_alpha, p.grid_d1, todo)
+                for c, m in out.masks.items():
+                    self.masks.setdefault(c, np.zeros(self.k.size, bool))[todo] = m
             else:
                 pen = p.penetrate(self.k[todo], self.alpha[todo], self.d1[todo], self.surface)
-                out = p.evaluate_cells(pen, p.drag(pen[:, -1]), self.surface, self.vmax)
+                out = p.evaluate_cells(pen, p.drag(pen[:, -1]), self.surface, self.vmax, limits=self.limits)
             self.evaluated[todo] = True
             self.j[todo], self.radius[todo] = out.j, out.radius
             self.feasible[todo] = out.j >= 0
@@ -191,7 +199,7 @@ class CellEvaluator:
 
 def cell_energy(ev: CellEvaluator, cells: np.ndarray, objective: str) -> np.ndarray:
     """Energy (m,) of the flat ``cells`` under ``objective``; lower is better (see the module docstring)."""
-    ok = ev(cells)
+    ok = ev(cells) & ~ev.excluded[cells]
     p = ev.planner
     vol, peak, cum = (ev.res[key][cells] for key in ("volume", "peak", "cum"))
     if objective == "volume":
@@ -238,8 +246,35 @@ def anneal(planner: TrenchPlanner, emap: ElevationMap, *, seed: int | np.random.
         raise ConfigError(f"maxiter={maxiter}; it must be >= 0")
     rng = np.random.default_rng(seed)
     ev = CellEvaluator(planner, emap)
-    shape = np.array(ev.shape)
+    trace = search(ev, rng, maxiter, objective, options)
+    choice, utility, reason = choose(ev.feasible, ev.res["volume"], ev.res["peak"], ev.res["cum"], planner.cfg,
+                                     planner.capacity, objective=objective)
+    action, cell = None, None
+    volume = peak = cum = radius = 0.0
+    if choice is not None:
+        action = TrenchAction(float(ev.k[choice]), float(ev.alpha[choice]), float(ev.d1[choice]),
+                              int(ev.j[choice]) * planner.cfg.sample_spacing_m)
+        cell = tuple(int(i) for i in np.unravel_index(choice, ev.shape))
+        volume, peak, cum = (float(ev.res[key][choice]) for key in ("volume", "peak", "cum"))
+        radius = float(ev.radius[choice])
+    return AnnealResult(
+        action=action, reason=reason, utility=utility, volume_m3=volume, peak_torque_ratio=peak,
+        cumulative_torque=cum, curl_radius_m=radius, cell=cell, objective=objective,
+        cells_evaluated=int(ev.evaluated.sum()), cells_visited=int(ev.visited.sum()), cells_total=ev.k.size,
+        evaluated=ev.evaluated.reshape(ev.shape), best_energy=trace, seconds=time.perf_counter() - t0,
+    )
+
+
+def search(ev: CellEvaluator, rng: np.random.Generator, maxiter: int, objective: str,
+           options: AnnealOptions = AnnealOptions()) -> np.ndarray:
+    """Run the annealing chains (and the polish) on ``ev``; returns the best energy per iteration.
+
+    What :func:`anneal` does before its choice, for a caller that chooses itself
+    (:meth:`~excavsim.planning.search.TrenchPlanner.plan` with ``search: anneal``): the cells it
+    evaluated are then in ``ev``.
+    """
     energy = lambda idx: cell_energy(ev, np.ravel_multi_index(idx.T, ev.shape), objective)  # noqa: E731
+    shape = np.array(ev.shape)
 
     c = options.chains
     cur = rng.integers(0, shape, size=(c, 3))
@@ -277,23 +312,7 @@ def anneal(planner: TrenchPlanner, emap: ElevationMap, *, seed: int | np.random.
             if not e_nb[i] < e_best:
                 break
             best, e_best = nb[i].copy(), float(e_nb[i])
-
-    choice, utility, reason = choose(ev.feasible, ev.res["volume"], ev.res["peak"], ev.res["cum"], planner.cfg,
-                                     planner.capacity, objective=objective)
-    action, cell = None, None
-    volume = peak = cum = radius = 0.0
-    if choice is not None:
-        action = TrenchAction(float(ev.k[choice]), float(ev.alpha[choice]), float(ev.d1[choice]),
-                              int(ev.j[choice]) * planner.cfg.sample_spacing_m)
-        cell = tuple(int(i) for i in np.unravel_index(choice, ev.shape))
-        volume, peak, cum = (float(ev.res[key][choice]) for key in ("volume", "peak", "cum"))
-        radius = float(ev.radius[choice])
-    return AnnealResult(
-        action=action, reason=reason, utility=utility, volume_m3=volume, peak_torque_ratio=peak,
-        cumulative_torque=cum, curl_radius_m=radius, cell=cell, objective=objective,
-        cells_evaluated=int(ev.evaluated.sum()), cells_visited=int(ev.visited.sum()), cells_total=ev.k.size,
-        evaluated=ev.evaluated.reshape(ev.shape), best_energy=trace, seconds=time.perf_counter() - t0,
-    )
+    return trace
 
 
 def _reflect(idx: np.ndarray, shape: np.ndarray) -> np.ndarray:

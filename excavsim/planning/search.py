@@ -75,6 +75,9 @@ class PlanResult:
     masks: dict[str, np.ndarray]
     counts: dict[str, int]
     seconds: float
+    # wall seconds of the feasible set's construction and of the selection (the objective's choice
+    # and the chosen dig's path): Table 7's two planning rows
+    timings: dict[str, float] = dataclasses.field(default_factory=dict)
 
 
 class TrenchPlanner:
@@ -109,6 +112,7 @@ class TrenchPlanner:
         self.predictor = predictor
         self.density = float(density)
         self.kernel = bool(kernel)
+        self._anneal_rng: np.random.Generator | None = None  # search: anneal (made at the first plan)
         self.statics = ArmStatics(arm, table, config.payload_com_tip_m)
         g = config.grid
         self.grid_k = _steps(g.k_min_m, g.k_max_m, g.k_step_m)
@@ -203,10 +207,11 @@ class TrenchPlanner:
                            self.limits if limits is None else np.asarray(limits, dtype=float), self.width, vmax)
 
     def evaluate_cells(self, pen: np.ndarray, drag: np.ndarray, surface: SurfaceProfile, vmax: float, *,
-                       prune: bool = True) -> CellVerdicts:
+                       prune: bool = True, limits: np.ndarray | None = None) -> CellVerdicts:
         """The constraints and longest admissible drag of the cells whose penetrations ``pen`` (m, P, 3)
-        (:meth:`penetrate`) and drags ``drag`` (m, J, 3) (:meth:`drag`) are given, judged cell by cell."""
-        return self.feasibility(surface, vmax).evaluate(pen, drag, prune)
+        (:meth:`penetrate`) and drags ``drag`` (m, J, 3) (:meth:`drag`) are given, judged cell by cell
+        (within ``limits``, default the planner's torque limits)."""
+        return self.feasibility(surface, vmax, limits=limits).evaluate(pen, drag, prune)
 
     def uses_kernel(self, *, prune: bool = True, classify_limits: bool = False, kernel: bool | None = None) -> bool:
         """Whether :meth:`plan` with these arguments searches with the compiled kernel."""
@@ -241,14 +246,16 @@ class TrenchPlanner:
         """
         t0 = time.perf_counter()
         cfg = self.cfg
+        if not (math.isfinite(torque_margin) and torque_margin > 0.0):
+            raise ConfigError(f"torque_margin must be a finite factor > 0; given {torque_margin!r}")
+        if cfg.search == "anneal" and prune:
+            return self._plan_anneal(emap, t0, exclude, torque_margin)
         surface = self.surface(emap)
         k, alpha, d1 = self.grid_cells()
         n = k.size
         shape = self.grid_shape
         vmax = cfg.volume_limit_m3(self.capacity)
         counts = {"cells": n}
-        if not (math.isfinite(torque_margin) and torque_margin > 0.0):
-            raise ConfigError(f"torque_margin must be a finite factor > 0; given {torque_margin!r}")
         if self.uses_kernel(prune=prune, classify_limits=classify_limits, kernel=kernel):
             feas = self.feasibility(surface, vmax, limits=self.limits / torque_margin)
             out = compiled.evaluate_grid(feas, self.grid_k, self.grid_alpha, self.grid_d1)
@@ -294,9 +301,37 @@ class TrenchPlanner:
         masks["sensible"] &= pen_sense
         return self._result(surface, t0, k, alpha, d1, res_j, res_r, res, masks, limiting, counts, exclude)
 
+    def _plan_anneal(self, emap: ElevationMap, t0: float, exclude: np.ndarray | None, torque_margin: float
+                     ) -> PlanResult:
+        """:meth:`plan` by simulated annealing (``search: anneal``, §6.3; :mod:`~excavsim.planning.anneal`).
+
+        The chains evaluate cells exactly as the exhaustive search does (the same pruning, constraints,
+        torque margin and exclusions), and the choice is the objective's over the cells evaluated;
+        the per-cell arrays hold those cells only (the rest read infeasible, NaN), ``limiting`` is 0
+        (feasible) or 1, and ``counts["evaluated"]`` counts them. The generator is the planner's own,
+        seeded by ``anneal_seed``: an episode's plans are reproducible.
+        """
+        from excavsim.planning import anneal  # anneal builds on this module
+
+        if self._anneal_rng is None:
+            self._anneal_rng = np.random.default_rng(self.cfg.anneal_seed)
+        n = int(np.prod(self.grid_shape))
+        if exclude is not None and np.asarray(exclude).size != n:
+            raise UsageError(f"exclude must have the grid's shape {self.grid_shape}; given {np.asarray(exclude).size} "
+                             "cells")
+        ev = anneal.CellEvaluator(self, emap, limits=self.limits / torque_margin, exclude=exclude)
+        anneal.search(ev, self._anneal_rng, self.cfg.anneal_iterations, self.cfg.objective,
+                      anneal.AnnealOptions(chains=self.cfg.anneal_chains))
+        masks = {c: ev.masks.get(c, np.zeros(n, bool)) for c in CONSTRAINTS}
+        counts = {"cells": n, "pruned_d1": int(n - ev.alive.sum()), "evaluated": int(ev.evaluated.sum()),
+                  "visited": int(ev.visited.sum())}
+        return self._result(ev.surface, t0, ev.k, ev.alpha, ev.d1, ev.j, ev.radius, ev.res, masks,
+                            np.where(ev.j >= 0, 0, 1).astype(np.int8), counts, exclude)
+
     def _result(self, surface, t0, k, alpha, d1, res_j, res_r, res, masks, limiting, counts, exclude
                 ) -> PlanResult:
         """The choice among the feasible cells and its path: the :class:`PlanResult` of :meth:`plan`."""
+        t_select = time.perf_counter()
         cfg = self.cfg
         n = k.size
         shape = self.grid_shape
@@ -331,6 +366,7 @@ class TrenchPlanner:
             limiting=limiting.reshape(shape),
             masks={c: m.reshape(shape) for c, m in masks.items()}, counts=counts,
             seconds=time.perf_counter() - t0,
+            timings={"feasible_s": t_select - t0, "select_s": time.perf_counter() - t_select},
         )
 
     def check_action(self, emap: ElevationMap, action: tuple[float, float, float, float],

@@ -2,7 +2,7 @@
 
 The processing is the thesis' (Figs. 101-102 and the text around them):
 
-1. **Calibration** of every range image: a linear least-squares fit ``measured = scale * surveyed +
+1. **Calibration** (optionally with the mount's pose, ``calibrate_pose``: :func:`calibrate_pose`) of every range image: a linear least-squares fit ``measured = scale * surveyed +
    offset`` over the rays aimed at the surveyed targets on the walls, with one pass of outlier
    rejection (a target hidden by a pile or a wild range), applied to the whole image as
    ``(r - offset) / scale``.
@@ -11,6 +11,8 @@ The processing is the thesis' (Figs. 101-102 and the text around them):
    walls fit a plane of the height error (:func:`wall_levelling`), subtracted from every point. The
    range calibration cannot see a misaligned mount, which tilts and lifts the map by a centimetre
    or two: enough to make a finished trench look 5 % short of its goal, or done when it is not.
+3b. **Edge filter** (optional, ``edge_filter_m``; Fig. 96's filtered pixels): the pixels at range
+   jumps are dropped (:func:`edge_pixels`), the mixed pixels a finite beam returns at edges.
 4. **Binning**: pixels become world points along the known ray directions; points inside the soil
    area (less a 3 cm margin at the walls, whose faces would otherwise be read as soil) are reduced
    to their median height per cell of the map (default 5 cm).
@@ -90,6 +92,106 @@ def calibrate(image: RangeImage, geometry: ScanGeometry, *, reject_m: float = 0.
     return Calibration(float(scale), float(offset), residuals, int(use.sum()))
 
 
+@dataclasses.dataclass(frozen=True)
+class PoseCalibration:
+    """The mount's pose error and every image's scale and offset, fitted together to the targets.
+
+    ``position_m`` is the scanner's origin less the surveyed one (x, y; z is not observable from
+    targets on vertical walls and stays 0), ``rotation_rad`` the small rotation vector taking the
+    surveyed ray directions to the true ones; ``calibrations`` the per-image scale and offset with
+    their residuals at the targets after the whole correction.
+    """
+
+    position_m: np.ndarray
+    rotation_rad: np.ndarray
+    calibrations: list[Calibration]
+
+    def origin(self, geometry: ScanGeometry) -> np.ndarray:
+        """The corrected scanner origin, world [m]."""
+        return geometry.origin + self.position_m
+
+    def directions(self, geometry: ScanGeometry) -> np.ndarray:
+        """The corrected image ray directions (n_el, n_az, 3)."""
+        d = geometry.directions + np.cross(self.rotation_rad, geometry.directions)
+        return d / np.linalg.norm(d, axis=-1, keepdims=True)
+
+
+def _target_planes(geometry: ScanGeometry) -> tuple[np.ndarray, np.ndarray]:
+    """Each target ray's plate: unit normal and a point on it, from the surveyed patch (n_targets, k, 3)."""
+    pts = geometry.origin + geometry.target_directions * geometry.target_ranges[..., None]
+    normals = np.empty_like(pts)
+    centres = np.empty_like(pts)
+    for i, patch in enumerate(pts):
+        c = patch.mean(axis=0)
+        n = np.linalg.svd(patch - c)[2][-1] if len(patch) >= 3 else -geometry.target_directions[i].mean(axis=0)
+        normals[i], centres[i] = n, c
+    return normals, centres
+
+
+def calibrate_pose(images: Sequence[RangeImage], geometry: ScanGeometry, *, reject_m: float = 0.05,
+                   rotation: bool = False) -> PoseCalibration:
+    """Fit the mount's pose error and every image's scale and offset to the target ranges at once.
+
+    The calibration of Hoffman and Krotkov that Singh 1995 §7.1.2 describes ("finding the pose of the
+    scanner and the scale and offset parameters that minimizes the error given range readings to
+    known points"). A target ray along the surveyed direction ``d`` meets its plate (normal ``n``,
+    through ``c``, both from the surveyed patch) at ``t0``; from an origin off by ``dp`` and turned
+    by the small rotation ``w`` it meets it at, to first order,
+    ``t0 - n.dp / n.d - t0 w.(d x n) / n.d``, read as ``s_j t + b_j`` by image ``j``. The linear
+    least squares over all images' target rays (with the rejection of :func:`calibrate`: a hidden
+    target, a wild range) gives ``dp`` (x, y), ``w`` and every ``(s_j, b_j)``; the z of ``dp`` does
+    not change the ranges to plates on vertical walls, so it stays unknown (the walls' tops, see
+    :func:`wall_levelling`, see it).
+
+    Raises:
+        ExcavsimError: too few target rays agree for the fit.
+    """
+    n_img = len(images)
+    normals, centres = _target_planes(geometry)
+    d = geometry.target_directions.reshape(-1, 3)
+    n = normals.reshape(-1, 3)
+    t0 = geometry.target_ranges.ravel()
+    nd = np.einsum("ij,ij->i", n, d)
+    a_pos = -(n / nd[:, None])[:, :2]
+    a_rot = -(t0 / nd)[:, None] * np.cross(d, n)
+    k = t0.size
+    measured = np.concatenate([im.target_ranges.ravel() for im in images])
+    n_rot = 3 if rotation else 0
+    rows = np.zeros((n_img * k, 2 * n_img + 2 + n_rot))
+    for j in range(n_img):
+        sl = slice(j * k, (j + 1) * k)
+        rows[sl, 2 * j] = t0
+        rows[sl, 2 * j + 1] = 1.0
+        rows[sl, 2 * n_img:2 * n_img + 2] = a_pos
+        if rotation:
+            rows[sl, 2 * n_img + 2:] = a_rot
+    # Start from the rays within a loose band of their surveyed range (less each image's median
+    # offset): a wild range is out, a pose error of centimetres is in; then tighten to reject_m.
+    use = np.zeros(measured.size, bool)
+    for j in range(n_img):
+        sl = slice(j * k, (j + 1) * k)
+        dev = measured[sl] - t0
+        ok = np.isfinite(dev)
+        if ok.any():
+            use[sl] = ok & (np.abs(dev - np.median(dev[ok])) <= max(4 * reject_m, 0.2))
+    for _ in range(4):
+        if use.sum() < rows.shape[1] + 2:
+            raise WorldError(f"the pose calibration needs at least {rows.shape[1] + 2} agreeing target rays "
+                             f"over {n_img} images; {int(use.sum())} agree (are the targets hidden?)")
+        x, *_ = np.linalg.lstsq(rows[use], measured[use], rcond=None)
+        resid = measured - rows @ x
+        use = np.isfinite(measured) & (np.abs(resid) <= reject_m)
+    pos = np.array([x[2 * n_img], x[2 * n_img + 1], 0.0])
+    rot = np.asarray(x[2 * n_img + 2:], dtype=float) if rotation else np.zeros(3)
+    cals = []
+    for j in range(n_img):
+        sj, bj = float(x[2 * j]), float(x[2 * j + 1])
+        sl = slice(j * k, (j + 1) * k)
+        res = np.where(use[sl], resid[sl] / sj, np.nan).reshape(geometry.target_ranges.shape)
+        cals.append(Calibration(sj, bj, res, int(use[sl].sum())))
+    return PoseCalibration(pos, rot, cals)
+
+
 def median_ranges(images: Sequence[RangeImage], calibrations: Sequence[Calibration] | None) -> np.ndarray:
     """Per-pixel median across images of the (corrected) ranges, ignoring dropouts (NaN if none)."""
     stack = np.stack([im.ranges for im in images])
@@ -107,6 +209,26 @@ def median_ranges(images: Sequence[RangeImage], calibrations: Sequence[Calibrati
     hi = np.take_along_axis(s, ((k + 1) // 2)[None], axis=0)[0]
     out[any_valid] = 0.5 * (lo + hi)[any_valid]
     return out
+
+
+def edge_pixels(ranges: np.ndarray, jump_m: float) -> np.ndarray:
+    """Pixels of a range image (n_el, n_az) whose range differs from a 4-neighbour's by more than ``jump_m``.
+
+    The edges of Fig. 96 (bottom left): at a depth discontinuity a beam of finite footprint returns
+    a mixed range between the foreground and the background, a point in mid-air. Dropping the
+    pixels on both sides of every jump (Fig. 96, bottom right: "pixels that have been filtered
+    out") removes them at the cost of a few good ones; a pixel next to a dropout is kept.
+    """
+    r = np.where(np.isfinite(ranges), ranges, np.nan)
+    jump = np.zeros(r.shape, bool)
+    with np.errstate(invalid="ignore"):
+        d0 = np.abs(np.diff(r, axis=0)) > jump_m
+        d1 = np.abs(np.diff(r, axis=1)) > jump_m
+    jump[1:] |= d0
+    jump[:-1] |= d0
+    jump[:, 1:] |= d1
+    jump[:, :-1] |= d1
+    return jump
 
 
 def fill_unobserved(heights: np.ndarray, observed: np.ndarray) -> np.ndarray:
@@ -196,9 +318,17 @@ def build_map(images: Sequence[RangeImage], geometry: ScanGeometry, config: Elev
         if im.ranges.shape != geometry.image_shape:
             raise UsageError(f"range image of shape {im.ranges.shape} does not match the scanner's "
                              f"{geometry.image_shape}")
-    cals = [calibrate(im, geometry) for im in images] if config.calibrate else None
+    origin, directions = geometry.origin, geometry.directions
+    if config.calibrate and config.calibrate_pose:  # the mount's pose too, from the same targets
+        pose = calibrate_pose(images, geometry)
+        cals = pose.calibrations
+        origin, directions = pose.origin(geometry), pose.directions(geometry)
+    else:
+        cals = [calibrate(im, geometry) for im in images] if config.calibrate else None
     r = median_ranges(images, cals)
-    pts = geometry.origin + geometry.directions * r[..., None]
+    if config.edge_filter_m:  # Fig. 96: the pixels at edges, mixed by the beam's footprint
+        r = np.where(edge_pixels(r, config.edge_filter_m), np.nan, r)
+    pts = origin + directions * r[..., None]
     ok = np.isfinite(r)
     if config.level:  # the height error plane of the mount's misalignment, from the walls' tops
         levelling = wall_levelling(pts[ok], geometry)

@@ -19,6 +19,33 @@ Errors (``configs/sensing.yaml``):
 * dropouts at grazing incidence (beyond 80 deg from the surface normal), random dropouts, and rare
   wild ranges (outliers) that the median over scans removes; no return beyond the maximum range.
 
+The testbed's further errors, all off by default (the default scanner's ranges are bit-identical to
+those before they existed; ``configs/sensing_testbed.yaml`` turns them on; magnitudes and sources in
+docs/notes/2026-12-02-scanner-errors.md). Each random one draws from its own stream, derived from the
+episode's seed sequence, so turning one on changes no other's draws:
+
+* **beam footprint and mixed pixels** (assumed, a Gaussian beam of ``beam_divergence_mrad``): each
+  pixel casts a central ray and a ring of six at half the divergence; the return is the mean of their
+  ranges weighted by their returned power (beam weight x reflectance x cos / range^2), as an AM-CW
+  scanner's phase averages (Singh 1995 §7.1.2 names the Perceptron; the thesis' Fig. 96 filters the
+  pixels at edges). On a smooth surface the mean is the centre's range; at a depth discontinuity (a
+  wall's top edge, a trench's lip) it lands between foreground and background: a mixed pixel;
+* **incidence bias** (assumed): ``incidence_bias_m * (1 / cos - 1)``, long, on oblique surfaces (the
+  elongated footprint's centroid of returned power lies beyond its centre);
+* **reflectance bias** (assumed, "range walk"): ``reflectance_bias_m * ln(soil_reflectance / rho)``:
+  the dark target plates (Fig. 101's "dark spots") read long relative to the soil, so the range
+  calibration against them carries an offset into the soil's heights;
+* **reflectance image** (Fig. 96, top right): brightness ``rho cos (3 m / range)^2`` clipped to [0, 1]
+  plus noise (stream ``reflectance noise``), the soil's reflectance textured per cell per episode
+  (stream ``soil texture``);
+* **occlusion**: truthful from the cast (rays stop at the soil and the walls); with a footprint, the
+  shadow's edge is mixed;
+* **mount position error** (assumed, stream ``mount``): the scanner's true origin is off the surveyed
+  one by ``N(0, mount_offset_m)`` per axis per episode. The range calibration's scale and offset
+  (Fig. 102) absorb only its part along the rays; the mind's pose calibration against the same
+  targets (:func:`excavsim.sensing.elevation.calibrate_pose`) finds its x and y, not its z (the
+  targets are on vertical walls), which the walls' tops (levelling) see.
+
 :class:`LaserScanner` belongs to the world: it reads the true terrain. What the robot's mind knows
 of it is :class:`ScanGeometry` (the calibrated pose, the ray directions and the surveyed target
 ranges) and what it receives is :class:`RangeImage`.
@@ -41,6 +68,11 @@ from excavsim.world.terrain import SoilGrid
 
 
 ZTOP_STEP_M = 0.1  # the cast's upper bound on the terrain moves in steps of this (see LaserScanner._ztop)
+BRIGHTNESS_RANGE_M = 3.0  # range at which a surface of reflectance rho, seen head on, has brightness rho
+RING_RAYS = 6  # rays in the footprint's ring, at half the divergence from the centre
+RING_WEIGHT = math.exp(-2.0)  # a Gaussian beam's intensity at its 1/e^2 half-angle, relative to the centre
+# the testbed terms' random streams (spawn keys under the episode's seed sequence)
+STREAM_MOUNT, STREAM_TEXTURE, STREAM_REFLECTANCE = 1, 2, 3
 
 
 @dataclasses.dataclass
@@ -64,16 +96,53 @@ def _small_rotation(angles: np.ndarray) -> np.ndarray:
     return np.eye(3) + np.sin(theta) * kx + (1 - np.cos(theta)) * kx @ kx
 
 
+def _occluder_geoms(model: mujoco.MjModel) -> list[int]:
+    """The geoms of the box's walls and target plates, in model order."""
+    body = element_id(model, "body", constants.SOIL_BOX_BODY)
+    return [g for g in range(model.ngeom)
+            if model.geom_bodyid[g] == body and model.geom_type[g] == mujoco.mjtGeom.mjGEOM_BOX
+            and not (mujoco.mj_id2name(model, mujoco.mjtObj.mjOBJ_GEOM, g) or "").startswith("scanner")]
+
+
+def _occluder_names(model: mujoco.MjModel) -> list[str]:
+    """The names of :func:`_occluders`' rows."""
+    return [mujoco.mj_id2name(model, mujoco.mjtObj.mjOBJ_GEOM, g) or "" for g in _occluder_geoms(model)]
+
+
 def _occluders(model: mujoco.MjModel, data: mujoco.MjData) -> np.ndarray:
     """The box's walls and target plates as rows (centre 3, rotation 9, half sizes 3)."""
-    body = element_id(model, "body", constants.SOIL_BOX_BODY)
-    rows = []
-    for g in range(model.ngeom):
-        name = mujoco.mj_id2name(model, mujoco.mjtObj.mjOBJ_GEOM, g) or ""
-        if (model.geom_bodyid[g] == body and model.geom_type[g] == mujoco.mjtGeom.mjGEOM_BOX
-                and not name.startswith("scanner")):
-            rows.append(np.r_[data.geom_xpos[g], data.geom_xmat[g], model.geom_size[g]])
+    rows = [np.r_[data.geom_xpos[g], data.geom_xmat[g], model.geom_size[g]] for g in _occluder_geoms(model)]
     return np.asarray(rows, dtype=float).reshape(-1, 15)
+
+
+def error_stream(rng: np.random.Generator, term: int) -> np.random.Generator:
+    """An independent generator for one error term, derived from ``rng``'s seed sequence.
+
+    ``rng`` itself is neither advanced nor changed, so the scanner's original draws (noise, drift,
+    misalignment, dropouts) stay those of the seed whichever terms are on.
+
+    Raises:
+        ValueError: ``rng`` was not made from a seed sequence (e.g. ``np.random.default_rng(seed)``).
+    """
+    ss = getattr(rng.bit_generator, "seed_seq", None)
+    if not isinstance(ss, np.random.SeedSequence):
+        raise ValueError("the scanner's generator must come from a seed (np.random.default_rng(seed)); "
+                         f"its bit generator has no seed sequence ({type(ss).__name__})")
+    return np.random.default_rng(np.random.SeedSequence(ss.entropy, spawn_key=(*ss.spawn_key, 0x5CA, term)))
+
+
+def _ring(dirs: np.ndarray, half_angle: float) -> list[np.ndarray]:
+    """Six unit directions at ``half_angle`` [rad] around each of ``dirs`` (n, 3), one array per ring position."""
+    up = np.array([0.0, 0.0, 1.0])
+    e1 = np.cross(dirs, up)
+    e1 /= np.linalg.norm(e1, axis=1, keepdims=True)
+    e2 = np.cross(dirs, e1)
+    out = []
+    for k in range(RING_RAYS):
+        phi = 2 * math.pi * k / RING_RAYS
+        d = dirs + math.tan(half_angle) * (math.cos(phi) * e1 + math.sin(phi) * e2)
+        out.append(np.ascontiguousarray(d / np.linalg.norm(d, axis=1, keepdims=True)))
+    return out
 
 
 class LaserScanner:
@@ -121,6 +190,20 @@ class LaserScanner:
         self._surveyed_dirs = np.ascontiguousarray(np.concatenate([directions.reshape(-1, 3), t_dirs.reshape(-1, 3)]))
         self._true_dirs = np.ascontiguousarray(self._surveyed_dirs @ self.misalignment.T)
         self._cache: dict[int, _CastCache] = {}
+        # the testbed's terms (all off by default: then nothing below draws or casts anything)
+        self.mount_offset = np.zeros(3)
+        if config.mount_offset_m:
+            self.mount_offset = error_stream(rng, STREAM_MOUNT).normal(0.0, config.mount_offset_m, 3)
+        self._origin = origin + self.mount_offset  # where the rays really start
+        self._ring_dirs = (_ring(self._true_dirs, 0.5e-3 * config.beam_divergence_mrad)
+                           if config.beam_divergence_mrad else [])
+        self._texture = None
+        if config.soil_reflectance_texture and config.testbed_errors:
+            z = error_stream(rng, STREAM_TEXTURE).normal(0.0, config.soil_reflectance_texture, grid.shape)
+            self._texture = np.clip(1.0 + z, 0.1, 2.0)
+        self._refl_rng = error_stream(rng, STREAM_REFLECTANCE) if config.reflectance_noise else None
+        plates = [i for i, name in enumerate(_occluder_names(model)) if name.endswith("_plate")]
+        self._plates = self.boxes[plates]
         self.cast_stats = {"full": 0, "reused": 0, "rays": 0}  # casts from scratch, reuses, rays cast
 
     def _target_rays(self, model: mujoco.MjModel, data: mujoco.MjData,
@@ -155,7 +238,7 @@ class LaserScanner:
         n = dirs.shape[0]
         t, cos, kind = np.empty(n), np.empty(n), np.empty(n, np.int64)
         g = self.grid
-        raycast.cast(g.heights, g.x0, g.y0, g.cell, g.z0, ztop, self.boxes, self.geometry.origin, dirs,
+        raycast.cast(g.heights, g.x0, g.y0, g.cell, g.z0, ztop, self.boxes, self._origin, dirs,
                      self.config.max_range_m, t, cos, kind)
         return t, cos, kind
 
@@ -204,13 +287,73 @@ class LaserScanner:
         z_hi = g.z0 + max(float(entry.heights[window].max()), float(g.heights[window].max())) + 1e-9
         t_end = np.where(np.isfinite(entry.t), entry.t, self.config.max_range_m)
         todo = np.empty(dirs.shape[0], np.bool_)
-        raycast.affected(self.geometry.origin, dirs, t_end, x_lo, x_hi, y_lo, y_hi, z_hi, todo)
+        raycast.affected(self._origin, dirs, t_end, x_lo, x_hi, y_lo, y_hi, z_hi, todo)
         idx = np.nonzero(todo)[0]
         if idx.size:
             t, cos, kind = self._cast(np.ascontiguousarray(dirs[idx]), entry.ztop)
             entry.t[idx], entry.cos[idx], entry.kind[idx] = t, cos, kind
         entry.heights[...] = g.heights
         self.cast_stats["rays"] += int(idx.size)
+
+    def reflectance_of(self, dirs: np.ndarray, t: np.ndarray, kind: np.ndarray) -> np.ndarray:
+        """The reflectance of what each ray (``dirs`` (n, 3), range ``t``, hit ``kind``) hits; NaN if nothing.
+
+        Soil: ``soil_reflectance`` times the episode's texture at the cell hit; boxes: the target
+        plates' reflectance where the hit lies on a plate, the walls' elsewhere.
+        """
+        c = self.config
+        rho = np.full(t.shape, np.nan)
+        soil = kind == raycast.HIT_SOIL
+        box = kind == raycast.HIT_BOX
+        rho[soil] = c.soil_reflectance
+        rho[box] = c.wall_reflectance
+        if self._texture is not None and soil.any():
+            g = self.grid
+            p = self._origin + dirs[soil] * t[soil, None]
+            col = np.clip(((p[:, 0] - g.x0) / g.cell).astype(np.int64), 0, g.shape[1] - 1)
+            row = np.clip(((p[:, 1] - g.y0) / g.cell).astype(np.int64), 0, g.shape[0] - 1)
+            rho[soil] *= self._texture[row, col]
+        if box.any() and len(self._plates):
+            idx = np.nonzero(box)[0]
+            p = self._origin + dirs[idx] * t[idx, None]
+            on_plate = np.zeros(idx.size, bool)
+            for b in self._plates:  # inside the plate's box, 2 mm slack
+                local = (p - b[:3]) @ b[3:12].reshape(3, 3)
+                on_plate |= np.all(np.abs(local) <= b[12:15] + 2e-3, axis=1)
+            rho[idx[on_plate]] = c.target_reflectance
+        return rho
+
+    def _testbed_returns(self) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """Ranges, incidence cosines and brightness of the misaligned rays with the testbed's terms.
+
+        The footprint's rays (centre, and the ring when the beam diverges) each return a range
+        biased by incidence and reflectance; the pixel's range is their mean weighted by returned
+        power, its brightness that power relative to the beam's (see the module's docstring). The
+        cosine is the centre ray's (for the grazing dropouts). Ranges are inf where nothing returned.
+        """
+        c = self.config
+        cos_floor = math.cos(math.radians(c.grazing_dropout_deg))
+        num = den = 0.0
+        weights = [1.0] + [RING_WEIGHT] * len(self._ring_dirs)
+        cos_c = None
+        for w, dirs in zip(weights, [self._true_dirs, *self._ring_dirs]):
+            t, cos, kind = self._cached(dirs)
+            if cos_c is None:
+                cos_c = cos
+            hit = np.isfinite(t)
+            rho = self.reflectance_of(dirs, t, kind)
+            r = np.where(hit, t, 0.0)
+            cos_h = np.maximum(cos, cos_floor)
+            if c.incidence_bias_m:
+                r = r + c.incidence_bias_m * (1.0 / cos_h - 1.0)
+            if c.reflectance_bias_m:
+                r = r + c.reflectance_bias_m * np.log(c.soil_reflectance / np.where(hit, rho, c.soil_reflectance))
+            power = np.where(hit, w * np.nan_to_num(rho) * cos * (BRIGHTNESS_RANGE_M / np.where(hit, t, 1.0)) ** 2,
+                             0.0)
+            num = num + power * r
+            den = den + power
+        ranges = np.where(den > 0, num / np.where(den > 0, den, 1.0), np.inf)
+        return ranges, cos_c, den / sum(weights)
 
     def drift(self) -> None:
         """Advance the scale and offset errors by one scan (the temperature-like random walk)."""
@@ -224,8 +367,12 @@ class LaserScanner:
         ``noise=False`` gives an ideal scanner: exact ranges along the surveyed directions (no
         misalignment, drift, noise, dropouts or outliers; rays that hit nothing still return NaN).
         """
-        t, cos, _ = self._cached(self._true_dirs if noise else self._surveyed_dirs)
         c = self.config
+        brightness = None
+        if noise and c.testbed_errors:
+            t, cos, brightness = self._testbed_returns()
+        else:
+            t, cos, _ = self._cached(self._true_dirs if noise else self._surveyed_dirs)
         r = t.copy()
         r[~np.isfinite(r)] = np.nan
         if noise:
@@ -239,5 +386,12 @@ class LaserScanner:
             r[dropped] = np.nan
             r[r > c.max_range_m] = np.nan
         n_img = self.geometry.directions.shape[0] * self.geometry.directions.shape[1]
+        reflectance = None
+        if noise and c.reflectance_image:
+            b = brightness[:n_img]
+            if self._refl_rng is not None:
+                b = b + self._refl_rng.normal(0.0, c.reflectance_noise, n_img)
+            reflectance = np.where(np.isfinite(r[:n_img]), np.clip(b, 0.0, 1.0), np.nan).reshape(
+                self.geometry.image_shape)
         return RangeImage(float(time), r[:n_img].reshape(self.geometry.image_shape),
-                          r[n_img:].reshape(self.geometry.target_ranges.shape))
+                          r[n_img:].reshape(self.geometry.target_ranges.shape), reflectance)

@@ -137,3 +137,26 @@ def test_an_unknown_objective_is_refused_with_the_allowed_names(planner):
         anneal(planner, _flat_map(), objective="speed")
     with pytest.raises(ExcavsimError, match="chains"):
         AnnealOptions(chains=0)
+
+
+def test_plan_anneals_when_the_config_says_so_and_matches_anneal(mj_model, arm, reach_table, exhaustive, annealed):
+    """``search: anneal`` makes ``plan`` (hence `excavsim plan`, episodes, campaigns) anneal: the same
+    cells, the same choice as :func:`anneal` with the same seed; the default stays exhaustive."""
+    assert load_planner_config().search == "exhaustive"
+    p = _planner(mj_model, arm, reach_table)
+    p.cfg = p.cfg.model_copy(update={"search": "anneal", "anneal_seed": 0})
+    res = p.plan(_flat_map())
+    assert res.action == annealed.action
+    assert res.utility == pytest.approx(annealed.utility, rel=1e-12)
+    assert res.counts["evaluated"] == annealed.cells_evaluated < 0.5 * exhaustive.counts["evaluated"]
+    assert res.poses.shape[0] > 0 and res.feasible.sum() < exhaustive.feasible.sum()
+    # excluded cells are never chosen, and the torque margin tightens the force constraint as in plan
+    excl = np.zeros(res.feasible.shape, bool)
+    excl[np.argmin(np.abs(res.grid_k - res.action.k)), np.argmin(np.abs(res.grid_alpha - res.action.alpha)),
+         np.argmin(np.abs(res.grid_d1 - res.action.d1))] = True
+    p._anneal_rng = None
+    again = p.plan(_flat_map(), exclude=excl)
+    assert again.action is not None and again.action != res.action
+    with pytest.raises(ValueError, match="allowed: exhaustive, anneal"):
+        load_planner_config().model_copy(update={}).model_validate({**load_planner_config().model_dump(),
+                                                                    "search": "greedy"})

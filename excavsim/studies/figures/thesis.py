@@ -305,6 +305,34 @@ def _planner_figures() -> list[Figure]:
             Figure("fig91", "planning time per dig over three episodes (500/1000 N m, objectives)", fp.fig91)]
 
 
+def _sensing_figures() -> list[Figure]:
+    from excavsim.studies.figures import sensing as fs
+
+    return [Figure("fig96", "range and reflectance images, edges, filtered pixels (testbed scanner)", fs.fig96),
+            Figure("fig97", "an elevation map and its error; the 8-seed map-error table (testbed scanner)", fs.fig97),
+            Figure("fig98", "ranges to four targets over 100 scans: noise about a slow drift", fs.fig98),
+            Figure("fig99", "a 10 % range scale error on a profile, and the contact adjustment", fs.fig99),
+            Figure("fig102", "least-squares fit of measured against surveyed target ranges", fs.fig102)]
+
+
+def _learning_figures() -> list[Figure]:
+    from excavsim.studies.figures import learning as fl
+
+    return [Figure("fig68", "the one-dimensional example: eq. 18 with noise, data removed", fl.fig68),
+            Figure("fig69", "global regression with linear, approximate and exact bases", fl.fig69),
+            Figure("fig70", "3 nearest neighbours and LWR (narrow, wide, wide on eq. 21's basis)", fl.fig70),
+            Figure("fig71", "LWR prediction time against inputs, time and error against data used", fl.fig71),
+            Figure("fig72", "nets of 10 and 50 hidden units on x alone", fl.fig72),
+            Figure("fig73", "a net of 5 hidden units on eq. 21's basis", fl.fig73),
+            Figure("fig74", "F_x error against hidden units (held-out digs)", fl.fig74),
+            Figure("fig75", "two exemplar digs: tip paths and measured forces", fl.fig75),
+            Figure("fig76", "predictions on the exemplar digs: fitted wedge model", fl.fig76),
+            Figure("fig77", "predictions on the exemplar digs: global regression", fl.fig77),
+            Figure("fig78", "predictions on the exemplar digs: LWR", fl.fig78),
+            Figure("fig79", "predictions on the exemplar digs: LWR scaled by importance", fl.fig79),
+            Figure("fig80", "predictions on the exemplar digs: back propagation, 30 hidden units", fl.fig80)]
+
+
 FORCE_FIGURES = [
     Figure("fig20", "tip-frame z force on a 10 deg approach for rakes 10, 15, 20 deg (world)", fig20),
     Figure("fig54", "force trace of one horizontal drag, 9-point smoothed, beside eq. 8 (world)", fig54),
@@ -317,7 +345,7 @@ FORCE_FIGURES = [
 
 def figures() -> dict[str, Figure]:
     """Every figure by name, in the thesis' order."""
-    table = {f.name: f for f in FORCE_FIGURES + _planner_figures()}
+    table = {f.name: f for f in FORCE_FIGURES + _planner_figures() + _sensing_figures() + _learning_figures()}
     return dict(sorted(table.items(), key=lambda kv: int(kv[0][3:])))
 
 
