@@ -47,7 +47,7 @@ RUNS = {  # output file -> arguments of the excavsim command
     "campaign_tiny.txt": ["campaign", "configs/campaigns/tiny.yaml", "--out", "{dir}/campaign_tiny", "--workers", "1"],
 }
 # keys of JSON results that differ run to run (wall-clock times, versions, dates, paths)
-VOLATILE_KEYS = re.compile(r"wall|planning_s|seconds|version|time_utc|date|started|finished_at|host|path|elapsed")
+VOLATILE_KEYS = re.compile(r"wall|planning_s|seconds|version|time_utc|date|started|finished_at|host|pid|path|elapsed")
 # wall-clock times, and the lines that name the checkout or the output directory
 TIMING = re.compile(r"\d+\.\d+ s\b|\d+\.\d+ s wall")
 VOLATILE = ("maps saved in", "baseline written", "golden scenarios of", "recorded to")
@@ -133,6 +133,8 @@ def _strip(x):
         return {k: _strip(v) for k, v in x.items() if not VOLATILE_KEYS.search(k)}
     if isinstance(x, list):
         return [_strip(v) for v in x]
+    if isinstance(x, str):
+        return TIMING.sub("T", x)
     return x
 
 
