@@ -11,7 +11,8 @@ planner grid::
     robot: {joints: {wrist_pitch: {torque_limit_nm: 500}}}
     planner: {grid: {k_step_m: 0.2}}
 
-:func:`run_spec` builds the world and runs the episode; :func:`episode_summary` flattens the result
+:func:`spec_episode` makes its :class:`~excavsim.loop.episode.Episode`, :func:`run_spec` builds the
+world and runs it; :func:`episode_summary` flattens the result
 into a JSON-ready dict of numbers (the row a campaign writes and ``regress`` compares).
 """
 
@@ -133,6 +134,36 @@ class ResolvedSpec:
                                                 f"{spec.name}: sensing")
 
 
+def spec_episode(spec: EpisodeSpec, resolved: ResolvedSpec | None = None, *,
+                 progress: Callable[[str], None] | None = None, observer=None):
+    """The :class:`~excavsim.loop.episode.Episode` of ``spec`` (not yet reset): its goal, stopping
+    rules and configurations, and its observers (with the online learner of ``spec.predictor``).
+
+    Args:
+        resolved: ``spec``'s configurations (default: resolved here from ``configs/``).
+    """
+    from excavsim.handoff.episode import ObserverGroup
+    from excavsim.loop.episode import Episode
+
+    r = resolved or ResolvedSpec(spec)
+    if spec.predictor != "wedge":  # learned online, from scratch, from this episode's digs (§5.2)
+        from excavsim.loop.online import OnlineLearning
+
+        observer = ObserverGroup(OnlineLearning(spec.predictor, progress=progress), observer)
+    return Episode(goal=r.goal, dig_budget=spec.dig_budget, done_fraction=spec.done_fraction,
+                   tolerance_m=spec.tolerance_m, planner_cfg=r.planner, executor_cfg=r.executor,
+                   sensing_cfg=r.sensing, robot_cfg=r.robot, scene_cfg=r.scene, progress=progress,
+                   observer=observer)
+
+
+def spec_digs(spec: EpisodeSpec):
+    """The dig source of ``spec``: the planner, with the memory of failed digs when ``spec.memory``."""
+    from excavsim.loop.digs import PlannedDigs
+    from excavsim.planning.experience import DigExperience
+
+    return PlannedDigs(DigExperience() if spec.memory else None)
+
+
 def run_spec(spec: EpisodeSpec, *, progress: Callable[[str], None] | None = None, observer=None,
              robot_path: str | pathlib.Path | None = None, scene_path: str | pathlib.Path | None = None):
     """Build the world of ``spec`` and run its episode; returns the
@@ -142,23 +173,10 @@ def run_spec(spec: EpisodeSpec, *, progress: Callable[[str], None] | None = None
         robot_path, scene_path: base configuration files the spec's overrides apply to (default
             configs/robot.yaml and configs/scene.yaml).
     """
-    from excavsim.handoff.episode import ObserverGroup
-    from excavsim.loop.digs import PlannedDigs
-    from excavsim.loop.episode import run_episode
-    from excavsim.planning.experience import DigExperience
-    from excavsim.world.simulation import Simulation
-
     r = ResolvedSpec(spec, robot_path=robot_path, scene_path=scene_path)
-    if spec.predictor != "wedge":  # learned online, from scratch, from this episode's digs (§5.2)
-        from excavsim.loop.online import OnlineLearning
-
-        observer = ObserverGroup(OnlineLearning(spec.predictor, progress=progress), observer)
-    sim = Simulation(r.robot, r.scene, seed=spec.seed)
-    digs = PlannedDigs(DigExperience() if spec.memory else None)
-    return run_episode(sim, seed=spec.seed, goal=r.goal, dig_budget=spec.dig_budget,
-                       done_fraction=spec.done_fraction, tolerance_m=spec.tolerance_m, planner_cfg=r.planner,
-                       executor_cfg=r.executor, sensing_cfg=r.sensing, digs=digs, progress=progress,
-                       observer=observer)
+    episode = spec_episode(spec, r, progress=progress, observer=observer)
+    episode.reset(spec.seed, digs=spec_digs(spec))
+    return episode.run()
 
 
 def dig_rows(res) -> list[dict[str, Any]]:
