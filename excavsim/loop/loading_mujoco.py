@@ -6,7 +6,7 @@ a lane one bucket wide, with the world's soil model (cutting, the wedge-model fo
 truth terms, bearing, filling, pouring, settlement) and laser scanner. One episode repeats the cycle:
 
 1. **scan**: ``n_scans`` range images of the world's scanner, calibrated, median-filtered and binned into
-   the elevation map (:func:`~excavsim.sensing.elevation.build_map`); the map gives three 2-D sections
+   the elevation map (:func:`~excavsim.sensing.elevation.scan_map`); the map gives three 2-D sections
    (:func:`map_sections`): per column the median across the lane's middle (``|y| < section_half_width``),
    and across each side band beyond it;
 2. **plan**: :func:`excavsim.planning.loading.plan` on the middle section: the loading action (k, alpha)
@@ -56,7 +56,7 @@ from excavsim.handoff.maps import ElevationMap
 from excavsim.handoff.observation import Diverged
 from excavsim.loop import loading as ld
 from excavsim.planning import loading as lp
-from excavsim.sensing.elevation import build_map
+from excavsim.sensing.elevation import scan_map
 from excavsim.world.loading_scene import MACHINES, LoadingWorld
 from excavsim.world.scanner import LaserScanner
 
@@ -244,15 +244,8 @@ def make_scanner(world: LoadingWorld, cfg: LoadingMujocoConfig, seed: int) -> La
 def scan_section(world: LoadingWorld, scanner: LaserScanner, cfg: LoadingMujocoConfig
                  ) -> tuple[ElevationMap, lp.Terrain]:
     """Scan, build the map, and the planner's middle section (:func:`map_sections`)."""
-    emap = scan_map(world, scanner, cfg)
+    emap, _ = scan_map(scanner, world.time, load_sensing_config().map, cfg.n_scans)
     return emap, map_sections(emap, cfg.section_half_width)["middle"]
-
-
-def scan_map(world: LoadingWorld, scanner: LaserScanner, cfg: LoadingMujocoConfig) -> ElevationMap:
-    """``n_scans`` range images of the lane, calibrated, median-filtered and binned into the elevation map."""
-    images = [scanner.scan(world.time) for _ in range(cfg.n_scans)]
-    emap, _ = build_map(images, scanner.geometry, load_sensing_config().map)
-    return emap
 
 
 SECTIONS = ("middle", "near side", "far side")
@@ -402,7 +395,7 @@ def run_episode(name: str, *, seed: int = 0, cfg: LoadingMujocoConfig | None = N
 
     map_first = map_end = math.nan
     for index in range(max_digs or cfg.max_digs):
-        emap = scan_map(world, scanner, cfg)
+        emap, _ = scan_map(scanner, world.time, load_sensing_config().map, cfg.n_scans)
         map_end = map_soil_m3(emap, world.width, rules.ground)
         map_first = map_end if index == 0 else map_first
         section, terrain, plan = choose_section(machine, map_sections(emap, cfg.section_half_width), rules)

@@ -26,7 +26,7 @@ from excavsim.planning.search import TrenchPlanner
 from excavsim.robot.extract import arm_from_model
 from excavsim.robot.kinematics import PlanarArm
 from excavsim.robot.reachability import load_or_build
-from excavsim.sensing.elevation import MapAccuracy, build_map, map_accuracy
+from excavsim.sensing.elevation import MapAccuracy, map_accuracy, scan_map
 from excavsim.sensing.ft import ForceSensor
 from excavsim.world.scanner import LaserScanner
 from excavsim.world.simulation import Simulation
@@ -108,9 +108,7 @@ def go_home(sim: Simulation, rig: Rig) -> None:
 def scan(sim: Simulation, rig: Rig) -> tuple[ElevationMap, MapAccuracy]:
     """Scan ``n_scans`` range images, build the elevation map, and its accuracy against the truth
     (privileged, for logs and metrics; the map is all the mind gets)."""
-    cfg = rig.sensing_cfg
-    images = [rig.scanner.scan(sim.time) for _ in range(cfg.map.n_scans)]
-    emap, cals = build_map(images, rig.scanner.geometry, cfg.map)
+    emap, cals = scan_map(rig.scanner, sim.time, rig.sensing_cfg.map)
     return emap, map_accuracy(emap, sim.soil.grid.surface_z, cals)
 
 

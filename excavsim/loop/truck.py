@@ -42,7 +42,7 @@ from excavsim.handoff.maps import ElevationMap
 from excavsim.learning.lwr_tuning import Memory, Objective, select_action
 from excavsim.loop.rig import go_to
 from excavsim.robot.extract import arm_from_model
-from excavsim.sensing.elevation import build_map
+from excavsim.sensing.elevation import scan_map
 from excavsim.world.scanner import LaserScanner
 from excavsim.world.simulation import Simulation
 
@@ -193,8 +193,7 @@ class Scanner:
         self.scanner = LaserScanner(sim.model, sim.soil.grid, self.cfg.scanner, np.random.default_rng((seed, 7)))
 
     def map(self) -> ElevationMap:
-        images = [self.scanner.scan(self.sim.time) for _ in range(self.cfg.map.n_scans)]
-        return build_map(images, self.scanner.geometry, self.cfg.map)[0]
+        return scan_map(self.scanner, self.sim.time, self.cfg.map)[0]
 
 
 @dataclasses.dataclass

@@ -27,6 +27,7 @@ from __future__ import annotations
 
 import dataclasses
 from collections.abc import Sequence
+from typing import Protocol
 
 import numpy as np
 
@@ -231,6 +232,25 @@ def build_map(images: Sequence[RangeImage], geometry: ScanGeometry, config: Elev
     heights = fill_unobserved(med.reshape(ny, nx), observed)
     emap = ElevationMap(float(x0), float(y0), float(cell), heights, observed, float(images[-1].time))
     return emap, cals or []
+
+
+class Scanner(Protocol):
+    """A range scanner as the mind sees it: its geometry, and a range image taken at a time [s]
+    (:class:`~excavsim.world.scanner.LaserScanner` is one; the mind never imports the world)."""
+
+    geometry: ScanGeometry
+
+    def scan(self, time: float = 0.0) -> RangeImage: ...
+
+
+def scan_map(scanner: Scanner, time: float, config: ElevationMapConfig, n_scans: int | None = None,
+             ) -> tuple[ElevationMap, list[Calibration]]:
+    """Take ``n_scans`` range images (default ``config.n_scans``) at ``time`` [s] and build their
+    elevation map (:func:`build_map`): the one "scan, then map" of every task (trenching, loading
+    from a pile, truck loading). Returns the map and the calibration of each image."""
+    n = config.n_scans if n_scans is None else n_scans
+    images = [scanner.scan(time) for _ in range(n)]
+    return build_map(images, scanner.geometry, config)
 
 
 @dataclasses.dataclass(frozen=True)
