@@ -49,7 +49,7 @@ RUNS = {  # output file -> arguments of the excavsim command
 # keys of JSON results that differ run to run (wall-clock times, versions, dates, paths)
 VOLATILE_KEYS = re.compile(r"wall|planning_s|seconds|version|time_utc|date|started|finished_at|host|pid|path|elapsed")
 # wall-clock times, and the lines that name the checkout or the output directory
-TIMING = re.compile(r"\d+\.\d+ s\b|\d+\.\d+ s wall")
+TIMING = re.compile(r"\d+\.\d+ s\b|\d+\.\d+ s wall|\(\d+ s\)|ETA \d+ min \d+ s")
 VOLATILE = ("maps saved in", "baseline written", "golden scenarios of", "recorded to")
 
 
@@ -127,9 +127,18 @@ def record_envs(out: pathlib.Path) -> None:
     dm.close()
 
 
+# fields added to the episode specification whose defaults change no episode (issue 32: the task and
+# machine of a spec); a result that records them at these values is the same as one from before them
+NEW_SPEC_DEFAULTS = {"task": "trench", "machine": None, "loading": {}}
+
+
 def _strip(x):
-    """A JSON result without its volatile keys (:data:`VOLATILE_KEYS`)."""
+    """A JSON result without its volatile keys (:data:`VOLATILE_KEYS`), and its spec without the new
+    fields at their defaults (:data:`NEW_SPEC_DEFAULTS`)."""
     if isinstance(x, dict):
+        if isinstance(x.get("spec"), dict):
+            x = {**x, "spec": {k: v for k, v in x["spec"].items()
+                               if k not in NEW_SPEC_DEFAULTS or v != NEW_SPEC_DEFAULTS[k]}}
         return {k: _strip(v) for k, v in x.items() if not VOLATILE_KEYS.search(k)}
     if isinstance(x, list):
         return [_strip(v) for v in x]

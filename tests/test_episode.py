@@ -144,9 +144,9 @@ def test_an_episode_stepped_phase_by_phase_is_run_episode_and_refuses_phases_out
     assert emap is not None and ep.index == 1 and not ep.over
     ep.decide()
     ep.dig()
-    assert len(ep.metrics) == 1 and ep.record is not None
+    assert len(ep.task.metrics) == 1 and ep.task.record is not None
     ep.step()  # a whole cycle: the second dig
-    assert not ep.over and len(ep.metrics) == 2
+    assert not ep.over and len(ep.task.metrics) == 2
     ep.step()  # the last scan: the budget is spent
     assert ep.over and ep.result.end == "budget"
     timing = ("wall_s", "planning_s")

@@ -290,3 +290,46 @@ def test_a_divergence_ends_the_episode_with_its_reason_instead_of_a_crash():
     run = lm.run_episode("loader", pile=lm.PileLane(height=0.6, top=0.3, foot=1.5), world_hooks=[blow_up])
     assert run.digs == [] and "dig 1: MuJoCo warned" in run.reason
     assert not run.done
+
+
+def test_loading_is_a_task_of_the_episode_spec_and_the_stepped_episode():
+    from excavsim.config import ConfigError
+    from excavsim.loop.scenario import TASK_MACHINES, EpisodeSpec, dig_rows, episode_summary, run_spec, spec_episode
+
+    assert TASK_MACHINES["load"] == tuple(MACHINES)
+    with pytest.raises(ConfigError, match="unknown task 'dig'; allowed: trench, load"):
+        EpisodeSpec(task="dig")
+    with pytest.raises(ConfigError, match="machine 'loader' does not do task trench; allowed: t3"):
+        EpisodeSpec(machine="loader")
+    with pytest.raises(ConfigError, match="task load does not use goal, planner"):
+        EpisodeSpec(task="load", goal="small", planner={"objective": "volume"})
+    with pytest.raises(ConfigError, match="loading: overrides configs/loading_mujoco.yaml for task load"):
+        EpisodeSpec(loading={"n_scans": 2})
+    with pytest.raises(ConfigError, match="n_scans"):
+        run_spec(EpisodeSpec(task="load", loading={"n_scans": 0}))
+
+    fields = {"task": "load", "machine": "shovel", "seed": 1, "dig_budget": 2,
+              "loading": {"pile": {"height": 0.6, "top": 0.3, "foot": 1.5}, "n_scans": 2}}
+    spec = EpisodeSpec.model_validate(EpisodeSpec(**fields).model_dump(mode="json"))  # a campaign's round trip
+    assert spec.machine_name == "shovel" and EpisodeSpec(task="load").machine_name == "loader"
+    whole = run_spec(spec)
+    direct = lm.run_episode("shovel", seed=1, max_digs=2, cfg=lm.load_mujoco_config().model_copy(
+        update={"pile": lm.PileLane(height=0.6, top=0.3, foot=1.5), "n_scans": 2}))
+    assert [d.bucket_m3 for d in whole.digs] == [d.bucket_m3 for d in direct.digs]  # the same episode, bit for bit
+    assert whole.end == direct.end and whole.reason == direct.reason and whole.end in ("done", "budget")
+
+    ep = spec_episode(spec)  # the same episode, one phase at a time
+    ep.reset(spec.seed)
+    emap = ep.look()
+    assert emap is not None and not ep.over
+    choice = ep.decide()
+    assert choice.plan.action is not None and choice.dig.shape[1] >= 2  # the planned tip path
+    (dig,) = ep.dig()
+    assert dig.bucket_m3 == whole.digs[0].bucket_m3
+    result = ep.run()
+    summary = episode_summary(result)
+    assert summary["task"] == "load" and summary["machine"] == "shovel" and summary["digs"] == len(whole.digs)
+    assert summary["end"] == whole.end and abs(summary["volume_change_m3"]) < 1e-9
+    assert 0 < summary["removed_fraction"] <= 1 and summary["wall_s"] > 0
+    rows = dig_rows(result)
+    assert len(rows) == len(whole.digs) and rows[0]["dug_l"] == pytest.approx(1000 * whole.digs[0].bucket_m3)

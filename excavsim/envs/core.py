@@ -90,12 +90,14 @@ def as_spec(spec: EpisodeSpec | Mapping | str | pathlib.Path | None) -> EpisodeS
     """
     if spec is None:
         return EpisodeSpec()
-    if isinstance(spec, EpisodeSpec):
-        return spec
     if isinstance(spec, Mapping):
-        return parse_config(dict(spec), EpisodeSpec, source="the environment's spec")
-    if isinstance(spec, (str, pathlib.Path)):
-        return load_spec(spec)
+        spec = parse_config(dict(spec), EpisodeSpec, source="the environment's spec")
+    elif isinstance(spec, (str, pathlib.Path)):
+        spec = load_spec(spec)
+    if isinstance(spec, EpisodeSpec):
+        if spec.task != "trench":
+            raise EnvError(f"the trenching environments run task trench; the spec's task is {spec.task}")
+        return spec
     raise EnvError(f"spec must be an EpisodeSpec, a mapping of its fields or a YAML path; given {type(spec).__name__}")
 
 
@@ -292,7 +294,7 @@ class DigCore:
             "outcome": Field((), "int64", n=len(OUTCOMES), doc="last dig's outcome, an index of OUTCOMES"),
             "digs_left": Field((), "int64", n=self.spec.dig_budget + 1, doc="digs left in the budget"),
         }
-        self._episode = spec_episode(self.spec, self.resolved, observer=observer)
+        self._episode = None  # a new one per reset: an online learner's memory is one episode's
         self._closed = False
         self._clear()
 
@@ -314,11 +316,11 @@ class DigCore:
         on the scanned map is made first), or to its end."""
         ep = self._episode
         while not ep.over:
-            emap = ep.look()
+            ep.look()
+            self._belief = ep.emap  # also the last look's, when it ended the episode (the final observation)
             if ep.over:
                 break
-            self._belief = emap
-            choice = self._source.choose(self._rig, emap)
+            choice = self._source.choose(self._rig, ep.emap)
             waiting = self._agent_waits(choice)
             if waiting is not None:
                 self._planned = choice
@@ -389,10 +391,10 @@ class DigCore:
     def _dig(self) -> None:
         """Dig the decided dig; after the soil settled, the record's F/T summary and the reward's terms."""
         ep = self._episode
-        metrics = ep.dig()
-        if metrics is None:  # the world failed on the way to the dig: nothing was dug
+        dug = ep.dig()
+        if dug is None:  # the world failed on the way to the dig: nothing was dug
             return
-        record = ep.record
+        record, metrics = dug
         lo, hi = record.in_soil_window()
         forces = [np.linalg.norm(f) for t, f in record.ft if lo <= t <= hi]
         removed, over = self._truth.measure()
@@ -412,14 +414,16 @@ class DigCore:
         if self._closed:
             raise EnvError("the environment is closed")
         seed = check_seed(seed)
-        self._episode.close()
+        if self._episode is not None:
+            self._episode.close()
         self._clear()
-        ep = self._episode
+        self._episode = ep = spec_episode(self.spec, self.resolved, observer=self.observer)
         try:
             self._source = _AgentDigs(DigExperience() if self.spec.memory else None)
             ep.reset(seed, digs=self._source)
-            self._sim, self._rig = ep.sim, ep.rig
-            self._truth = TrueTrench(ep.sim, ep.mask, ep.z_goal)
+            task = ep.task
+            self._sim, self._rig = task.sim, task.rig
+            self._truth = TrueTrench(task.sim, task.mask, task.z_goal)
             self.over = False  # an episode that ended before its first dig reports its end at the first step
             self._pending = decision = self._advance()
         except BaseException:
@@ -507,7 +511,9 @@ class DigCore:
 
     def close(self) -> None:
         """Abandon the running episode and free the world; a closed core cannot be reset (closing twice is fine)."""
-        self._episode.close()
+        if self._episode is not None:
+            self._episode.close()
+            self._episode = None
         self._clear()
         self._closed = True
 

@@ -28,6 +28,7 @@ import math
 import pathlib
 import time
 from collections.abc import Callable
+from typing import Any, Protocol
 
 import numpy as np
 
@@ -93,87 +94,233 @@ def map_done(emap: ElevationMap, goal: TrenchGoal, arm: PlanarArm, width: float,
     return bool(frac >= done_fraction and np.max(z - zg) <= tolerance_m), frac
 
 
-class Episode:
-    """The trenching episode as an object: :meth:`reset` it on a world, then advance it one cycle at a time.
+class Task(Protocol):
+    """What a task supplies to the platform's :class:`Episode`: its world and pieces, its map reading,
+    its dig source, its execution of a dig, its done test and its metrics. The episode does the rest,
+    written once for every task: the order of the phases, the observers' hooks, the dig budget,
+    the wall clock and its limit, the world's failures while parking, and the end.
 
-    A cycle (:meth:`step`) is three phases, which a caller that decides the dig itself (the
-    environments of :mod:`excavsim.envs`) may call one by one:
+    Each hook's arguments are the task's own (a trench's :class:`~excavsim.handoff.dig.Dig` and
+    :class:`~excavsim.handoff.dig.ExecutionRecord`, a loading dig's path and its
+    :class:`~excavsim.loop.loading_mujoco.MujocoDig`); an observer of a task knows them.
 
-    * :meth:`look`: park, scan the box into a map (the ``scanned`` hook), let the dig source correct
-      it with its experience, and test the stopping rules on it (done, wall time, dig budget);
-    * :meth:`decide`: the cycle's dig, from the dig source or given by the caller (the ``planned``
-      hook); no dig ends the episode (``no_dig``);
-    * :meth:`dig`: go home, execute the dig with the dig script, let the soil settle, measure it
-      (the ``dug`` hook), and tell the dig source how it went.
-
-    The episode ends (:attr:`over`; :attr:`result` set, the ``finished`` hook called) when a phase
-    meets a stopping rule; an error in a phase ends it too (``finished`` with None), and
-    :meth:`close` abandons a running one the same way. The wall clock runs only inside the phases,
-    so the time a caller spends between them (an agent thinking) counts neither towards
-    ``episode_wall_limit_s`` nor towards the result's wall time.
-
-    Args:
-        goal: the trench (default ``configs/trenches/straight.yaml``).
-        dig_budget: the most digs.
-        done_fraction, tolerance_m: the trench is done on the map when this fraction of the goal
-            volume is removed and no cell is more than ``tolerance_m`` above the goal profile; None
-            never stops early (digging for data).
-        planner_cfg, executor_cfg, sensing_cfg: configurations (default: ``configs/``).
-        robot_cfg, scene_cfg: the world :meth:`reset` builds when it is given none (default: ``configs/``).
-        progress: called with a line of text per scan and per dig.
-        observer: sees every episode (see :class:`~excavsim.handoff.episode.EpisodeObserver`).
+    Attributes:
+        wall_limit_s: the episode's wall-clock limit [s] (``math.inf``: none), known after :meth:`reset`.
+        final_scan: whether the dig budget's last dig is followed by a scan that checks it (a
+            trench's done test); otherwise the episode ends right after it.
     """
 
-    def __init__(self, *, goal: TrenchGoal | None = None, dig_budget: int = 20, done_fraction: float | None = 0.95,
+    wall_limit_s: float
+    final_scan: bool
+
+    def reset(self, seed: int, world: Any = None, digs: Any = None) -> tuple:
+        """Build the world (unless given) and the task's pieces for an episode of ``seed``; the
+        arguments of the observers' ``started`` hook (the world first)."""
+
+    def budget_reason(self, budget: int) -> str:
+        """Why the episode ended when its ``budget`` of digs was spent."""
+
+    def park(self) -> None:
+        """The moves before a scan (may raise ``Diverged`` or ``OutOfTime``: the episode ends)."""
+
+    def scan(self) -> tuple[ElevationMap, Any]:
+        """Scan the terrain into a map: the map and the ``scanned`` hook's detail."""
+
+    def assess(self, index: int, scanned: ElevationMap, say: Callable[[str], None]
+               ) -> tuple[Any, tuple[str, str] | None]:
+        """The map the dig source believes, and (end, reason) when the map ends the episode (done)."""
+
+    def choose(self, emap: Any) -> Choice:
+        """The cycle's dig on the believed map (a :class:`~excavsim.loop.digs.Choice`; no dig ends the episode)."""
+
+    def execute(self, index: int, choice: Choice) -> tuple[tuple | None, tuple[str, str] | None]:
+        """Execute dig ``index`` and let the soil settle: the ``dug`` hook's arguments after the index,
+        or None and (end, reason) when the world failed before there was a dig to record."""
+
+    def after(self, index: int, choice: Choice, dug: tuple, say: Callable[[str], None]) -> tuple[str, str] | None:
+        """After the ``dug`` hook: report, learn, and (end, reason) when the dig ended the episode."""
+
+    def result(self, end: str, reason: str, wall_s: float) -> Any:
+        """The episode's result (the ``finished`` hook's argument)."""
+
+
+class TrenchTask:
+    """Trenching (§7.2, Fig. 107): the T3 digs a trench goal out of its soil box.
+
+    Its world is a :class:`~excavsim.world.simulation.Simulation`, its pieces the loop's
+    :class:`~excavsim.loop.rig.Rig`; it parks the arm out of the scanner's view before each scan,
+    is done when the map shows the trench within tolerance, takes its digs from a
+    :class:`~excavsim.loop.digs.DigSource` (the planner by default), executes them with the dig
+    script and measures them (:class:`~excavsim.handoff.episode.DigMetrics`); its result is an
+    :class:`~excavsim.handoff.episode.EpisodeResult`. Arguments as :class:`Episode`'s.
+    """
+
+    final_scan = True
+
+    def __init__(self, *, goal: TrenchGoal | None = None, done_fraction: float | None = 0.95,
                  tolerance_m: float = 0.03, planner_cfg: PlannerConfig | None = None,
                  executor_cfg: ExecutorConfig | None = None, sensing_cfg: SensingConfig | None = None,
-                 robot_cfg: RobotConfig | None = None, scene_cfg: SceneConfig | None = None,
-                 progress: Callable[[str], None] | None = None, observer: EpisodeObserver | None = None):
-        self.goal, self.dig_budget = goal, int(dig_budget)
-        self.done_fraction, self.tolerance_m = done_fraction, tolerance_m
+                 robot_cfg: RobotConfig | None = None, scene_cfg: SceneConfig | None = None):
+        self.goal, self.done_fraction, self.tolerance_m = goal, done_fraction, tolerance_m
         self.planner_cfg, self.executor_cfg, self.sensing_cfg = planner_cfg, executor_cfg, sensing_cfg
         self.robot_cfg, self.scene_cfg = robot_cfg, scene_cfg
-        self.say = progress or (lambda _s: None)
-        self.observer = observer or EpisodeObserver()
-        self.sim: Simulation | None = None
-        self.over = True  # no episode runs before reset
-        self.result: EpisodeResult | None = None
-        self._phase = "none"
-        self._hooked = False
+        self.wall_limit_s = math.inf
 
-    # -- the episode ---------------------------------------------------------------------------------
-    def reset(self, seed: int = 0, *, sim: Simulation | None = None, digs: DigSource | None = None) -> None:
-        """Start an episode with ``seed`` (abandoning a running one, see :meth:`close`).
-
-        Args:
-            seed: the episode seed (the scanner's noise and drift; the soil's too when the world is built here).
-            sim: the world, as built (default: a new one of ``robot_cfg`` and ``scene_cfg`` with ``seed``).
-            digs: where each cycle's dig comes from (default :class:`~excavsim.loop.digs.PlannedDigs` with
-                a fresh :class:`~excavsim.planning.experience.DigExperience`).
-        """
-        self.close()
-        self._wall_s = 0.0
-        self._t0 = time.perf_counter()
-        if sim is None:
-            sim = Simulation(self.robot_cfg, self.scene_cfg, seed=seed)
-        self.sim, self.seed = sim, seed
+    def reset(self, seed: int, world: Simulation | None = None, digs: DigSource | None = None) -> tuple:
+        sim = world if world is not None else Simulation(self.robot_cfg, self.scene_cfg, seed=seed)
+        self.sim = sim
         self.source = digs or PlannedDigs(DigExperience())
         self.rig = rig = make_rig(sim, seed=seed, goal=self.goal, planner_cfg=self.planner_cfg,
                                   executor_cfg=self.executor_cfg, sensing_cfg=self.sensing_cfg)
+        self.wall_limit_s = rig.executor_cfg.episode_wall_limit_s
         self.mask, self.z_goal = trench_footprint(sim, rig.goal, rig.width)
         self._h0 = sim.soil.grid.heights.copy()
         self._v0 = sim.soil.initial_volume
         self.metrics: list[DigMetrics] = []
         self.record: ExecutionRecord | None = None  # the last dig's
-        self.scanned: ElevationMap | None = None  # the last scan's map, and the map the source believes
-        self.emap: ElevationMap | None = None
+        self.emap: ElevationMap | None = None  # the map the source believes, this cycle
         self.accuracy = None
-        self.choice: Choice | None = None
-        self.result = None
-        self.end, self.reason = "budget", f"dig budget of {self.dig_budget} spent"
         self._witness = bucket_witness(sim)
-        self.observer.started(sim, rig, self.mask, self.z_goal)
-        sim.step_hooks.append(self.observer.stepped)
+        return sim, rig, self.mask, self.z_goal
+
+    def budget_reason(self, budget: int) -> str:
+        return f"dig budget of {budget} spent"
+
+    def park(self) -> None:
+        park(self.sim, self.rig)
+
+    def scan(self) -> tuple[ElevationMap, Any]:
+        scanned, self.accuracy = scan(self.sim, self.rig)
+        return scanned, self.accuracy
+
+    def assess(self, index, scanned, say):
+        rig, goal, fraction = self.rig, self.rig.goal, self.done_fraction
+        self.emap = emap = self.source.belief(rig, scanned)  # the scanned map, as the executed digs corrected it
+        done, frac = map_done(emap, goal, rig.arm, rig.width, tolerance_m=self.tolerance_m,
+                              initial_z=goal.surface_z_m, done_fraction=1.0 if fraction is None else fraction)
+        say(f"dig {index}: map {100 * frac:.0f} % of the goal removed (map RMS {100 * self.accuracy.rms_m:.1f} cm)")
+        if done and fraction is not None:
+            return emap, ("done", f"trench done on the map: {100 * frac:.0f} % removed, every cell within "
+                                  f"{100 * self.tolerance_m:.0f} cm")
+        return emap, None
+
+    def choose(self, emap) -> Choice:
+        return self.source.choose(self.rig, emap)
+
+    def execute(self, index, choice):
+        sim, rig, goal, dig = self.sim, self.rig, self.rig.goal, choice.dig
+        try:
+            go_home(sim, rig)
+        except (Diverged, OutOfTime) as exc:
+            return None, _world_failed(exc, f"going home for dig {index}")
+        t0 = sim.time
+        clearance = float(np.min(dig.poses[:, 1] - goal_profile(goal, dig.poses[:, 0])))
+        bounds = (-max(clearance, 0.0), math.inf if dig.shift_up else 0.0)
+        plan = DigPlan(dig.poses, dig.phases, math.radians(goal.waist_deg), dig.volume_m3, bounds,
+                       surface=rig.planner.surface(self.emap))
+        self.record = rec = rig.executor.run(plan, on_phase=self._witness)
+        sim.settle_soil()
+        metrics = dig_metrics(index, dig, rec, capacity=rig.capacity, sim_s=float(sim.time - t0),
+                              ft_rate_hz=rig.executor.ft.rate_hz, density_kg_m3=rig.planner.density)
+        self.metrics.append(metrics)
+        return (rec, metrics), None
+
+    def after(self, index, choice, dug, say):
+        rec, metrics = dug
+        dig = choice.dig
+        say(f"  {dig.kind} {rec.outcome}: {1000 * dig.volume_m3:.1f} l planned, "
+            f"{1000 * rec.bucket_volume_m3:.1f} l dug" + (f", stall at {metrics.stall_joint}" if metrics.stall_joint else ""))
+        if rec.outcome == "diverged" or rec.outcome.startswith("timeout: "):  # the world cannot go on
+            why = rec.warnings[-1] if rec.outcome == "diverged" else rec.outcome[len("timeout: "):]
+            return ("diverged" if rec.outcome == "diverged" else "timeout"), f"{why} (dig {index})"
+        lesson = self.source.learned(self.rig, index, dig, rec, self.emap)
+        if lesson:
+            say(lesson)
+        return None
+
+    def result(self, end, reason, wall_s) -> EpisodeResult:
+        return episode_result(self.sim, self.metrics, end, reason, mask=self.mask, z_goal=self.z_goal,
+                              h0=self._h0, v0=self._v0, wall_s=wall_s)
+
+
+class Episode:
+    """An episode of a :class:`Task` (trenching by default) as an object: :meth:`reset` it, then
+    advance it one cycle at a time.
+
+    A cycle (:meth:`step`) is three phases, which a caller that decides the dig itself (the
+    environments of :mod:`excavsim.envs`) may call one by one:
+
+    * :meth:`look`: the task parks, scans the terrain into a map (the ``scanned`` hook) and reads
+      it (the dig source's belief; the done test); the wall clock's and the dig budget's limits;
+    * :meth:`decide`: the cycle's dig, from the task's dig source or given by the caller (the
+      ``planned`` hook); no dig ends the episode (``no_dig``);
+    * :meth:`dig`: the task executes the dig and lets the soil settle (the ``dug`` hook), then
+      reports and learns.
+
+    The episode ends (:attr:`over`; :attr:`result` set, the ``finished`` hook called) when a phase
+    meets a stopping rule; an error in a phase ends it too (``finished`` with None), and
+    :meth:`close` abandons a running one the same way. The wall clock runs only inside the phases,
+    so the time a caller spends between them (an agent thinking) counts neither towards the task's
+    wall-clock limit nor towards the result's wall time.
+
+    Args:
+        task: the task (default: a :class:`TrenchTask` of the arguments below).
+        dig_budget: the most digs.
+        goal, done_fraction, tolerance_m, planner_cfg, executor_cfg, sensing_cfg, robot_cfg, scene_cfg:
+            the default trenching task's (see :class:`TrenchTask`): the trench (default
+            ``configs/trenches/straight.yaml``); the trench is done on the map when ``done_fraction``
+            of the goal volume is removed and no cell is more than ``tolerance_m`` above the goal
+            profile (None never stops early: digging for data); configurations (default
+            ``configs/``), the world's used when :meth:`reset` is given none.
+        progress: called with a line of text per scan and per dig.
+        observer: sees every episode (see :class:`~excavsim.handoff.episode.EpisodeObserver`).
+    """
+
+    def __init__(self, task: Task | None = None, *, goal: TrenchGoal | None = None, dig_budget: int = 20,
+                 done_fraction: float | None = 0.95, tolerance_m: float = 0.03,
+                 planner_cfg: PlannerConfig | None = None, executor_cfg: ExecutorConfig | None = None,
+                 sensing_cfg: SensingConfig | None = None, robot_cfg: RobotConfig | None = None,
+                 scene_cfg: SceneConfig | None = None, progress: Callable[[str], None] | None = None,
+                 observer: EpisodeObserver | None = None):
+        if task is None:
+            task = TrenchTask(goal=goal, done_fraction=done_fraction, tolerance_m=tolerance_m,
+                              planner_cfg=planner_cfg, executor_cfg=executor_cfg, sensing_cfg=sensing_cfg,
+                              robot_cfg=robot_cfg, scene_cfg=scene_cfg)
+        self.task = task
+        self.dig_budget = int(dig_budget)
+        self.say = progress or (lambda _s: None)
+        self.observer = observer or _Unobserved()
+        self.sim = None  # the world
+        self.over = True  # no episode runs before reset
+        self.result = None
+        self._phase = "none"
+        self._hooked = False
+
+    # -- the episode ---------------------------------------------------------------------------------
+    def reset(self, seed: int = 0, *, sim=None, digs=None) -> None:
+        """Start an episode with ``seed`` (abandoning a running one, see :meth:`close`).
+
+        Args:
+            seed: the episode seed (the scanner's noise and drift; the soil's too when the world is built here).
+            sim: the world, as built (default: the task builds one with ``seed``).
+            digs: where each cycle's dig comes from (default: the task's; for trenching
+                :class:`~excavsim.loop.digs.PlannedDigs` with a fresh
+                :class:`~excavsim.planning.experience.DigExperience`).
+        """
+        self.close()
+        self._wall_s = 0.0
+        self._t0 = time.perf_counter()
+        self.seed = seed
+        started = self.task.reset(seed, sim, digs)
+        self.sim = started[0]
+        self.digs_done = 0
+        self.emap = None  # the map the dig source believes, this cycle
+        self.choice: Choice | None = None
+        self.dug: tuple | None = None  # the last dig's ``dug`` hook arguments after the index
+        self.result = None
+        self.end, self.reason = "budget", self.task.budget_reason(self.dig_budget)
+        self.observer.started(*started)
+        self.sim.step_hooks.append(self.observer.stepped)
         self._hooked = True
         self.over = False
         self._phase = "look"
@@ -182,7 +329,7 @@ class Episode:
     @property
     def index(self) -> int:
         """The cycle's number, 1-based: the digs done so far plus one."""
-        return len(self.metrics) + 1
+        return self.digs_done + 1
 
     def step(self) -> None:
         """One cycle: :meth:`look`, :meth:`decide` (the dig source's dig), :meth:`dig`, as far as the episode goes."""
@@ -192,45 +339,39 @@ class Episode:
         if not self.over:
             self.dig()
 
-    def run(self) -> EpisodeResult:
+    def run(self):
         """Cycle until the episode ends; its result."""
         while not self.over:
             self.step()
         return self.result
 
     # -- the phases ----------------------------------------------------------------------------------
-    def look(self) -> ElevationMap | None:
+    def look(self):
         """Park, scan and test the stopping rules; the map the dig source believes (None when the episode ended)."""
         with self._clock("look"):
-            i, sim, rig = len(self.metrics), self.sim, self.rig
-            limit_s = rig.executor_cfg.episode_wall_limit_s
-            if self._elapsed() > limit_s:
-                return self._end("timeout", f"the episode's wall-clock limit of {limit_s:g} s passed after {i} digs")
+            i, task = self.digs_done, self.task
+            if self._elapsed() > task.wall_limit_s:
+                return self._end("timeout", f"the episode's wall-clock limit of {task.wall_limit_s:g} s passed "
+                                            f"after {i} digs")
             try:
-                park(sim, rig)
+                task.park()
             except (Diverged, OutOfTime) as exc:  # in the moves between digs: no dig to record
                 return self._end(*_world_failed(exc, f"parking after {i} digs"))
-            self.scanned, self.accuracy = scan(sim, rig)
-            self.observer.scanned(i + 1, self.scanned, self.accuracy)
-            self.emap = emap = self.source.belief(rig, self.scanned)  # as the executed digs corrected it
-            goal, fraction = rig.goal, self.done_fraction
-            done, frac = map_done(emap, goal, rig.arm, rig.width, tolerance_m=self.tolerance_m,
-                                  initial_z=goal.surface_z_m, done_fraction=1.0 if fraction is None else fraction)
-            self.say(f"dig {i + 1}: map {100 * frac:.0f} % of the goal removed (map RMS "
-                     f"{100 * self.accuracy.rms_m:.1f} cm)")
-            if done and fraction is not None:
-                return self._end("done", f"trench done on the map: {100 * frac:.0f} % removed, every cell within "
-                                         f"{100 * self.tolerance_m:.0f} cm")
-            if i == self.dig_budget:  # the last scan only checks whether the budget's digs finished the trench
+            scanned, detail = task.scan()
+            self.observer.scanned(i + 1, scanned, detail)
+            self.emap, stop = task.assess(i + 1, scanned, self.say)
+            if stop is not None:
+                return self._end(*stop)
+            if i == self.dig_budget:  # the last scan only checks whether the budget's digs finished the task
                 return self._end(self.end, self.reason)
             self._phase = "decide"
-            return emap
+            return self.emap
 
     def decide(self, choice: Choice | None = None) -> Choice:
-        """The cycle's dig: ``choice``, or the dig source's on the believed map; no dig ends the episode."""
+        """The cycle's dig: ``choice``, or the task's dig source's on the believed map; no dig ends the episode."""
         with self._clock("decide"):
             if choice is None:
-                choice = self.source.choose(self.rig, self.emap)
+                choice = self.task.choose(self.emap)
             self.choice = choice
             if choice.plan is not None or choice.dig is not None:
                 self.observer.planned(self.index, choice.plan, choice.dig)
@@ -242,39 +383,26 @@ class Episode:
             self._phase = "dig"
             return choice
 
-    def dig(self) -> DigMetrics | None:
-        """Execute the decided dig, let the soil settle and measure it; its metrics (None: the world
-        failed on the way to it)."""
+    def dig(self) -> tuple | None:
+        """Execute the decided dig and let the soil settle; the ``dug`` hook's arguments after the index
+        (for trenching the execution record and the dig's metrics), None when the world failed on the way."""
         with self._clock("dig"):
-            i, sim, rig, goal, dig = self.index, self.sim, self.rig, self.rig.goal, self.choice.dig
-            try:
-                go_home(sim, rig)
-            except (Diverged, OutOfTime) as exc:
-                self._end(*_world_failed(exc, f"going home for dig {i}"))
+            i, task = self.index, self.task
+            dug, stop = task.execute(i, self.choice)
+            if dug is None:
+                self._end(*stop)
                 return None
-            t0 = sim.time
-            clearance = float(np.min(dig.poses[:, 1] - goal_profile(goal, dig.poses[:, 0])))
-            bounds = (-max(clearance, 0.0), math.inf if dig.shift_up else 0.0)
-            plan = DigPlan(dig.poses, dig.phases, math.radians(goal.waist_deg), dig.volume_m3, bounds,
-                           surface=rig.planner.surface(self.emap))
-            self.record = rec = rig.executor.run(plan, on_phase=self._witness)
-            sim.settle_soil()
-            metrics = dig_metrics(i, dig, rec, capacity=rig.capacity, sim_s=float(sim.time - t0),
-                                  ft_rate_hz=rig.executor.ft.rate_hz, density_kg_m3=rig.planner.density)
-            self.metrics.append(metrics)
-            self.observer.dug(i, rec, metrics)
-            self.say(f"  {dig.kind} {rec.outcome}: {1000 * dig.volume_m3:.1f} l planned, "
-                     f"{1000 * rec.bucket_volume_m3:.1f} l dug"
-                     + (f", stall at {metrics.stall_joint}" if metrics.stall_joint else ""))
-            if rec.outcome == "diverged" or rec.outcome.startswith("timeout: "):  # the world cannot go on
-                why = rec.warnings[-1] if rec.outcome == "diverged" else rec.outcome[len("timeout: "):]
-                self._end("diverged" if rec.outcome == "diverged" else "timeout", f"{why} (dig {i})")
-                return metrics
-            lesson = self.source.learned(rig, i, dig, rec, self.emap)
-            if lesson:
-                self.say(lesson)
-            self._phase = "look"
-            return metrics
+            self.digs_done += 1
+            self.dug = dug
+            self.observer.dug(i, *dug)
+            stop = task.after(i, self.choice, dug, self.say)
+            if stop is not None:
+                self._end(*stop)
+            elif not task.final_scan and self.digs_done == self.dig_budget:
+                self._end(self.end, self.reason)
+            else:
+                self._phase = "look"
+            return dug
 
     def close(self) -> None:
         """Abandon a running episode: its observers hear ``finished(None)``; the world is left as it is."""
@@ -293,14 +421,15 @@ class Episode:
                                + ("it has ended (or never started); call reset() first" if self.over
                                   else f"the next phase is {self._phase}"))
         self._t0 = time.perf_counter()
-        self.sim.wall_deadline = self._t0 + self.rig.executor_cfg.episode_wall_limit_s - self._wall_s
+        if hasattr(self.sim, "wall_deadline"):
+            self.sim.wall_deadline = self._t0 + self.task.wall_limit_s - self._wall_s
         try:
             yield
         except BaseException:
             self.close()
             raise
         finally:
-            if self.sim is not None:
+            if hasattr(self.sim, "wall_deadline"):
                 self.sim.wall_deadline = None
             self._wall_s += time.perf_counter() - self._t0
 
@@ -309,20 +438,31 @@ class Episode:
         return self._wall_s + time.perf_counter() - self._t0
 
     def _end(self, end: str, reason: str) -> None:
-        """End the episode: measure the trench, call ``finished``."""
+        """End the episode: the task's result, then ``finished``."""
         self.end, self.reason = end, reason
-        self.result = episode_result(self.sim, self.metrics, end, reason, mask=self.mask, z_goal=self.z_goal,
-                                     h0=self._h0, v0=self._v0, wall_s=self._elapsed())
+        self.result = self.task.result(end, reason, self._elapsed())
         self._unhook()
         self.over = True
         self._phase = "none"
         self.observer.finished(self.result)
 
     def _unhook(self) -> None:
-        self.sim.wall_deadline = None
+        if hasattr(self.sim, "wall_deadline"):
+            self.sim.wall_deadline = None
         if self._hooked:
             self.sim.step_hooks.remove(self.observer.stepped)
             self._hooked = False
+
+
+class _Unobserved:
+    """No observer: every hook, with any task's arguments, does nothing."""
+
+    def started(self, *args) -> None: ...
+    def scanned(self, *args) -> None: ...
+    def planned(self, *args) -> None: ...
+    def stepped(self, *args) -> None: ...
+    def dug(self, *args) -> None: ...
+    def finished(self, *args) -> None: ...
 
 
 def run_episode(sim: Simulation, *, seed: int = 0, goal: TrenchGoal | None = None, dig_budget: int = 20,

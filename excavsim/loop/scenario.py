@@ -36,10 +36,23 @@ from excavsim.config.semantic import check_goal
 from excavsim.errors import shorten
 
 
+TASK_MACHINES = {"trench": ("t3",), "load": ("loader", "shovel")}
+"""The tasks an episode specification can name, each with the machines that do it (the first is the default)."""
+TRENCH_ONLY = ("goal", "done_fraction", "tolerance_m", "robot", "scene", "planner", "executor", "sensing", "memory",
+               "predictor")
+"""Fields of :class:`EpisodeSpec` that configure the trenching task only."""
+
+
 class EpisodeSpec(StrictModel):
-    """One trenching episode: goal, soil, seed, stopping rules and configuration overrides."""
+    """One episode: its task and machine, soil, seed, stopping rules and configuration overrides."""
 
     name: str = Field(default="episode", description="label for logs and result files")
+    task: str = Field(default="trench", description="the task: trench (dig a trench goal with the T3) or load "
+                                                    "(load from a pile in MuJoCo: excavsim.loop.loading_mujoco)")
+    machine: str | None = Field(default=None, description="the machine: t3 (task trench); loader or shovel (task "
+                                                          "load); default the task's first")
+    loading: dict[str, Any] = Field(default_factory=dict,
+                                    description="overrides of configs/loading_mujoco.yaml (task load)")
     goal: str | TrenchGoal = Field(
         default="sand", description="a trench of configs/trenches (by name), a YAML path, or the goal inline")
     soil: str | None = Field(default=None, description="soil preset of configs/soils.yaml (default: the scene's)")
@@ -59,8 +72,28 @@ class EpisodeSpec(StrictModel):
         default="wedge", description="the planner's force predictor: wedge (nominal, eq. 8) or a learning method "
                                      "of excavsim.learning.predictors.METHODS, learned online from this episode's digs")
 
+    @property
+    def machine_name(self) -> str:
+        """The machine: ``machine``, or the task's default (the first of :data:`TASK_MACHINES`)."""
+        return self.machine or TASK_MACHINES[self.task][0]
+
     @model_validator(mode="after")
     def _check(self) -> EpisodeSpec:
+        if self.task not in TASK_MACHINES:
+            raise ConfigError(f"unknown task {shorten(repr(self.task))}; allowed: {', '.join(TASK_MACHINES)}")
+        machines = TASK_MACHINES[self.task]
+        if self.machine is not None and self.machine not in machines:
+            raise ConfigError(f"machine {shorten(repr(self.machine))} does not do task {self.task}; allowed: "
+                              f"{', '.join(machines)}")
+        if self.task == "load":
+            fields = type(self).model_fields
+            given = [f for f in TRENCH_ONLY if getattr(self, f) != fields[f].get_default(call_default_factory=True)]
+            if given:
+                raise ConfigError(f"task load does not use {', '.join(given)} (fields of task trench); its "
+                                  "configuration overrides go in loading:")
+        elif self.loading:
+            raise ConfigError("loading: overrides configs/loading_mujoco.yaml for task load; this spec's task is "
+                              f"{self.task}")
         if self.soil is not None:
             get_soil(self.soil)  # raises with the allowed names
         if self.predictor != "wedge":
@@ -114,11 +147,20 @@ def resolve_goal(goal: str | TrenchGoal) -> TrenchGoal:
 
 
 class ResolvedSpec:
-    """The configurations an :class:`EpisodeSpec` stands for, with every override applied."""
+    """The configurations an :class:`EpisodeSpec` stands for, with every override applied: for task
+    trench the goal and the robot, scene, planner, executor and sensing configurations; for task load
+    ``loading`` (configs/loading_mujoco.yaml with the spec's soil and overrides; its ``max_digs`` is
+    the CLI's, an episode of a spec digs at most the spec's ``dig_budget``)."""
 
     def __init__(self, spec: EpisodeSpec, *, robot_path: str | pathlib.Path | None = None,
                  scene_path: str | pathlib.Path | None = None):
         self.spec = spec
+        if spec.task == "load":
+            from excavsim.loop.loading_mujoco import LoadingMujocoConfig, load_mujoco_config
+
+            cfg = _override(load_mujoco_config(), spec.loading, LoadingMujocoConfig, f"{spec.name}: loading")
+            self.loading = cfg.model_copy(update={"soil": spec.soil}) if spec.soil else cfg
+            return
         self.goal: TrenchGoal = resolve_goal(spec.goal)
         self.robot: RobotConfig = _override(load_robot_config(robot_path), spec.robot, RobotConfig,
                                             f"{spec.name}: robot")
@@ -146,6 +188,11 @@ def spec_episode(spec: EpisodeSpec, resolved: ResolvedSpec | None = None, *,
     from excavsim.loop.episode import Episode
 
     r = resolved or ResolvedSpec(spec)
+    if spec.task == "load":
+        from excavsim.loop.loading_mujoco import LoadTask
+
+        return Episode(LoadTask(spec.machine_name, cfg=r.loading), dig_budget=spec.dig_budget, progress=progress,
+                       observer=observer)
     if spec.predictor != "wedge":  # learned online, from scratch, from this episode's digs (§5.2)
         from excavsim.loop.online import OnlineLearning
 
@@ -157,7 +204,10 @@ def spec_episode(spec: EpisodeSpec, resolved: ResolvedSpec | None = None, *,
 
 
 def spec_digs(spec: EpisodeSpec):
-    """The dig source of ``spec``: the planner, with the memory of failed digs when ``spec.memory``."""
+    """The dig source of ``spec``: for task trench the planner, with the memory of failed digs when
+    ``spec.memory``; None (the task's own) otherwise."""
+    if spec.task != "trench":
+        return None
     from excavsim.loop.digs import PlannedDigs
     from excavsim.planning.experience import DigExperience
 
@@ -166,8 +216,9 @@ def spec_digs(spec: EpisodeSpec):
 
 def run_spec(spec: EpisodeSpec, *, progress: Callable[[str], None] | None = None, observer=None,
              robot_path: str | pathlib.Path | None = None, scene_path: str | pathlib.Path | None = None):
-    """Build the world of ``spec`` and run its episode; returns the
-    :class:`~excavsim.loop.episode.EpisodeResult`.
+    """Build the world of ``spec`` and run its episode; returns the task's result (for trench an
+    :class:`~excavsim.handoff.episode.EpisodeResult`, for load a
+    :class:`~excavsim.loop.loading_mujoco.MujocoRun`).
 
     Args:
         robot_path, scene_path: base configuration files the spec's overrides apply to (default
@@ -179,9 +230,22 @@ def run_spec(spec: EpisodeSpec, *, progress: Callable[[str], None] | None = None
     return episode.run()
 
 
+def _is_loading(res) -> bool:
+    """Whether ``res`` is a loading episode's result (a MujocoRun) rather than a trench's."""
+    return hasattr(res, "delivered_m3")
+
+
 def dig_rows(res) -> list[dict[str, Any]]:
-    """One JSON-ready row per dig of an episode: its action (NaN for a fallback dig), volumes [l],
-    outcome and failure, and the predicted and measured peak wrist-pitch torques [N m]."""
+    """One JSON-ready row per dig of an episode: for a trench its action (NaN for a fallback dig),
+    volumes [l], outcome and failure, and the predicted and measured peak wrist-pitch torques [N m];
+    for loading its action, section and volumes [l] and its peak soil force [kN]."""
+    if _is_loading(res):
+        return [{"dig": i, "section": d.section, "k_m": d.action.k, "h_m": d.action.h,
+                 "alpha_deg": math.degrees(d.action.alpha), "d1_m": d.action.d1, "r_m": d.action.r,
+                 "base_x_m": d.base_x, "planned_l": 1000 * d.planned_m3, "dug_l": 1000 * d.bucket_m3,
+                 "delivered_l": 1000 * d.delivered_m3, "spilled_l": 1000 * d.spilled_m3,
+                 "lane_l": 1000 * d.lane_m3, "peak_force_kn": d.peak_force_n / 1000}
+                for i, d in enumerate(res.digs, start=1)]
     rows = []
     for d in res.digs:
         k, a, d1, d2 = d.action if d.action is not None else (math.nan,) * 4
@@ -200,6 +264,8 @@ def episode_summary(res) -> dict[str, Any]:
     (``done``, ``no_dig``, ``budget``, ``diverged`` or ``timeout``), ``reason`` its full text;
     ``diverged_digs`` counts the digs in which the simulation diverged (at most one: the episode ends there).
     """
+    if _is_loading(res):
+        return loading_summary(res)
     digs = res.digs
     n = len(digs)
     peaks = [d.peak_torque_nm for d in digs]
@@ -224,5 +290,29 @@ def episode_summary(res) -> dict[str, Any]:
     }
     for j, name in enumerate(joints[1:4], start=1):
         out[f"peak_{name}_nm"] = max((float(p[j]) for p in peaks), default=0.0)
+    out["dug_l"] = [round(1000 * d.bucket_m3, 3) for d in digs]
+    return out
+
+
+def loading_summary(run) -> dict[str, Any]:
+    """A loading episode's metrics (a :class:`~excavsim.loop.loading_mujoco.MujocoRun`) as the flat dict
+    of :func:`episode_summary`: the same keys where they mean the same (``end``, ``reason``, ``digs``,
+    ``removed_fraction`` of the pile, ``dug_l_per_dig`` in the bucket at lift-out, ``planned_l_per_dig``,
+    ``efficiency``: delivered per dig over the heaped capacity, ``sim_s``, ``wall_s``,
+    ``volume_change_m3``: the volume account's drift), and the loading's own (delivered, spilled, the
+    lane's soil and the map's at the end, the peak soil force)."""
+    digs = run.digs
+    n = len(digs)
+    out: dict[str, Any] = {
+        "task": "load", "machine": run.machine, "end": run.end, "reason": run.reason, "digs": n,
+        "removed_fraction": run.removed_fraction, "pile_removed": bool(run.done),
+        "dug_l_per_dig": 1000 * sum(d.bucket_m3 for d in digs) / n if n else 0.0,
+        "planned_l_per_dig": 1000 * sum(d.planned_m3 for d in digs) / n if n else 0.0,
+        "efficiency": run.efficiency() if n else 0.0,
+        "delivered_l": 1000 * run.delivered_m3, "spilled_l": 1000 * run.spilled_m3,
+        "start_l": 1000 * run.start_m3, "end_l": 1000 * run.end_m3, "map_end_l": 1000 * run.map_end_m3,
+        "peak_force_kn": max((d.peak_force_n for d in digs), default=0.0) / 1000,
+        "sim_s": run.sim_time_s, "wall_s": run.wall_time_s, "volume_change_m3": run.total_drift_m3,
+    }
     out["dug_l"] = [round(1000 * d.bucket_m3, 3) for d in digs]
     return out
