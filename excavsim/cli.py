@@ -162,6 +162,16 @@ def _cmd_trench(args: argparse.Namespace) -> int:
     spec = parse_config({**spec.model_dump(), **{k: v for k, v in given.items() if v is not None}}, EpisodeSpec,
                         source="the command line")
     ResolvedSpec(spec, robot_path=args.robot_config, scene_path=args.scene_config)  # every file checked first
+    if spec.task != "trench":  # another task of the one episode (loading from a pile): run and print it
+        if args.record or args.live is not None or args.save_maps:
+            raise ExcavsimError(f"--record, --live and --save-maps follow trenching episodes; the spec's task is "
+                                f"{spec.task}")
+        from excavsim.loop.loading_mujoco import format_run
+
+        print(f"excavsim trench --spec: task {spec.task}, machine {spec.machine_name}, {spec.dig_budget} digs at "
+              f"most, seed {spec.seed}")
+        print(format_run(run_spec(spec, progress=print)))
+        return 0
     observer = None
     if args.record or args.live is not None:
         from excavsim.record import RerunRecorder

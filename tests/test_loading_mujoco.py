@@ -312,7 +312,35 @@ def test_loading_is_a_task_of_the_episode_spec_and_the_stepped_episode():
               "loading": {"pile": {"height": 0.6, "top": 0.3, "foot": 1.5}, "n_scans": 2}}
     spec = EpisodeSpec.model_validate(EpisodeSpec(**fields).model_dump(mode="json"))  # a campaign's round trip
     assert spec.machine_name == "shovel" and EpisodeSpec(task="load").machine_name == "loader"
-    whole = run_spec(spec)
+    class Hooks:  # one observer protocol: the episode's six hooks, with the loading task's arguments
+        def __init__(self):
+            self.calls = []
+
+        def started(self, world, machine):
+            self.calls.append(("started", machine))
+
+        def scanned(self, index, emap, terrain):
+            self.calls.append(("scanned", index))
+
+        def planned(self, index, plan, tip_path):
+            self.calls.append(("planned", index))
+
+        def stepped(self, world):
+            pass
+
+        def dug(self, index, dig):
+            self.calls.append(("dug", index))
+
+        def finished(self, run):
+            self.calls.append(("finished", run.end))
+
+    from excavsim.handoff.episode import ObserverGroup
+
+    one, two = Hooks(), Hooks()
+    whole = run_spec(spec, observer=ObserverGroup(one, two))
+    assert one.calls == two.calls and one.calls[:4] == [("started", "shovel"), ("scanned", 1), ("planned", 1),
+                                                        ("dug", 1)]
+    assert one.calls[-1] == ("finished", whole.end)
     direct = lm.run_episode("shovel", seed=1, max_digs=2, cfg=lm.load_mujoco_config().model_copy(
         update={"pile": lm.PileLane(height=0.6, top=0.3, foot=1.5), "n_scans": 2}))
     assert [d.bucket_m3 for d in whole.digs] == [d.bucket_m3 for d in direct.digs]  # the same episode, bit for bit
@@ -333,3 +361,18 @@ def test_loading_is_a_task_of_the_episode_spec_and_the_stepped_episode():
     assert 0 < summary["removed_fraction"] <= 1 and summary["wall_s"] > 0
     rows = dig_rows(result)
     assert len(rows) == len(whole.digs) and rows[0]["dug_l"] == pytest.approx(1000 * whole.digs[0].bucket_m3)
+
+
+def test_excavsim_trench_runs_a_loading_spec(tmp_path, capsys):
+    from excavsim.cli import main
+
+    spec = tmp_path / "load.yaml"
+    spec.write_text("task: load\nmachine: loader\ndig_budget: 1\n"
+                    "loading: {pile: {height: 0.6, top: 0.3, foot: 1.5}, n_scans: 2}\n")
+    assert main(["trench", "--spec", str(spec), "--record", str(tmp_path / "x.rrd")]) == 2
+    assert "the spec's task is load" in capsys.readouterr().err
+    assert main(["trench", "--spec", str(spec), "--goal", "small"]) == 2
+    assert "task load does not use goal" in capsys.readouterr().err
+    assert main(["trench", "--spec", str(spec)]) == 0
+    out = capsys.readouterr().out
+    assert "task load, machine loader, 1 digs at most" in out and "1 digs spent" in out
