@@ -376,3 +376,19 @@ def test_excavsim_trench_runs_a_loading_spec(tmp_path, capsys):
     assert main(["trench", "--spec", str(spec)]) == 0
     out = capsys.readouterr().out
     assert "task load, machine loader, 1 digs at most" in out and "1 digs spent" in out
+
+
+def test_a_campaign_grid_varies_the_loading_machine_and_its_configuration():
+    from excavsim.config import ConfigError
+    from excavsim.loop.campaign_grid import expand_grid, parse_campaign
+
+    data = {"name": "loads", "base": {"task": "load", "dig_budget": 2, "loading": {"n_scans": 2}},
+            "grid": {"machine": ["loader", "shovel"], "loading.pile.height": [0.6, 0.8], "seed": [0]}}
+    episodes = expand_grid(parse_campaign(data))
+    assert len({e.id for e in episodes}) == 4
+    assert {(e.spec.machine_name, e.spec.loading["pile"]["height"], e.spec.loading["n_scans"]) for e in episodes} == \
+        {(m, h, 2) for m in ("loader", "shovel") for h in (0.6, 0.8)}
+    with pytest.raises(ConfigError, match=r"grid key 'loading.n_scans', value 0:(.|\n)*n_scans"):
+        parse_campaign({**data, "grid": {"loading.n_scans": [0]}})
+    with pytest.raises(ConfigError, match="machine 't3' does not do task load"):
+        parse_campaign({**data, "grid": {"machine": ["t3"]}})
