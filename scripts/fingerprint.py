@@ -2,9 +2,14 @@
 
 ``record DIR`` runs ``excavsim trench`` (the default episode, saving every scanned map),
 ``trench --goal small --seed 3`` (likewise), ``regress`` (writing every scenario's metrics to full
-precision) and ``plan --no-figures`` with this interpreter and this checkout, and keeps their output
-in ``DIR``. ``compare A B`` compares two fingerprints: the printed tables and summaries line by line
-with the timings masked, the regression metrics exactly, and every scanned map bit for bit. Episodes
+precision), ``plan --no-figures``, ``cycle``, ``demo``, the tiny campaign
+(``configs/campaigns/tiny.yaml``, one worker) and episodes of the dig-level environments (the
+Gymnasium one with the planner's action and with seeded random actions, the dm_env one with the
+planner's action) with this interpreter and this checkout, and keeps their output in ``DIR``.
+``compare A B`` compares two fingerprints: the printed tables and summaries line by line with the
+timings masked, the regression metrics, the campaign's episode results and the environments'
+observations, rewards and infos exactly (wall times, planning times and versions left out), and
+every scanned map bit for bit. Episodes
 are deterministic for a seed on one machine, so a pure refactoring must compare identical there;
 across machines floating-point differences grow into different digs, and a comparison means
 nothing.
@@ -14,7 +19,7 @@ nothing.
     python scripts/fingerprint.py record /tmp/after        # this checkout
     python scripts/fingerprint.py compare /tmp/before /tmp/after
 
-Takes about a minute per fingerprint on 2 cores.
+Takes a few minutes per fingerprint on 2 cores.
 """
 
 from __future__ import annotations
@@ -37,9 +42,14 @@ RUNS = {  # output file -> arguments of the excavsim command
     "trench_small3.txt": ["trench", "--goal", "small", "--seed", "3", "--save-maps", "{dir}/maps_small3"],
     "regress.txt": ["regress", "--all", "--update", "--baseline", "{dir}/regress_full.json"],
     "plan.txt": ["plan", "--no-figures"],
+    "cycle.txt": ["cycle"],
+    "demo.txt": ["demo"],
+    "campaign_tiny.txt": ["campaign", "configs/campaigns/tiny.yaml", "--out", "{dir}/campaign_tiny", "--workers", "1"],
 }
+# keys of JSON results that differ run to run (wall-clock times, versions, dates, paths)
+VOLATILE_KEYS = re.compile(r"wall|planning_s|seconds|version|time_utc|date|started|finished_at|host|pid|path|elapsed")
 # wall-clock times, and the lines that name the checkout or the output directory
-TIMING = re.compile(r"\d+\.\d+ s\b|\d+\.\d+ s wall")
+TIMING = re.compile(r"\d+\.\d+ s\b|\d+\.\d+ s wall|\(\d+ s\)|ETA \d+ min \d+ s")
 VOLATILE = ("maps saved in", "baseline written", "golden scenarios of", "recorded to")
 
 
@@ -53,7 +63,88 @@ def record(out: pathlib.Path, repo: pathlib.Path = REPO) -> None:
         cmd = [sys.executable, "-m", "excavsim.cli", *(a.format(dir=out) for a in args)]
         print("running", " ".join(cmd[2:]), flush=True)
         done = subprocess.run(cmd, cwd=repo, env=env, capture_output=True, text=True)
-        (out / name).write_text(done.stdout + done.stderr + f"exit status {done.returncode}\n")
+        text = (done.stdout + done.stderr).replace(str(out), "DIR")
+        (out / name).write_text(text + f"exit status {done.returncode}\n")
+    print("running the dig environments", flush=True)
+    done = subprocess.run([sys.executable, __file__, "_envs", str(out / "envs")], cwd=repo, env=env,
+                          capture_output=True, text=True)
+    (out / "envs.txt").write_text(done.stdout + done.stderr + f"exit status {done.returncode}\n")
+
+
+def _jsonable(x):
+    """Observations, rewards and infos as JSON (arrays as lists with their dtype, NaN as a string)."""
+    if isinstance(x, dict):
+        return {str(k): _jsonable(v) for k, v in x.items()}
+    if isinstance(x, (list, tuple)):
+        return [_jsonable(v) for v in x]
+    if isinstance(x, np.ndarray):
+        return {"dtype": str(x.dtype), "shape": list(x.shape), "data": _jsonable(x.ravel().tolist())}
+    if isinstance(x, (np.generic,)):
+        return _jsonable(x.item())
+    if isinstance(x, float):
+        return repr(x) if x != x or x in (float("inf"), float("-inf")) else x
+    return x
+
+
+def record_envs(out: pathlib.Path) -> None:
+    """Episodes of the dig-level environments, every observation, reward and info kept in
+    ``out/*.json``: TrenchDigEnv on the small trench with the planner's action (seeds 0, 1) and with
+    seeded random actions (seed 2), and the dm_env face with the planner's action (seed 3)."""
+    import gymnasium as gym
+
+    import excavsim.envs  # noqa: F401  (registers the environments)
+    from excavsim.envs.dm import DmTrenchDig
+
+    out.mkdir(parents=True, exist_ok=True)
+    spec = {"goal": "small", "dig_budget": 3, "sensing": {"map": {"n_scans": 2}}}
+    env = gym.make("excavsim/TrenchDig-v0", spec=spec).unwrapped
+    mid = (env.action_space.low + env.action_space.high) / 2
+    for name, seed, random in (("gym_planner_0", 0, False), ("gym_planner_1", 1, False), ("gym_random_2", 2, True)):
+        rng = np.random.default_rng(seed)
+        obs, info = env.reset(seed=seed)
+        steps = [{"obs": obs, "info": info}]
+        done = False
+        while not done:
+            if random:
+                action = rng.uniform(env.action_space.low, env.action_space.high)
+            else:
+                action = info["planner_action"] if info.get("planner_action") is not None else mid
+            obs, reward, terminated, truncated, info = env.step(action)
+            steps.append({"action": action, "obs": obs, "reward": reward, "terminated": terminated,
+                          "truncated": truncated, "info": info})
+            done = terminated or truncated
+        (out / f"{name}.json").write_text(json.dumps(_jsonable(steps), indent=0, sort_keys=True))
+        print(name, len(steps) - 1, "steps, end", info.get("episode", {}).get("end"))
+    env.close()
+    dm = DmTrenchDig(spec, seed=3)
+    ts = dm.reset()
+    steps = [{"obs": ts.observation, "type": int(ts.step_type)}]
+    while not ts.last():
+        ts = dm.step(mid)
+        steps.append({"obs": ts.observation, "reward": ts.reward, "discount": ts.discount, "type": int(ts.step_type)})
+    (out / "dm_mid_3.json").write_text(json.dumps(_jsonable(steps), indent=0, sort_keys=True))
+    print("dm_mid_3", len(steps) - 1, "steps")
+    dm.close()
+
+
+# fields added to the episode specification whose defaults change no episode (issue 32: the task and
+# machine of a spec); a result that records them at these values is the same as one from before them
+NEW_SPEC_DEFAULTS = {"task": "trench", "machine": None, "loading": {}}
+
+
+def _strip(x):
+    """A JSON result without its volatile keys (:data:`VOLATILE_KEYS`), and its spec without the new
+    fields at their defaults (:data:`NEW_SPEC_DEFAULTS`)."""
+    if isinstance(x, dict):
+        if isinstance(x.get("spec"), dict):
+            x = {**x, "spec": {k: v for k, v in x["spec"].items()
+                               if k not in NEW_SPEC_DEFAULTS or v != NEW_SPEC_DEFAULTS[k]}}
+        return {k: _strip(v) for k, v in x.items() if not VOLATILE_KEYS.search(k)}
+    if isinstance(x, list):
+        return [_strip(v) for v in x]
+    if isinstance(x, str):
+        return TIMING.sub("T", x)
+    return x
 
 
 def _lines(path: pathlib.Path) -> list[str]:
@@ -64,7 +155,7 @@ def _lines(path: pathlib.Path) -> list[str]:
 def compare(a: pathlib.Path, b: pathlib.Path) -> int:
     """Print what differs between two fingerprints; returns the number of differences."""
     bad = 0
-    for name in RUNS:
+    for name in [*RUNS, "envs.txt"]:
         la, lb = _lines(a / name), _lines(b / name)
         if la == lb:
             print(f"same  {name} ({len(la)} lines)")
@@ -90,6 +181,18 @@ def compare(a: pathlib.Path, b: pathlib.Path) -> int:
         bad += len(differ)
         detail = ", ".join(differ) if differ else "bit for bit"
         print(f"{'DIFF ' if differ else 'same '} {maps.name}: {len(files)} maps, {detail}")
+    for folder in ("campaign_tiny/episodes", "envs"):
+        files = sorted((a / folder).glob("*.json"))
+        other = sorted((b / folder).glob("*.json"))
+        if not files or [f.name for f in files] != [f.name for f in other]:
+            bad += 1
+            print(f"DIFF  {folder}: {len(files)} results against {len(other)}")
+            continue
+        differ = [f.name for f in files
+                  if _strip(json.loads(f.read_text())) != _strip(json.loads((b / folder / f.name).read_text()))]
+        bad += len(differ)
+        print(f"{'DIFF ' if differ else 'same '} {folder}: {len(files)} results"
+              + (f", differing: {', '.join(differ)}" if differ else ", exactly"))
     print("IDENTICAL" if not bad else f"{bad} DIFFERENCES")
     return bad
 
@@ -103,7 +206,12 @@ def main(argv: list[str] | None = None) -> int:
     cmp = sub.add_parser("compare", help="compare two fingerprints")
     cmp.add_argument("a", type=pathlib.Path)
     cmp.add_argument("b", type=pathlib.Path)
+    envs = sub.add_parser("_envs", help="(internal) run the environments' episodes into DIR")
+    envs.add_argument("dir", type=pathlib.Path)
     args = parser.parse_args(argv)
+    if args.command == "_envs":
+        record_envs(args.dir)
+        return 0
     if args.command == "record":
         record(args.dir, args.repo.resolve())
         return 0

@@ -4,11 +4,10 @@ Two cores, each wrapped by a Gymnasium face (:mod:`~excavsim.envs.dig_env`,
 :mod:`~excavsim.envs.joint_env`) and a dm_env face (:mod:`~excavsim.envs.dm`):
 
 * :class:`DigCore`, one step per dig. The episode is the loop's own
-  (:func:`~excavsim.loop.episode.run_episode`, what ``excavsim trench`` runs), driven in a worker
-  thread with a dig source that is the planner's (:class:`~excavsim.loop.digs.PlannedDigs`) except
-  that it asks the agent for the trenching action. The worker and the caller never run at the same
-  time: the worker blocks while the agent thinks, the caller while the world digs, so an episode is
-  as deterministic as the loop's. The planner's choice on the same map is computed each cycle
+  (:class:`~excavsim.loop.episode.Episode`, what ``excavsim trench`` runs), stepped phase by phase
+  in the caller's thread with the planner's dig source (:class:`~excavsim.loop.digs.PlannedDigs`),
+  the agent's trenching action in place of the planner's choice. The episode's wall clock stops
+  while the agent thinks. The planner's choice on the same map is computed each cycle
   anyway (it gives the feasible set, each cell's drag d2 and its curl), and when the agent's action
   falls on the planner's cell the planner's dig is dug as it is, so the planner used as a policy
   reproduces ``excavsim trench`` dig for dig.
@@ -25,23 +24,20 @@ from __future__ import annotations
 import dataclasses
 import math
 import pathlib
-import queue
-import threading
-import time
 from collections.abc import Mapping
 from typing import Any
 
 import numpy as np
 
 from excavsim.config import TrenchGoal, parse_config
-from excavsim.errors import EnvError, ExcavsimError
+from excavsim.errors import EnvError
 from excavsim.handoff.dig import Dig, TrenchAction
-from excavsim.handoff.episode import DigMetrics, EpisodeObserver, EpisodeResult, ObserverGroup
+from excavsim.handoff.episode import EpisodeObserver, EpisodeResult
 from excavsim.handoff.goal import goal_profile
 from excavsim.handoff.maps import ElevationMap
 from excavsim.loop.digs import Choice, PlannedDigs
-from excavsim.loop.episode import map_done, run_episode
-from excavsim.loop.scenario import EpisodeSpec, ResolvedSpec, dig_rows, episode_summary, load_spec
+from excavsim.loop.episode import map_done
+from excavsim.loop.scenario import EpisodeSpec, ResolvedSpec, dig_rows, episode_summary, load_spec, spec_episode
 from excavsim.planning.experience import DigExperience
 from excavsim.world.simulation import Simulation
 
@@ -84,12 +80,14 @@ def as_spec(spec: EpisodeSpec | Mapping | str | pathlib.Path | None) -> EpisodeS
     """
     if spec is None:
         return EpisodeSpec()
-    if isinstance(spec, EpisodeSpec):
-        return spec
     if isinstance(spec, Mapping):
-        return parse_config(dict(spec), EpisodeSpec, source="the environment's spec")
-    if isinstance(spec, (str, pathlib.Path)):
-        return load_spec(spec)
+        spec = parse_config(dict(spec), EpisodeSpec, source="the environment's spec")
+    elif isinstance(spec, (str, pathlib.Path)):
+        spec = load_spec(spec)
+    if isinstance(spec, EpisodeSpec):
+        if spec.task != "trench":
+            raise EnvError(f"the trenching environments run task trench; the spec's task is {spec.task}")
+        return spec
     raise EnvError(f"spec must be an EpisodeSpec, a mapping of its fields or a YAML path; given {type(spec).__name__}")
 
 
@@ -213,53 +211,28 @@ DIG_WEIGHTS = {"removed_per_l": 1.0, "overdig_per_l": 2.0, "stall": 5.0}
 below the goal profile, per stalled dig."""
 
 
-class _Stop(BaseException):
-    """Raised in the worker thread to abandon its episode (a new reset, or close)."""
-
-
 @dataclasses.dataclass
 class _Decision:
-    """What the worker hands over when it needs the agent's action (or when its episode ended)."""
+    """Where the episode stands for the agent: the map and the planner's action of a cycle that
+    waits for the agent's action, or the episode's result when it ended."""
 
     emap: ElevationMap | None = None
     planner_action: TrenchAction | None = None
     planner_fell_back: bool = False
     result: EpisodeResult | None = None
-    error: BaseException | None = None
 
 
 class _AgentDigs(PlannedDigs):
-    """The planner's dig source with the agent's trenching action in place of the planner's choice
-    (see :class:`DigCore`); runs in the worker thread."""
+    """The planner's dig source, remembering the scanned map's profile of the cycle (before the
+    experience's bounds), where the agent's cells are excluded as the planner's are (see :class:`DigCore`)."""
 
-    def __init__(self, core: DigCore, experience: DigExperience | None):
+    def __init__(self, experience: DigExperience | None):
         super().__init__(experience)
-        self.core = core
-        self._scanned_surface = None
+        self.scanned_surface = None
 
     def belief(self, rig, emap):
-        self._scanned_surface = rig.planner.surface(emap)
-        believed = super().belief(rig, emap)
-        self.core._belief = believed
-        return believed
-
-    def choose(self, rig, emap):
-        choice = super().choose(rig, emap)
-        return self.core._agent_choice(rig, emap, choice, self)
-
-
-class _Watcher(EpisodeObserver):
-    """Follows the worker's episode for the core: the world, the truth for rewards, each dig."""
-
-    def __init__(self, core: DigCore):
-        self.core = core
-
-    def started(self, sim, rig, goal_mask, goal_z):
-        self.core._sim, self.core._rig = sim, rig
-        self.core._truth = TrueTrench(sim, goal_mask, goal_z)
-
-    def dug(self, index, record, metrics):
-        self.core._dug(record, metrics)
+        self.scanned_surface = rig.planner.surface(emap)
+        return super().belief(rig, emap)
 
 
 class DigCore:
@@ -311,63 +284,79 @@ class DigCore:
             "outcome": Field((), "int64", n=len(OUTCOMES), doc="last dig's outcome, an index of OUTCOMES"),
             "digs_left": Field((), "int64", n=self.spec.dig_budget + 1, doc="digs left in the budget"),
         }
-        self._thread: threading.Thread | None = None
-        self._actions: queue.Queue = queue.Queue()
-        self._events: queue.Queue = queue.Queue()
+        self._episode = None  # a new one per reset: an online learner's memory is one episode's
         self._closed = False
         self._clear()
 
     def _clear(self) -> None:
         self._sim = self._rig = self._truth = self._belief = None
         self._pending: _Decision | None = None
+        self._planned: Choice | None = None  # the planner's choice of the cycle waiting for the agent
         self._last: dict[str, Any] | None = None  # the last dig's metrics, record summary and reward terms
+        self._decided: dict[str, Any] | None = None  # how the agent's last action was dug
         self._goal_layers = None
         self._measured = (0.0, 0.0)
         self.result: EpisodeResult | None = None
         self.over = True  # no episode to step
         self.digs = 0
 
-    # -- the worker ------------------------------------------------------------------------------
-    def _run(self, seed: int) -> None:
-        r = self.resolved
-        spec = self.spec.model_copy(update={"seed": seed})
-        try:
-            observer = ObserverGroup(_Watcher(self), self.observer)
-            if spec.predictor != "wedge":  # as run_spec: learned online from this episode's digs
-                from excavsim.loop.online import OnlineLearning
+    # -- the episode, up to the agent's next decision ---------------------------------------------
+    def _advance(self) -> _Decision:
+        """Cycle the episode up to the next dig that needs the agent's action (the planner's choice
+        on the scanned map is made first), or to its end."""
+        ep = self._episode
+        while not ep.over:
+            ep.look()
+            self._belief = ep.emap  # also the last look's, when it ended the episode (the final observation)
+            if ep.over:
+                break
+            choice = self._source.choose(self._rig, ep.emap)
+            waiting = self._agent_waits(choice)
+            if waiting is not None:
+                self._planned = choice
+                return waiting
+            ep.decide(choice)  # the episode goes on (or ends) without the agent
+            if not ep.over:
+                self._dig()
+        return _Decision(emap=self._belief, result=ep.result)
 
-                observer = ObserverGroup(OnlineLearning(spec.predictor), observer)
-            sim = Simulation(r.robot, r.scene, seed=seed)
-            source = _AgentDigs(self, DigExperience() if spec.memory else None)
-            result = run_episode(sim, seed=seed, goal=r.goal, dig_budget=spec.dig_budget,
-                                 done_fraction=spec.done_fraction, tolerance_m=spec.tolerance_m, planner_cfg=r.planner,
-                                 executor_cfg=r.executor, sensing_cfg=r.sensing, digs=source, observer=observer)
-        except _Stop:
-            return
-        except BaseException as exc:  # handed to the caller, raised there
-            self._events.put(_Decision(error=exc))
-            return
-        self._events.put(_Decision(emap=self._belief, result=result))
-
-    def _agent_choice(self, rig, emap: ElevationMap, choice: Choice, source: _AgentDigs) -> Choice:
-        """In the worker: the dig of this cycle, with the agent's action (blocks until it comes)."""
+    def _agent_waits(self, choice: Choice) -> _Decision | None:
+        """The decision the agent is asked for in this cycle, or None when the cycle needs no action
+        (then ``choice`` is dug, or ends the episode, as the loop decides)."""
         plan = choice.plan
         if plan is None:  # the source did not plan (no dig at all): the episode ends as the loop decides
-            return choice
-        planner_dug = plan is not None and plan.action is not None
+            return None
+        planner_dug = plan.action is not None
         if self.fallback and not planner_dug:
             if choice.dig is None:
-                return choice  # no dig even after the fallback: the episode ends no_dig
-            self._wait_for_action(emap, None, True)
-            self._decided = {"action_used": False, "cell": None, "snapped": False}
-            return choice
+                return None  # no dig even after the fallback: the episode ends no_dig
+            return _Decision(emap=self._belief, planner_action=None, planner_fell_back=True)
+        if not self._allowed(plan).any():
+            return None  # the agent's choice is replaced by no dig (see _agent_choice)
+        return _Decision(emap=self._belief, planner_action=plan.action if planner_dug else None)
+
+    def _allowed(self, plan) -> np.ndarray:
+        """The grid cells the agent's action may be dug as: the planner's feasible set less the memory's exclusions."""
         allowed = plan.feasible.copy()
+        source = self._source
         if source.experience is not None:
-            p = rig.planner
-            allowed &= ~source.experience.excluded(p.grid_k, p.grid_alpha, p.grid_d1, source._scanned_surface)
+            p = self._rig.planner
+            allowed &= ~source.experience.excluded(p.grid_k, p.grid_alpha, p.grid_d1, source.scanned_surface)
+        return allowed
+
+    def _agent_choice(self, choice: Choice, action: np.ndarray | None) -> Choice:
+        """The dig of this cycle with the agent's ``action`` (None: the cycle did not wait for one)."""
+        plan = choice.plan
+        if plan is None:
+            return choice
+        planner_dug = plan.action is not None
+        if self.fallback and not planner_dug:
+            if choice.dig is not None:
+                self._decided = {"action_used": False, "cell": None, "snapped": False}
+            return choice
+        allowed = self._allowed(plan)
         if not allowed.any():
             return Choice(None, f"no trenching action is feasible on this map ({plan.reason})", plan)
-        action = self._wait_for_action(emap, plan.action if planner_dug else None, False)
         grids = (plan.grid_k, plan.grid_alpha, plan.grid_d1)
         requested = tuple(int(np.argmin(np.abs(g - v))) for g, v in zip(grids, action))
         cell = requested
@@ -378,10 +367,10 @@ class DigCore:
         chosen = tuple(int(np.argmin(np.abs(g - v))) for g, v in zip(grids, plan.action[:3])) if planner_dug else None
         if cell == chosen:
             return choice  # the planner's own dig, exactly as PlannedDigs dug it
-        planner = rig.planner
+        planner = self._rig.planner
         k, alpha, d1 = (float(g[i]) for g, i in zip(grids, cell))
         act = TrenchAction(k, alpha, d1, float(plan.d2[cell]))
-        surface = planner.surface(emap)
+        surface = planner.surface(self._belief)
         poses, phases = planner.trajectory(act, surface, radius=float(plan.curl_radius[cell]))
         _, torques = planner.path_loads(poses, phases, surface)
         seconds = choice.dig.planning_s if choice.dig is not None else plan.seconds
@@ -389,18 +378,13 @@ class DigCore:
                   predicted_peak_nm=np.abs(torques).max(axis=0))
         return Choice(dig, plan=plan, note=choice.note)
 
-    def _wait_for_action(self, emap, planner_action, fell_back) -> np.ndarray:
-        self._events.put(_Decision(emap=emap, planner_action=planner_action, planner_fell_back=fell_back))
-        t0 = time.perf_counter()
-        item = self._actions.get()
-        if item is None:
-            raise _Stop
-        if self._sim is not None and self._sim.wall_deadline is not None:
-            self._sim.wall_deadline += time.perf_counter() - t0  # the agent's thinking is not the episode's
-        return item
-
-    def _dug(self, record, metrics: DigMetrics) -> None:
-        """In the worker, after each dig settled: the record's F/T summary and the reward's terms."""
+    def _dig(self) -> None:
+        """Dig the decided dig; after the soil settled, the record's F/T summary and the reward's terms."""
+        ep = self._episode
+        dug = ep.dig()
+        if dug is None:  # the world failed on the way to the dig: nothing was dug
+            return
+        record, metrics = dug
         lo, hi = record.in_soil_window()
         forces = [np.linalg.norm(f) for t, f in record.ft if lo <= t <= hi]
         removed, over = self._truth.measure()
@@ -420,14 +404,21 @@ class DigCore:
         if self._closed:
             raise EnvError("the environment is closed")
         seed = check_seed(seed)
-        self._stop()
+        if self._episode is not None:
+            self._episode.close()
         self._clear()
-        self._decided = None
-        self._thread = threading.Thread(target=self._run, args=(seed,), name=f"excavsim-dig-episode-{seed}",
-                                        daemon=True)
-        self._thread.start()
-        self.over = False  # an episode that ended before its first dig reports its end at the first step
-        decision = self._next()
+        self._episode = ep = spec_episode(self.spec, self.resolved, observer=self.observer)
+        try:
+            self._source = _AgentDigs(DigExperience() if self.spec.memory else None)
+            ep.reset(seed, digs=self._source)
+            task = ep.task
+            self._sim, self._rig = task.sim, task.rig
+            self._truth = TrueTrench(task.sim, task.mask, task.z_goal)
+            self.over = False  # an episode that ended before its first dig reports its end at the first step
+            self._pending = decision = self._advance()
+        except BaseException:
+            self.over = True
+            raise
         return self._observation(), self._info(decision, first=True)
 
     def step(self, action: Any) -> tuple[dict[str, np.ndarray], float, bool, bool, dict[str, Any]]:
@@ -440,14 +431,20 @@ class DigCore:
         if self.over:
             raise EnvError("the episode has ended (or never started): call reset() first")
         a = check_vector(action, self.action_low, self.action_high, "the dig action (k, alpha, d1)")
+        self._last = None
         if self._pending.result is not None:  # the episode ended before this step: nothing to dig
             decision = self._pending
-            self._last = None
             reward = 0.0
         else:
-            self._last = None
-            self._actions.put(a)
-            decision = self._next()
+            ep = self._episode
+            try:
+                ep.decide(self._agent_choice(self._planned, a))
+                if not ep.over:
+                    self._dig()
+                self._pending = decision = self._advance()
+            except BaseException:
+                self.over = True
+                raise
             reward = self._last["reward"] if self._last is not None else 0.0
             self.digs += 1 if self._last is not None else 0
         terminated = truncated = False
@@ -456,16 +453,7 @@ class DigCore:
             terminated = decision.result.end in TERMINAL_ENDS
             truncated = not terminated
             self.over = True
-            self._thread.join()
         return self._observation(), float(reward), terminated, truncated, self._info(decision)
-
-    def _next(self) -> _Decision:
-        decision = self._events.get()
-        if decision.error is not None:
-            self.over = True
-            raise decision.error
-        self._pending = decision
-        return decision
 
     def _observation(self) -> dict[str, np.ndarray]:
         if self._goal_layers is None:
@@ -511,17 +499,11 @@ class DigCore:
                                for k, v in summary.items() if k not in TIMING_KEYS}
         return info
 
-    def _stop(self) -> None:
-        if self._thread is not None and self._thread.is_alive():
-            self._actions.put(None)
-            self._thread.join()
-        self._thread = None
-        self._actions = queue.Queue()
-        self._events = queue.Queue()
-
     def close(self) -> None:
         """Abandon the running episode and free the world; a closed core cannot be reset (closing twice is fine)."""
-        self._stop()
+        if self._episode is not None:
+            self._episode.close()
+            self._episode = None
         self._clear()
         self._closed = True
 

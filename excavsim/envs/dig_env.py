@@ -115,7 +115,7 @@ class TrenchDigEnv(gym.Env):
         self.core.close()
 
     def __del__(self):
-        # the worker thread holds the core, not the environment: a dropped environment ends its episode
+        # a dropped environment ends its episode (its observers hear finished(None))
         core = getattr(self, "core", None)
         if core is not None:
             core.close()

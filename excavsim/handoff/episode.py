@@ -1,6 +1,6 @@
 """An episode's hooks and results: what the loop hands to its observers (the recorder, learners).
 
-:class:`EpisodeObserver` is the set of hooks the episode driver (:func:`~excavsim.loop.episode.run_episode`)
+:class:`EpisodeObserver` is the set of hooks the episode (:class:`~excavsim.loop.episode.Episode`)
 calls; the Rerun recorder and the online learner implement them, and the caller hands them to the
 loop, which never imports them. :class:`DigMetrics` and :class:`EpisodeResult` are the numbers of
 one dig and of the episode; :func:`format_episode` prints them as a table.
@@ -24,6 +24,12 @@ class EpisodeObserver:
     :class:`~excavsim.handoff.dig.Dig`, or None when there is none), :meth:`stepped` after every
     control step of the dig and the moves around it, :meth:`dug` after the soil settled;
     :meth:`finished` once at the end, also when the episode raised (then with None).
+
+    These six hooks are the one observer protocol of every task of the episode
+    (:class:`~excavsim.loop.episode.Episode`); the arguments below are the trenching task's. A
+    task names its own: loading from a pile calls ``started(world, machine)``, ``scanned(index,
+    emap, terrain)``, ``planned(index, plan, tip_path)``, ``stepped(world)``, ``dug(index, dig)``
+    and ``finished(run)`` (:class:`~excavsim.tasks.load.in_mujoco.LoadingObserver`).
     """
 
     def started(self, sim, rig, goal_mask: np.ndarray, goal_z: np.ndarray) -> None:
@@ -47,34 +53,35 @@ class EpisodeObserver:
 
 
 class ObserverGroup(EpisodeObserver):
-    """Several observers of one episode (a recorder and a learner, say), called in order."""
+    """Several observers of one episode (a recorder and a learner, say), called in order, with the
+    hooks' arguments of whatever task the episode runs."""
 
     def __init__(self, *observers: EpisodeObserver):
         self.observers = [o for o in observers if o is not None]
 
-    def started(self, sim, rig, goal_mask, goal_z):
+    def started(self, *args):
         for o in self.observers:
-            o.started(sim, rig, goal_mask, goal_z)
+            o.started(*args)
 
-    def scanned(self, index, emap, accuracy):
+    def scanned(self, *args):
         for o in self.observers:
-            o.scanned(index, emap, accuracy)
+            o.scanned(*args)
 
-    def planned(self, index, plan, dig):
+    def planned(self, *args):
         for o in self.observers:
-            o.planned(index, plan, dig)
+            o.planned(*args)
 
-    def stepped(self, sim):
+    def stepped(self, *args):
         for o in self.observers:
-            o.stepped(sim)
+            o.stepped(*args)
 
-    def dug(self, index, record, metrics):
+    def dug(self, *args):
         for o in self.observers:
-            o.dug(index, record, metrics)
+            o.dug(*args)
 
-    def finished(self, result):
+    def finished(self, *args):
         for o in self.observers:
-            o.finished(result)
+            o.finished(*args)
 
 
 @dataclasses.dataclass

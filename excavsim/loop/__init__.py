@@ -2,7 +2,8 @@
 
 * :mod:`~excavsim.loop.rig`: the loop's pieces around the world (planner, executor, scanner,
   keyframes) and the moves around every dig (park, scan, go home);
-* :mod:`~excavsim.loop.episode`: :func:`run_episode`, the dig-scan-plan loop (§7.2), its stopping
+* :mod:`~excavsim.loop.episode`: :class:`Episode` (stepped) and :func:`run_episode` (to the end),
+  the dig-scan-plan loop (§7.2), its stopping
   rules and metrics; :mod:`~excavsim.loop.digs`: where each cycle's dig comes from (the planner
   and its fallback, random feasible digs, scripted digs); :mod:`~excavsim.loop.demo`: the demo;
 * :mod:`~excavsim.loop.scenario`: episode specifications;

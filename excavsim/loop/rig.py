@@ -27,7 +27,7 @@ from excavsim.planning.search import TrenchPlanner
 from excavsim.robot.extract import arm_from_model
 from excavsim.robot.kinematics import PlanarArm
 from excavsim.robot.reachability import load_or_build
-from excavsim.sensing.elevation import MapAccuracy, build_map, map_accuracy
+from excavsim.sensing.elevation import MapAccuracy, map_accuracy, scan_map
 from excavsim.sensing.ft import ForceSensor
 from excavsim.world.scanner import LaserScanner
 from excavsim.world.simulation import Simulation
@@ -138,12 +138,7 @@ def go_home(sim: Simulation, rig: Rig) -> None:
 def scan(sim: Simulation, rig: Rig) -> tuple[ElevationMap, MapAccuracy]:
     """Scan ``n_scans`` range images, build the elevation map, and its accuracy against the truth
     (privileged, for logs and metrics; the map is all the mind gets)."""
-    cfg = rig.sensing_cfg
-    t0 = time.perf_counter()
-    images = [rig.scanner.scan(sim.time) for _ in range(cfg.map.n_scans)]
-    t1 = time.perf_counter()
-    emap, cals = build_map(images, rig.scanner.geometry, cfg.map)
-    rig.timings["acquisition_wall_s"], rig.timings["map_wall_s"] = t1 - t0, time.perf_counter() - t1
+    emap, cals = scan_map(rig.scanner, sim.time, rig.sensing_cfg.map, timings=rig.timings)
     return emap, map_accuracy(emap, sim.soil.grid.surface_z, cals)
 
 

@@ -11,7 +11,8 @@ planner grid::
     robot: {joints: {wrist_pitch: {torque_limit_nm: 500}}}
     planner: {grid: {k_step_m: 0.2}}
 
-:func:`run_spec` builds the world and runs the episode; :func:`episode_summary` flattens the result
+:func:`spec_episode` makes its :class:`~excavsim.loop.episode.Episode`, :func:`run_spec` builds the
+world and runs it; :func:`episode_summary` flattens the result
 into a JSON-ready dict of numbers (the row a campaign writes and ``regress`` compares).
 """
 
@@ -32,13 +33,26 @@ from excavsim.config import (ConfigError, ExecutorConfig, PlannerConfig, RobotCo
                              load_robot_config, load_scene_config, load_sensing_config, load_trench_goal,
                              parse_config)
 from excavsim.config.semantic import check_goal
-from excavsim.errors import shorten
+from excavsim.errors import UsageError, shorten
+
+
+TASK_MACHINES = {"trench": ("t3",), "load": ("loader", "shovel")}
+"""The tasks an episode specification can name, each with the machines that do it (the first is the default)."""
+TRENCH_ONLY = ("goal", "done_fraction", "tolerance_m", "robot", "scene", "planner", "executor", "sensing", "memory",
+               "predictor")
+"""Fields of :class:`EpisodeSpec` that configure the trenching task only."""
 
 
 class EpisodeSpec(StrictModel):
-    """One trenching episode: goal, soil, seed, stopping rules and configuration overrides."""
+    """One episode: its task and machine, soil, seed, stopping rules and configuration overrides."""
 
     name: str = Field(default="episode", description="label for logs and result files")
+    task: str = Field(default="trench", description="the task: trench (dig a trench goal with the T3) or load "
+                                                    "(load from a pile in MuJoCo: excavsim.tasks.load.in_mujoco)")
+    machine: str | None = Field(default=None, description="the machine: t3 (task trench); loader or shovel (task "
+                                                          "load); default the task's first")
+    loading: dict[str, Any] = Field(default_factory=dict,
+                                    description="overrides of configs/loading_mujoco.yaml (task load)")
     goal: str | TrenchGoal = Field(
         default="sand", description="a trench of configs/trenches (by name), a YAML path, or the goal inline")
     soil: str | None = Field(default=None, description="soil preset of configs/soils.yaml (default: the scene's)")
@@ -58,8 +72,28 @@ class EpisodeSpec(StrictModel):
         default="wedge", description="the planner's force predictor: wedge (nominal, eq. 8) or a learning method "
                                      "of excavsim.learning.predictors.METHODS, learned online from this episode's digs")
 
+    @property
+    def machine_name(self) -> str:
+        """The machine: ``machine``, or the task's default (the first of :data:`TASK_MACHINES`)."""
+        return self.machine or TASK_MACHINES[self.task][0]
+
     @model_validator(mode="after")
     def _check(self) -> EpisodeSpec:
+        if self.task not in TASK_MACHINES:
+            raise ConfigError(f"unknown task {shorten(repr(self.task))}; allowed: {', '.join(TASK_MACHINES)}")
+        machines = TASK_MACHINES[self.task]
+        if self.machine is not None and self.machine not in machines:
+            raise ConfigError(f"machine {shorten(repr(self.machine))} does not do task {self.task}; allowed: "
+                              f"{', '.join(machines)}")
+        if self.task == "load":
+            fields = type(self).model_fields
+            given = [f for f in TRENCH_ONLY if getattr(self, f) != fields[f].get_default(call_default_factory=True)]
+            if given:
+                raise ConfigError(f"task load does not use {', '.join(given)} (fields of task trench); its "
+                                  "configuration overrides go in loading:")
+        elif self.loading:
+            raise ConfigError("loading: overrides configs/loading_mujoco.yaml for task load; this spec's task is "
+                              f"{self.task}")
         if self.soil is not None:
             get_soil(self.soil)  # raises with the allowed names
         if self.predictor != "wedge":
@@ -113,11 +147,20 @@ def resolve_goal(goal: str | TrenchGoal) -> TrenchGoal:
 
 
 class ResolvedSpec:
-    """The configurations an :class:`EpisodeSpec` stands for, with every override applied."""
+    """The configurations an :class:`EpisodeSpec` stands for, with every override applied: for task
+    trench the goal and the robot, scene, planner, executor and sensing configurations; for task load
+    ``loading`` (configs/loading_mujoco.yaml with the spec's soil and overrides; its ``max_digs`` is
+    the CLI's, an episode of a spec digs at most the spec's ``dig_budget``)."""
 
     def __init__(self, spec: EpisodeSpec, *, robot_path: str | pathlib.Path | None = None,
                  scene_path: str | pathlib.Path | None = None):
         self.spec = spec
+        if spec.task == "load":
+            from excavsim.config.loading_mujoco import LoadingMujocoConfig, load_loading_mujoco_config
+
+            cfg = _override(load_loading_mujoco_config(), spec.loading, LoadingMujocoConfig, f"{spec.name}: loading")
+            self.loading = cfg.model_copy(update={"soil": spec.soil}) if spec.soil else cfg
+            return
         self.goal: TrenchGoal = resolve_goal(spec.goal)
         self.robot: RobotConfig = _override(load_robot_config(robot_path), spec.robot, RobotConfig,
                                             f"{spec.name}: robot")
@@ -133,32 +176,63 @@ class ResolvedSpec:
                                                 f"{spec.name}: sensing")
 
 
+def spec_episode(spec: EpisodeSpec, resolved: ResolvedSpec | None = None, *,
+                 progress: Callable[[str], None] | None = None, observer=None):
+    """The :class:`~excavsim.loop.episode.Episode` of ``spec`` (not yet reset): its goal, stopping
+    rules and configurations, and its observers (with the online learner of ``spec.predictor``).
+
+    Args:
+        resolved: ``spec``'s configurations (default: resolved here from ``configs/``).
+    """
+    from excavsim.handoff.episode import ObserverGroup
+    from excavsim.loop.episode import Episode
+
+    r = resolved or ResolvedSpec(spec)
+    if spec.task == "load":
+        from excavsim.loop.catalog import task_class
+
+        return Episode(task_class("load")(spec.machine_name, cfg=r.loading), dig_budget=spec.dig_budget, progress=progress,
+                       observer=observer)
+    if spec.predictor != "wedge":  # learned online, from scratch, from this episode's digs (§5.2)
+        from excavsim.loop.online import OnlineLearning
+
+        observer = ObserverGroup(OnlineLearning(spec.predictor, progress=progress), observer)
+    return Episode(goal=r.goal, dig_budget=spec.dig_budget, done_fraction=spec.done_fraction,
+                   tolerance_m=spec.tolerance_m, planner_cfg=r.planner, executor_cfg=r.executor,
+                   sensing_cfg=r.sensing, robot_cfg=r.robot, scene_cfg=r.scene, progress=progress,
+                   observer=observer)
+
+
+def spec_digs(spec: EpisodeSpec):
+    """The dig source of ``spec``: for task trench the planner, with the memory of failed digs when
+    ``spec.memory``; None (the task's own) otherwise."""
+    if spec.task != "trench":
+        return None
+    from excavsim.loop.digs import PlannedDigs
+    from excavsim.planning.experience import DigExperience
+
+    return PlannedDigs(DigExperience() if spec.memory else None)
+
+
 def run_spec(spec: EpisodeSpec, *, progress: Callable[[str], None] | None = None, observer=None,
              robot_path: str | pathlib.Path | None = None, scene_path: str | pathlib.Path | None = None):
-    """Build the world of ``spec`` and run its episode; returns the
-    :class:`~excavsim.loop.episode.EpisodeResult`.
+    """Build the world of ``spec`` and run its episode; returns the task's result (for trench an
+    :class:`~excavsim.handoff.episode.EpisodeResult`, for load a
+    :class:`~excavsim.tasks.load.in_mujoco.MujocoRun`).
 
     Args:
         robot_path, scene_path: base configuration files the spec's overrides apply to (default
             configs/robot.yaml and configs/scene.yaml).
     """
-    from excavsim.handoff.episode import ObserverGroup
-    from excavsim.loop.digs import PlannedDigs
-    from excavsim.loop.episode import run_episode
-    from excavsim.planning.experience import DigExperience
-    from excavsim.world.simulation import Simulation
-
     r = ResolvedSpec(spec, robot_path=robot_path, scene_path=scene_path)
-    if spec.predictor != "wedge":  # learned online, from scratch, from this episode's digs (§5.2)
-        from excavsim.loop.online import OnlineLearning
+    episode = spec_episode(spec, r, progress=progress, observer=observer)
+    episode.reset(spec.seed, digs=spec_digs(spec))
+    return episode.run()
 
-        observer = ObserverGroup(OnlineLearning(spec.predictor, progress=progress), observer)
-    sim = Simulation(r.robot, r.scene, seed=spec.seed)
-    digs = PlannedDigs(DigExperience() if spec.memory else None)
-    return run_episode(sim, seed=spec.seed, goal=r.goal, dig_budget=spec.dig_budget,
-                       done_fraction=spec.done_fraction, tolerance_m=spec.tolerance_m, planner_cfg=r.planner,
-                       executor_cfg=r.executor, sensing_cfg=r.sensing, digs=digs, progress=progress,
-                       observer=observer)
+
+def _is_loading(res) -> bool:
+    """Whether ``res`` is a loading episode's result (a MujocoRun) rather than a trench's."""
+    return hasattr(res, "delivered_m3")
 
 
 def run_with_outputs(spec: EpisodeSpec, *, robot_path: str | None = None, scene_path: str | None = None,
@@ -184,6 +258,17 @@ def run_with_outputs(spec: EpisodeSpec, *, robot_path: str | None = None, scene_
     from excavsim.handoff.episode import ObserverGroup, format_episode
 
     ResolvedSpec(spec, robot_path=robot_path, scene_path=scene_path)  # every file checked first
+    if spec.task != "trench":  # another task of the one episode (loading from a pile): run it, say its table
+        if record or live is not None or save_maps or timing:
+            raise UsageError(f"--record, --live, --save-maps and --timing follow trenching episodes; the spec's "
+                             f"task is {spec.task}")
+        from excavsim.loop.catalog import task_module
+
+        say(f"excavsim trench --spec: task {spec.task}, machine {spec.machine_name}, {spec.dig_budget} digs at "
+            f"most, seed {spec.seed}")
+        result = run_spec(spec, progress=say)
+        say(task_module(spec.task).format_run(result))
+        return result
     observer = None
     if record or live is not None:
         from excavsim.record import RerunRecorder
@@ -219,8 +304,16 @@ def run_with_outputs(spec: EpisodeSpec, *, robot_path: str | None = None, scene_
 
 
 def dig_rows(res) -> list[dict[str, Any]]:
-    """One JSON-ready row per dig of an episode: its action (NaN for a fallback dig), volumes [l],
-    outcome and failure, and the predicted and measured peak wrist-pitch torques [N m]."""
+    """One JSON-ready row per dig of an episode: for a trench its action (NaN for a fallback dig),
+    volumes [l], outcome and failure, and the predicted and measured peak wrist-pitch torques [N m];
+    for loading its action, section and volumes [l] and its peak soil force [kN]."""
+    if _is_loading(res):
+        return [{"dig": i, "section": d.section, "k_m": d.action.k, "h_m": d.action.h,
+                 "alpha_deg": math.degrees(d.action.alpha), "d1_m": d.action.d1, "r_m": d.action.r,
+                 "base_x_m": d.base_x, "planned_l": 1000 * d.planned_m3, "dug_l": 1000 * d.bucket_m3,
+                 "delivered_l": 1000 * d.delivered_m3, "spilled_l": 1000 * d.spilled_m3,
+                 "lane_l": 1000 * d.lane_m3, "peak_force_kn": d.peak_force_n / 1000}
+                for i, d in enumerate(res.digs, start=1)]
     rows = []
     for d in res.digs:
         k, a, d1, d2 = d.action if d.action is not None else (math.nan,) * 4
@@ -239,6 +332,8 @@ def episode_summary(res) -> dict[str, Any]:
     (``done``, ``no_dig``, ``budget``, ``diverged`` or ``timeout``), ``reason`` its full text;
     ``diverged_digs`` counts the digs in which the simulation diverged (at most one: the episode ends there).
     """
+    if _is_loading(res):
+        return loading_summary(res)
     digs = res.digs
     n = len(digs)
     peaks = [d.peak_torque_nm for d in digs]
@@ -263,5 +358,29 @@ def episode_summary(res) -> dict[str, Any]:
     }
     for j, name in enumerate(joints[1:4], start=1):
         out[f"peak_{name}_nm"] = max((float(p[j]) for p in peaks), default=0.0)
+    out["dug_l"] = [round(1000 * d.bucket_m3, 3) for d in digs]
+    return out
+
+
+def loading_summary(run) -> dict[str, Any]:
+    """A loading episode's metrics (a :class:`~excavsim.tasks.load.in_mujoco.MujocoRun`) as the flat dict
+    of :func:`episode_summary`: the same keys where they mean the same (``end``, ``reason``, ``digs``,
+    ``removed_fraction`` of the pile, ``dug_l_per_dig`` in the bucket at lift-out, ``planned_l_per_dig``,
+    ``efficiency``: delivered per dig over the heaped capacity, ``sim_s``, ``wall_s``,
+    ``volume_change_m3``: the volume account's drift), and the loading's own (delivered, spilled, the
+    lane's soil and the map's at the end, the peak soil force)."""
+    digs = run.digs
+    n = len(digs)
+    out: dict[str, Any] = {
+        "task": "load", "machine": run.machine, "end": run.end, "reason": run.reason, "digs": n,
+        "removed_fraction": run.removed_fraction, "pile_removed": bool(run.done),
+        "dug_l_per_dig": 1000 * sum(d.bucket_m3 for d in digs) / n if n else 0.0,
+        "planned_l_per_dig": 1000 * sum(d.planned_m3 for d in digs) / n if n else 0.0,
+        "efficiency": run.efficiency() if n else 0.0,
+        "delivered_l": 1000 * run.delivered_m3, "spilled_l": 1000 * run.spilled_m3,
+        "start_l": 1000 * run.start_m3, "end_l": 1000 * run.end_m3, "map_end_l": 1000 * run.map_end_m3,
+        "peak_force_kn": max((d.peak_force_n for d in digs), default=0.0) / 1000,
+        "sim_s": run.sim_time_s, "wall_s": run.wall_time_s, "volume_change_m3": run.total_drift_m3,
+    }
     out["dug_l"] = [round(1000 * d.bucket_m3, 3) for d in digs]
     return out

@@ -89,7 +89,7 @@ class LoadingRecorder:
         self._log_truth()
 
     def planned(self, index: int, plan, poses: np.ndarray) -> None:
-        self._dig = index + 1
+        self._dig = index
         self.rec.set_time("dig", sequence=self._dig)
         a = plan.action
         pts = np.stack([poses[:, 0], np.zeros(len(poses)), poses[:, 1]], axis=1)
@@ -120,13 +120,18 @@ class LoadingRecorder:
             p = dig.tip_path
             self.rec.log("world/exec/path", rr.LineStrips3D([np.stack([p[:, 0], np.zeros(len(p)), p[:, 1]], 1)],
                                                             colors=[(240, 240, 240)], radii=0.02))
-        self.rec.log("log", rr.TextLog(f"dig {index + 1}: planned {dig.planned_m3:.3f} m^3, in the bucket at lift-out "
+        self.rec.log("log", rr.TextLog(f"dig {index}: planned {dig.planned_m3:.3f} m^3, in the bucket at lift-out "
                                        f"{dig.bucket_m3:.3f}, delivered {dig.delivered_m3:.3f}, spilled "
                                        f"{dig.spilled_m3:.3f}, lane {dig.lane_m3:.3f} ({dig.section} section)"))
         self._log_truth()
 
     def finished(self, run) -> None:
         self._flush()
+        if run is None:  # the episode ended with an error: what was recorded is kept
+            self.rec.log("log", rr.TextLog("end: the episode ended with an error"))
+            self.rec.flush()
+            self.rec.disconnect()
+            return
         self.rec.log("log", rr.TextLog(f"end: {run.reason}; lane {run.start_m3:.3f} -> {run.end_m3:.3f} m^3, "
                                        f"{len(run.digs)} digs"))
         self.rec.flush()

@@ -28,7 +28,9 @@ only).
 from __future__ import annotations
 
 import dataclasses
+import time as _time
 from collections.abc import Sequence
+from typing import Protocol
 
 import numpy as np
 
@@ -361,6 +363,32 @@ def build_map(images: Sequence[RangeImage], geometry: ScanGeometry, config: Elev
     heights = fill_unobserved(med.reshape(ny, nx), observed)
     emap = ElevationMap(float(x0), float(y0), float(cell), heights, observed, float(images[-1].time))
     return emap, cals or []
+
+
+class Scanner(Protocol):
+    """A range scanner as the mind sees it: its geometry, and a range image taken at a time [s]
+    (:class:`~excavsim.world.scanner.LaserScanner` is one; the mind never imports the world)."""
+
+    geometry: ScanGeometry
+
+    def scan(self, time: float = 0.0) -> RangeImage: ...
+
+
+def scan_map(scanner: Scanner, time: float, config: ElevationMapConfig, n_scans: int | None = None,
+             timings: dict[str, float] | None = None) -> tuple[ElevationMap, list[Calibration]]:
+    """Take ``n_scans`` range images (default ``config.n_scans``) at ``time`` [s] and build their
+    elevation map (:func:`build_map`): the one "scan, then map" of every task (trenching, loading
+    from a pile, truck loading). Returns the map and the calibration of each image; ``timings``, when
+    given, receives the wall time of the acquisition and of the map (``acquisition_wall_s``,
+    ``map_wall_s``: Singh 1995 Table 7's first two rows)."""
+    n = config.n_scans if n_scans is None else n_scans
+    t0 = _time.perf_counter()
+    images = [scanner.scan(time) for _ in range(n)]
+    t1 = _time.perf_counter()
+    out = build_map(images, scanner.geometry, config)
+    if timings is not None:
+        timings["acquisition_wall_s"], timings["map_wall_s"] = t1 - t0, _time.perf_counter() - t1
+    return out
 
 
 @dataclasses.dataclass(frozen=True)

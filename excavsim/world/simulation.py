@@ -245,3 +245,7 @@ class Simulation:
     def settle_soil(self) -> None:
         """Settle the whole terrain now (e.g. after a dump)."""
         self.soil.settle_all()
+
+    def volumes(self) -> Volumes:
+        """Privileged truth: soil in the box, in the bucket and in spoil (dumped outside the box) [m^3]."""
+        return self.soil.volumes()

@@ -254,15 +254,35 @@ def test_joint_actions_drive_the_servos_and_the_episode_ends_on_time():
     assert np.all(obs["patch"][0] < 0)
 
 
-def test_a_dropped_environment_ends_its_paused_episode():
+def test_the_dig_environment_steps_its_episode_in_the_callers_thread_and_a_dropped_one_ends_it():
     import gc
     import threading
+    import time
 
-    env = gym.make(DIG_ENV_ID, spec=tiny())
+    from excavsim.handoff.episode import EpisodeObserver
+
+    class Ends(EpisodeObserver):
+        ended: list = []
+
+        def finished(self, result):
+            self.ended.append(result)
+
+    before = set(threading.enumerate())
+    env = gym.make(DIG_ENV_ID, spec=tiny(dig_budget=1), observer=Ends())
+    t0 = time.perf_counter()
     env.reset(seed=0)
-    thread = env.unwrapped.core._thread
-    assert thread.is_alive()  # paused, waiting for the first action
+    busy = time.perf_counter() - t0
+    assert set(threading.enumerate()) == before  # no worker: the episode waits as an object
+    time.sleep(1.5)  # the agent thinks: not the episode's wall time
+    t0 = time.perf_counter()
+    _, _, terminated, truncated, info = env.step(env.unwrapped.core.action_low)
+    busy += time.perf_counter() - t0
+    assert terminated or truncated
+    result = env.unwrapped.result
+    assert result is not None and Ends.ended == [result]
+    assert 0 < result.wall_time_s <= busy  # the wall clock ran only inside reset and step
+    env.reset(seed=1)  # paused before its first dig
     del env
     gc.collect()
-    thread.join(timeout=10)
-    assert not thread.is_alive() and thread not in threading.enumerate()
+    assert Ends.ended[1:] == [None]  # a dropped environment ends its episode: the observers hear of it
+    assert set(threading.enumerate()) == before

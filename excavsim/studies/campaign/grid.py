@@ -24,7 +24,7 @@ from excavsim.config import StrictModel, load_config, parse_config
 from excavsim.errors import ConfigError
 from excavsim.loop.scenario import EpisodeSpec, ResolvedSpec, merge, resolve_goal
 
-OVERRIDE_SECTIONS = ("robot", "scene", "planner", "executor", "sensing")
+OVERRIDE_SECTIONS = ("robot", "scene", "planner", "executor", "sensing", "loading")
 
 
 def slug(value: Any) -> str:

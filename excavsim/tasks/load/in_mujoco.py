@@ -6,7 +6,7 @@ a lane one bucket wide, with the world's soil model (cutting, the wedge-model fo
 truth terms, bearing, filling, pouring, settlement) and laser scanner. One episode repeats the cycle:
 
 1. **scan**: ``n_scans`` range images of the world's scanner, calibrated, median-filtered and binned into
-   the elevation map (:func:`~excavsim.sensing.elevation.build_map`); the map gives three 2-D sections
+   the elevation map (:func:`~excavsim.sensing.elevation.scan_map`); the map gives three 2-D sections
    (:func:`map_sections`): per column the median across the lane's middle (``|y| < section_half_width``),
    and across each side band beyond it;
 2. **plan**: :func:`excavsim.planning.loading.plan` on the middle section: the loading action (k, alpha)
@@ -54,9 +54,11 @@ from excavsim.config.loading_mujoco import (LOADING_MUJOCO_YAML, LoadingCampaign
 from excavsim.errors import ConfigError, Diverged, ExcavsimError, GoalError, UsageError
 from excavsim.execution import loading_script as ls
 from excavsim.handoff.maps import ElevationMap
+from excavsim.loop.digs import Choice
+from excavsim.loop.episode import Episode
 from excavsim.tasks.load import planar as ld
 from excavsim.planning import loading as lp
-from excavsim.sensing.elevation import build_map
+from excavsim.sensing.elevation import scan_map
 from excavsim.world.loading_scene import MACHINES, LoadingWorld
 from excavsim.world.scanner import LaserScanner
 
@@ -72,7 +74,9 @@ def load_mujoco_config(path: str | pathlib.Path | None = None) -> LoadingMujocoC
 
 # ---------------------------------------------------------------------------------------------- observers
 class LoadingObserver(Protocol):
-    """What a recorder sees of an episode (the loop never imports the recorder)."""
+    """What a recorder sees of a loading episode: the platform episode's hooks
+    (:class:`~excavsim.handoff.episode.EpisodeObserver`) with the loading task's arguments (dig indices
+    from 1; the loop never imports the recorder)."""
 
     def started(self, world: LoadingWorld, machine: str) -> None: ...
     def scanned(self, index: int, emap: ElevationMap, terrain: lp.Terrain) -> None: ...
@@ -125,6 +129,8 @@ class MujocoRun:
     tolerance_fraction: float
     sim_time_s: float
     map_end_m3: float = math.nan
+    end: str = ""  # the episode's end: done (no dig of minimal utility left), no_dig, budget or diverged
+    wall_time_s: float = math.nan
 
     @property
     def delivered_m3(self) -> float:
@@ -199,15 +205,8 @@ def make_scanner(world: LoadingWorld, cfg: LoadingMujocoConfig, seed: int) -> La
 def scan_section(world: LoadingWorld, scanner: LaserScanner, cfg: LoadingMujocoConfig
                  ) -> tuple[ElevationMap, lp.Terrain]:
     """Scan, build the map, and the planner's middle section (:func:`map_sections`)."""
-    emap = scan_map(world, scanner, cfg)
+    emap, _ = scan_map(scanner, world.time, load_sensing_config().map, cfg.n_scans)
     return emap, map_sections(emap, cfg.section_half_width)["middle"]
-
-
-def scan_map(world: LoadingWorld, scanner: LaserScanner, cfg: LoadingMujocoConfig) -> ElevationMap:
-    """``n_scans`` range images of the lane, calibrated, median-filtered and binned into the elevation map."""
-    images = [scanner.scan(world.time) for _ in range(cfg.n_scans)]
-    emap, _ = build_map(images, scanner.geometry, load_sensing_config().map)
-    return emap
 
 
 SECTIONS = ("middle", "near side", "far side")
@@ -301,135 +300,184 @@ def joint_path(machine, poses: np.ndarray, base_x: float) -> tuple[np.ndarray, s
 
 
 # ---------------------------------------------------------------------------------------------- the episode
+class LoadTask:
+    """Loading from a pile in MuJoCo as a task of the platform's :class:`~excavsim.loop.episode.Episode`
+    (see the module docstring): the world is a :class:`~excavsim.world.loading_scene.LoadingWorld` with
+    the pile written into its lane; each cycle scans, plans on the map's sections (the done test: no dig
+    of minimal utility on any section), executes the dig, the dump and the return by script, and settles;
+    the result is a :class:`MujocoRun` (its ``end``: ``done`` when the planner finds no dig of minimal
+    utility on the map, ``no_dig`` when a planned pose is out of reach, ``budget``, ``diverged``). The observers' hooks get (world, machine name) at the start, the
+    map and the planned section's terrain per scan, the plan and the dig's tip path per plan, and the
+    :class:`MujocoDig` per dig. Without a final scan: the episode ends right after its last dig.
+
+    Args:
+        name: ``loader`` or ``shovel``.
+        cfg, cfg2d, pile, world_hooks, account: as :func:`run_episode`'s.
+    """
+
+    final_scan = False
+    wall_limit_s = math.inf
+
+    def __init__(self, name: str, *, cfg: LoadingMujocoConfig | None = None, cfg2d: ld.LoadingConfig | None = None,
+                 pile: PileLane | None = None, world_hooks=(), account: SoilAccount | None = None):
+        if name not in MACHINES:
+            raise ConfigError(f"unknown loading machine {name!r}; allowed: {', '.join(MACHINES)}")
+        self.name = name
+        self.cfg = cfg or load_mujoco_config()
+        self.cfg2d = cfg2d or ld.load_loading_config()
+        self.pile, self.world_hooks, self._account = pile, tuple(world_hooks), account
+
+    def reset(self, seed: int, world: LoadingWorld | None = None, digs=None) -> tuple:
+        if digs is not None:
+            raise UsageError("a loading episode takes its digs from the loading planner; no dig source can be "
+                             "given (digs must be None)")
+        cfg, cfg2d, name = self.cfg, self.cfg2d, self.name
+        world = world if world is not None else LoadingWorld(name, soil=cfg.soil, seed=seed)
+        world.set_terrain(world.section_heights(*pile_section(world, self.pile or cfg.pile)))
+        self.world = world
+        self.account = account = self._account if self._account is not None else SoilAccount()
+        account.reset(world)
+        world.step_hooks.append(account)
+        world.step_hooks.extend(self.world_hooks)
+        self.scanner = make_scanner(world, cfg, seed)
+        self.machine = ld.make_machine(cfg2d, name)
+        spec = getattr(cfg2d.machines, name)
+        self.rules = ld.make_rules(cfg2d, spec.capacity_units)
+        mscript = getattr(cfg.script, name)
+        self.speed, self.tol = np.array(mscript.joint_speed), np.array(mscript.tolerance)
+        self.start = world.volumes().box
+        self.digs: list[MujocoDig] = []
+        self.q = world.joint_angles()
+        self.trace: list[np.ndarray] = []
+        self.forces: list[float] = []
+        world.step_hooks.append(self._witness)
+        self.map_first = self.map_end = math.nan
+        return world, name
+
+    def _witness(self, w: LoadingWorld) -> None:
+        self.trace.append(w.tip_pose())
+        self.forces.append(float(np.linalg.norm(w.contact.force)))
+
+    def _play(self, script: ls.JointScript, results: list) -> None:
+        res, self.q = ls.run(self.world.step, self.q, script, self.world.control_dt, tolerance=self.tol)
+        results.append(res)
+
+    def budget_reason(self, budget: int) -> str:
+        return f"{budget} digs spent"
+
+    def park(self) -> None:
+        """Nothing: the machine scans from where the last cycle left it (carry)."""
+
+    def scan(self) -> tuple[ElevationMap, lp.Terrain]:
+        cfg, world = self.cfg, self.world
+        emap, _ = scan_map(self.scanner, world.time, load_sensing_config().map, cfg.n_scans)
+        self.map_end = map_soil_m3(emap, world.width, self.rules.ground)
+        self.map_first = self.map_end if not self.digs else self.map_first
+        self.section, self.terrain, self.plan = choose_section(self.machine, map_sections(emap, cfg.section_half_width),
+                                                               self.rules)
+        return emap, self.terrain
+
+    def assess(self, index, scanned, say):
+        if self.plan.action is None:
+            map_end, map_first = self.map_end, self.map_first
+            share = f" ({100 * map_end / map_first:.1f} % of the first map)" if map_first > 0 else ""
+            return scanned, ("done", f"{self.plan.reason}; the map shows {map_end:.3f} m^3 more than "
+                                       f"{100 * self.rules.ground:.0f} cm above the ground{share}")
+        return scanned, None
+
+    def choose(self, emap) -> Choice:
+        plan, sc, machine = self.plan, self.cfg.script, self.machine
+        poses, _ = dig_poses(plan.action, self.terrain, self.rules, machine.floor, step=sc.path_step,
+                             lift_extra=sc.lift_extra)
+        try:
+            self.qp, _ = joint_path(machine, poses, plan.base_x)
+        except ExcavsimError as exc:  # a planned pose the machine's IK cannot reach: said, never executed blindly
+            return Choice(None, f"dig {len(self.digs) + 1} not executed: {exc}")
+        return Choice(poses, plan=plan)
+
+    def execute(self, index, choice):
+        world, account, machine, sc = self.world, self.account, self.machine, self.cfg.script
+        plan, qp, poses, speed, play = self.plan, self.qp, choice.dig, self.speed, self._play
+        dt = world.control_dt
+        carry, dump = world.keyframes["carry"], world.keyframes["dump"]
+        try:
+            self.trace.clear()
+            self.forces.clear()
+            results: list[ls.ScriptResult] = []
+            delivered0, spilled0 = account.delivered, account.spilled
+            # to the dig: the loader sets its arm and drives in; the shovel drives its base, then sets its arm
+            q = self.q
+            if machine.moves_base:
+                staged = np.r_[q[0], qp[0, 1:]]
+            else:
+                staged = np.r_[qp[0, 0], q[1:]]
+            play(ls.joint_move(self.q, staged, joint_speed=speed, name="arm to the dig" if machine.moves_base
+                               else "base to its place"), results)
+            play(ls.joint_move(self.q, qp[0], joint_speed=speed, name="to the pre-entry pose"), results)
+            play(ls.timed_path(qp, np.array([machine_tip(machine, qq) for qq in qp]), tip_speed=sc.tip_speed,
+                               joint_speed=speed, name="dig"), results)
+            tip_path = np.array(self.trace)
+            peak = max(self.forces, default=0.0)
+            bucket = world.volumes().bucket
+            back = self.q.copy()
+            back[0] += sc.back_off if machine.moves_base else -sc.back_off  # the loader's d1 grows backwards
+            play(ls.joint_move(self.q, back, joint_speed=speed, name="back off"), results)
+            play(ls.joint_move(self.q, carry, joint_speed=speed, name="carry"), results)
+            account.dumping = True  # the bucket over the truck: what pours out of the lane now is delivered
+            try:
+                play(ls.joint_move(self.q, dump, joint_speed=speed, name="dump"), results)
+                for _ in range(int(sc.dump_hold_s / dt)):
+                    self.q = world.step(dump)
+            finally:
+                account.dumping = False
+            play(ls.joint_move(self.q, carry, joint_speed=speed, name="back to carry"), results)
+            world.settle_soil()
+            v = world.volumes()
+            dig = MujocoDig(plan.action, plan.base_x, plan.volume * world.width, bucket,
+                            account.delivered - delivered0, account.spilled - spilled0, v.box, results, tip_path,
+                            poses, peak, self.section)
+            self.digs.append(dig)
+        except Diverged as exc:  # an outcome, never a hang: the episode ends and says why
+            return None, ("diverged", f"dig {index}: {exc}")
+        return (dig,), None
+
+    def after(self, index, choice, dug, say):
+        dig, = dug
+        a = dig.action
+        say(f"  dig {index:3d} ({dig.section}): k {a.k:5.2f} m, alpha {math.degrees(a.alpha):5.1f} deg, d1 "
+            f"{a.d1:4.2f} m, r {a.r:4.2f} m: planned {dig.planned_m3:.3f} m^3, bucket {dig.bucket_m3:.3f}, "
+            f"delivered {dig.delivered_m3:.3f}, spilled {dig.spilled_m3:.3f}, lane {dig.lane_m3:.3f} m^3, "
+            f"peak soil force {dig.peak_force_n / 1000:.1f} kN")
+        return None
+
+    def result(self, end, reason, wall_s) -> MujocoRun:
+        world, account = self.world, self.account
+        v = world.volumes()
+        drift = v.box + v.bucket + account.delivered + account.spilled - world.soil.initial_volume
+        return MujocoRun(self.name, world.soil.heaped_capacity, world.width, self.digs, reason, self.start, v.box,
+                         drift, self.cfg.tolerance_fraction, world.time, self.map_end, end, wall_s)
+
+
 def run_episode(name: str, *, seed: int = 0, cfg: LoadingMujocoConfig | None = None,
                 cfg2d: ld.LoadingConfig | None = None, pile: PileLane | None = None, max_digs: int | None = None,
                 observer: LoadingObserver | None = None, progress=None, world_hooks=(),
                 account: SoilAccount | None = None) -> MujocoRun:
-    """One loading episode of ``name`` (``loader`` or ``shovel``) in MuJoCo (see the module docstring).
+    """One loading episode of ``name`` (``loader`` or ``shovel``) in MuJoCo (see the module docstring): the
+    platform's :class:`~excavsim.loop.episode.Episode` of a :class:`LoadTask`, cycled to its end.
 
     Args:
         seed: the episode seed (the soil's heterogeneity, the scanner's noise and drift).
         cfg, cfg2d: the MuJoCo and the 2-D loading configurations (the files' when None); the machine's
             kinematics, capacity and the planner's grid come from ``cfg2d``.
         pile: a pile other than the configuration's; max_digs: a limit other than the configuration's.
+        observer: sees the episode's hooks (:class:`LoadingObserver`; dig indices from 1).
         world_hooks: callables run after every control step with the world (tests: the volume account).
         account: the delivered/spilled account to keep (a new one when None; tests read it at every step).
     """
-    if name not in MACHINES:
-        raise ConfigError(f"unknown loading machine {name!r}; allowed: {', '.join(MACHINES)}")
-    cfg = cfg or load_mujoco_config()
-    cfg2d = cfg2d or ld.load_loading_config()
-    world = LoadingWorld(name, soil=cfg.soil, seed=seed)
-    world.set_terrain(world.section_heights(*pile_section(world, pile or cfg.pile)))
-    account = account if account is not None else SoilAccount()
-    account.reset(world)
-    world.step_hooks.append(account)
-    world.step_hooks.extend(world_hooks)
-    if observer is not None:
-        world.step_hooks.append(observer.stepped)
-        observer.started(world, name)
-    scanner = make_scanner(world, cfg, seed)
-    machine = ld.make_machine(cfg2d, name)
-    spec = getattr(cfg2d.machines, name)
-    rules = ld.make_rules(cfg2d, spec.capacity_units)
-    sc = cfg.script
-    mscript = getattr(sc, name)
-    speed, tol = np.array(mscript.joint_speed), np.array(mscript.tolerance)
-    carry, dump = world.keyframes["carry"], world.keyframes["dump"]
-    start = world.volumes().box
-    digs: list[MujocoDig] = []
-    reason = f"{max_digs or cfg.max_digs} digs spent"
-    q = world.joint_angles()
-    dt = world.control_dt
-    trace: list[np.ndarray] = []
-    forces: list[float] = []
-
-    def witness(w: LoadingWorld) -> None:
-        trace.append(w.tip_pose())
-        forces.append(float(np.linalg.norm(w.contact.force)))
-
-    world.step_hooks.append(witness)
-
-    def play(script: ls.JointScript, results: list) -> None:
-        nonlocal q
-        res, q = ls.run(world.step, q, script, dt, tolerance=tol)
-        results.append(res)
-
-    map_first = map_end = math.nan
-    for index in range(max_digs or cfg.max_digs):
-        emap = scan_map(world, scanner, cfg)
-        map_end = map_soil_m3(emap, world.width, rules.ground)
-        map_first = map_end if index == 0 else map_first
-        section, terrain, plan = choose_section(machine, map_sections(emap, cfg.section_half_width), rules)
-        if observer is not None:
-            observer.scanned(index, emap, terrain)
-        if plan.action is None:
-            share = f" ({100 * map_end / map_first:.1f} % of the first map)" if map_first > 0 else ""
-            reason = (f"{plan.reason}; the map shows {map_end:.3f} m^3 more than {100 * rules.ground:.0f} cm above "
-                      f"the ground{share}")
-            break
-        poses, _ = dig_poses(plan.action, terrain, rules, machine.floor, step=sc.path_step, lift_extra=sc.lift_extra)
-        try:
-            qp, _ = joint_path(machine, poses, plan.base_x)
-        except ExcavsimError as exc:  # a planned pose the machine's IK cannot reach: said, never executed blindly
-            reason = f"dig {index + 1} not executed: {exc}"
-            break
-        try:
-            if observer is not None:
-                observer.planned(index, plan, poses)
-            trace.clear()
-            forces.clear()
-            results: list[ls.ScriptResult] = []
-            delivered0, spilled0 = account.delivered, account.spilled
-            # to the dig: the loader sets its arm and drives in; the shovel drives its base, then sets its arm
-            if machine.moves_base:
-                staged = np.r_[q[0], qp[0, 1:]]
-            else:
-                staged = np.r_[qp[0, 0], q[1:]]
-            play(ls.joint_move(q, staged, joint_speed=speed, name="arm to the dig" if machine.moves_base
-                               else "base to its place"), results)
-            play(ls.joint_move(q, qp[0], joint_speed=speed, name="to the pre-entry pose"), results)
-            play(ls.timed_path(qp, np.array([machine_tip(machine, qq) for qq in qp]), tip_speed=sc.tip_speed,
-                               joint_speed=speed, name="dig"), results)
-            tip_path = np.array(trace)
-            peak = max(forces, default=0.0)
-            bucket = world.volumes().bucket
-            back = q.copy()
-            back[0] += sc.back_off if machine.moves_base else -sc.back_off  # the loader's d1 grows backwards
-            play(ls.joint_move(q, back, joint_speed=speed, name="back off"), results)
-            play(ls.joint_move(q, carry, joint_speed=speed, name="carry"), results)
-            account.dumping = True  # the bucket over the truck: what pours out of the lane now is delivered
-            try:
-                play(ls.joint_move(q, dump, joint_speed=speed, name="dump"), results)
-                for _ in range(int(sc.dump_hold_s / dt)):
-                    q = world.step(dump)
-            finally:
-                account.dumping = False
-            play(ls.joint_move(q, carry, joint_speed=speed, name="back to carry"), results)
-            world.settle_soil()
-            v = world.volumes()
-            dig = MujocoDig(plan.action, plan.base_x, plan.volume * world.width, bucket,
-                            account.delivered - delivered0, account.spilled - spilled0, v.box, results, tip_path,
-                            poses, peak, section)
-            digs.append(dig)
-        except Diverged as exc:  # an outcome, never a hang: the episode ends and says why
-            reason = f"dig {index + 1}: {exc}"
-            break
-        if observer is not None:
-            observer.dug(index, dig)
-        if progress:
-            a = plan.action
-            progress(f"  dig {index + 1:3d} ({section}): k {a.k:5.2f} m, alpha {math.degrees(a.alpha):5.1f} deg, d1 "
-                     f"{a.d1:4.2f} m, r {a.r:4.2f} m: planned {dig.planned_m3:.3f} m^3, bucket {bucket:.3f}, "
-                     f"delivered {dig.delivered_m3:.3f}, spilled {dig.spilled_m3:.3f}, lane {v.box:.3f} m^3, "
-                     f"peak soil force {peak / 1000:.1f} kN")
-    v = world.volumes()
-    drift = v.box + v.bucket + account.delivered + account.spilled - world.soil.initial_volume
-    run = MujocoRun(name, world.soil.heaped_capacity, world.width, digs, reason, start, v.box, drift,
-                    cfg.tolerance_fraction, world.time, map_end)
-    if observer is not None:
-        observer.finished(run)
-    return run
+    task = LoadTask(name, cfg=cfg, cfg2d=cfg2d, pile=pile, world_hooks=world_hooks, account=account)
+    episode = Episode(task, dig_budget=max_digs or task.cfg.max_digs, progress=progress, observer=observer)
+    episode.reset(seed)
+    return episode.run()
 
 
 def machine_tip(machine, q: np.ndarray) -> np.ndarray:

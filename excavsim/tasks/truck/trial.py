@@ -26,7 +26,6 @@ from __future__ import annotations
 import csv
 import dataclasses
 import math
-import time
 from collections.abc import Callable
 from pathlib import Path
 
@@ -35,14 +34,16 @@ import numpy as np
 from excavsim import constants
 from excavsim.config import get_soil, load_robot_config, load_sensing_config
 from excavsim.config.truck import TRUCK_YAML, load_truck_file
-from excavsim.errors import GoalError
+from excavsim.errors import GoalError, UsageError
 from excavsim.execution.mass_script import (BOOM, BUCKET, FRACTIONS, STICK, SWING, TUNED, MassParams, TimingModel,
                                             TruckSite, compute_params, follow_path, mass_script, run_joint_script)
 from excavsim.handoff.maps import ElevationMap
 from excavsim.learning.lwr_tuning import Memory, Objective, select_action
+from excavsim.loop.digs import Choice
+from excavsim.loop.episode import Episode
 from excavsim.loop.rig import go_to
 from excavsim.robot.extract import arm_from_model
-from excavsim.sensing.elevation import build_map
+from excavsim.sensing.elevation import scan_map
 from excavsim.world.scanner import LaserScanner
 from excavsim.world.simulation import Simulation
 
@@ -168,8 +169,7 @@ class Scanner:
         self.scanner = LaserScanner(sim.model, sim.soil.grid, self.cfg.scanner, np.random.default_rng((seed, 7)))
 
     def map(self) -> ElevationMap:
-        images = [self.scanner.scan(self.sim.time) for _ in range(self.cfg.map.n_scans)]
-        return build_map(images, self.scanner.geometry, self.cfg.map)[0]
+        return scan_map(self.scanner, self.sim.time, self.cfg.map)[0]
 
 
 @dataclasses.dataclass
@@ -263,39 +263,99 @@ class _Tracing:
         return o
 
 
+class TruckTask:
+    """One trial of truck loading (§6.2, see the module docstring) as a task of the platform's
+    :class:`~excavsim.loop.episode.Episode`: the fixed dig loads the bucket when the episode is reset;
+    the one cycle scans the site (the map before), runs the mass-excavation script with ``params``
+    (the cycle's dig), lets the soil settle and scans again; the result is the :class:`Trial` with the
+    pile measured on the maps (and on the truth, for reports). Its hooks' arguments: ``started(sim,
+    cfg)``, ``scanned(1, map before, None)``, ``planned(1, None, script)``, ``dug(1, trial)``,
+    ``finished(trial)``.
+
+    Args:
+        params, cfg, index, source, soil, trace: as :func:`run_trial`'s.
+    """
+
+    final_scan = False
+    wall_limit_s = math.inf
+
+    def __init__(self, params: MassParams, cfg: TruckConfig, *, index: int = 0, source: str = "",
+                 soil: str | None = None, trace: bool = False):
+        self.params, self.cfg, self.index, self.source = params, cfg, index, source
+        self.soil, self.trace = soil, trace
+
+    def reset(self, seed: int, world: Simulation | None = None, digs=None) -> tuple:
+        if digs is not None:
+            raise UsageError("a truck-loading trial runs its mass-excavation script; no dig source can be given "
+                             "(digs must be None)")
+        self.sim = sim = world if world is not None else Simulation(soil=self.soil, seed=seed)
+        self.arm = arm_from_model(sim.model)
+        self.scanner = Scanner(sim, seed)
+        dig(sim, self.cfg, self.arm)
+        self.loaded = sim.truth.volumes.bucket
+        self.trial: Trial | None = None
+        return sim, self.cfg
+
+    def budget_reason(self, budget: int) -> str:
+        return "the trial's script ran"
+
+    def park(self) -> None:
+        """Nothing: the site is scanned with the loaded bucket at the dig's end."""
+
+    def scan(self):
+        self.before_map = self.scanner.map()
+        return self.before_map, None
+
+    def assess(self, index, scanned, say):
+        self.before_true = self.sim.soil.grid.heights.copy()
+        return scanned, None
+
+    def choose(self, emap) -> Choice:
+        return Choice(mass_script(self.params))
+
+    def execute(self, index, choice):
+        sim, cfg = self.sim, self.cfg
+        servos = _Tracing(sim) if self.trace else sim
+        script = choice.dig
+        run = run_joint_script(servos, script)
+        sim.settle_soil()
+        after_map = self.scanner.map()
+        min_theta = cfg.dig_swing + 0.5 * (cfg.site.theta_d - cfg.dig_swing)
+        pile = pile_position(self.before_map, after_map, min_theta)
+        true = true_pile(sim, self.before_true, min_theta)
+        dumped = self.loaded - sim.truth.volumes.bucket
+        out = Trial(self.index, self.params, run.duration, pile, true, run.outcome, dumped, self.loaded, math.nan,
+                    self.source, min_dumped_fraction=cfg.min_dumped_fraction)
+        if self.trace:
+            t = np.array([o[0] for o in servos.obs]) - run.start
+            q = np.stack([o[1] for o in servos.obs])
+            keep = (t >= 0.0) & (t <= run.duration + 1e-9)
+            t, q = t[keep], q[keep]
+            pose = self.arm.forward(q[:, 1:4])
+            tip = np.stack([pose[:, 0] * np.cos(q[:, 0]), pose[:, 0] * np.sin(q[:, 0]), pose[:, 1]], axis=1)
+            joints = [sub.joints[0] for sub in script.subscripts]
+            phases = [(tr.time - run.start, joints[tr.subscript], tr.name) for tr in run.transitions]
+            out.trace = TrialTrace(t, q, tip, phases, self.before_map, after_map)
+        self.trial = out
+        return (out,), None
+
+    def after(self, index, choice, dug, say):
+        return None
+
+    def result(self, end, reason, wall_s) -> Trial | None:
+        if self.trial is not None:
+            self.trial.wall_s = wall_s
+        return self.trial
+
+
 def run_trial(params: MassParams, cfg: TruckConfig, *, seed: int = 0, index: int = 0, source: str = "",
               soil: str | None = None, trace: bool = False) -> Trial:
-    """One dig-swing-dump trial (see the module docstring); ``trace`` keeps a :class:`TrialTrace`."""
-    wall = time.perf_counter()
-    sim = Simulation(soil=soil, seed=seed)
-    arm = arm_from_model(sim.model)
-    scanner = Scanner(sim, seed)
-    dig(sim, cfg, arm)
-    loaded = sim.truth.volumes.bucket
-    before_map = scanner.map()
-    before_true = sim.soil.grid.heights.copy()
-    servos = _Tracing(sim) if trace else sim
-    script = mass_script(params)
-    run = run_joint_script(servos, script)
-    sim.settle_soil()
-    after_map = scanner.map()
-    min_theta = cfg.dig_swing + 0.5 * (cfg.site.theta_d - cfg.dig_swing)
-    pile = pile_position(before_map, after_map, min_theta)
-    true = true_pile(sim, before_true, min_theta)
-    dumped = loaded - sim.truth.volumes.bucket
-    out = Trial(index, params, run.duration, pile, true, run.outcome, dumped, loaded, time.perf_counter() - wall,
-                source, min_dumped_fraction=cfg.min_dumped_fraction)
-    if trace:
-        t = np.array([o[0] for o in servos.obs]) - run.start
-        q = np.stack([o[1] for o in servos.obs])
-        keep = (t >= 0.0) & (t <= run.duration + 1e-9)
-        t, q = t[keep], q[keep]
-        pose = arm.forward(q[:, 1:4])
-        tip = np.stack([pose[:, 0] * np.cos(q[:, 0]), pose[:, 0] * np.sin(q[:, 0]), pose[:, 1]], axis=1)
-        joints = [sub.joints[0] for sub in script.subscripts]
-        phases = [(tr.time - run.start, joints[tr.subscript], tr.name) for tr in run.transitions]
-        out.trace = TrialTrace(t, q, tip, phases, before_map, after_map)
-    return out
+    """One dig-swing-dump trial (see the module docstring): the platform's
+    :class:`~excavsim.loop.episode.Episode` of a :class:`TruckTask`, one cycle; ``trace`` keeps a
+    :class:`TrialTrace`."""
+    episode = Episode(TruckTask(params, cfg, index=index, source=source, soil=soil, trace=trace), dig_budget=1)
+    episode.reset(seed)
+    return episode.run()
 
 
 def tuned_bounds(base: MassParams, cfg: TruckConfig | None = None) -> tuple[np.ndarray, np.ndarray]:

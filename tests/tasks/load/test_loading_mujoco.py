@@ -290,3 +290,105 @@ def test_a_divergence_ends_the_episode_with_its_reason_instead_of_a_crash():
     run = lm.run_episode("loader", pile=lm.PileLane(height=0.6, top=0.3, foot=1.5), world_hooks=[blow_up])
     assert run.digs == [] and "dig 1: MuJoCo warned" in run.reason
     assert not run.done
+
+
+def test_loading_is_a_task_of_the_episode_spec_and_the_stepped_episode():
+    from excavsim.config import ConfigError
+    from excavsim.loop.scenario import TASK_MACHINES, EpisodeSpec, dig_rows, episode_summary, run_spec, spec_episode
+
+    assert TASK_MACHINES["load"] == tuple(MACHINES)
+    with pytest.raises(ConfigError, match="unknown task 'dig'; allowed: trench, load"):
+        EpisodeSpec(task="dig")
+    with pytest.raises(ConfigError, match="machine 'loader' does not do task trench; allowed: t3"):
+        EpisodeSpec(machine="loader")
+    with pytest.raises(ConfigError, match="task load does not use goal, planner"):
+        EpisodeSpec(task="load", goal="small", planner={"objective": "volume"})
+    with pytest.raises(ConfigError, match="loading: overrides configs/loading_mujoco.yaml for task load"):
+        EpisodeSpec(loading={"n_scans": 2})
+    with pytest.raises(ConfigError, match="n_scans"):
+        run_spec(EpisodeSpec(task="load", loading={"n_scans": 0}))
+
+    fields = {"task": "load", "machine": "shovel", "seed": 1, "dig_budget": 2,
+              "loading": {"pile": {"height": 0.6, "top": 0.3, "foot": 1.5}, "n_scans": 2}}
+    spec = EpisodeSpec.model_validate(EpisodeSpec(**fields).model_dump(mode="json"))  # a campaign's round trip
+    assert spec.machine_name == "shovel" and EpisodeSpec(task="load").machine_name == "loader"
+    class Hooks:  # one observer protocol: the episode's six hooks, with the loading task's arguments
+        def __init__(self):
+            self.calls = []
+
+        def started(self, world, machine):
+            self.calls.append(("started", machine))
+
+        def scanned(self, index, emap, terrain):
+            self.calls.append(("scanned", index))
+
+        def planned(self, index, plan, tip_path):
+            self.calls.append(("planned", index))
+
+        def stepped(self, world):
+            pass
+
+        def dug(self, index, dig):
+            self.calls.append(("dug", index))
+
+        def finished(self, run):
+            self.calls.append(("finished", run.end))
+
+    from excavsim.handoff.episode import ObserverGroup
+
+    one, two = Hooks(), Hooks()
+    whole = run_spec(spec, observer=ObserverGroup(one, two))
+    assert one.calls == two.calls and one.calls[:4] == [("started", "shovel"), ("scanned", 1), ("planned", 1),
+                                                        ("dug", 1)]
+    assert one.calls[-1] == ("finished", whole.end)
+    direct = lm.run_episode("shovel", seed=1, max_digs=2, cfg=lm.load_mujoco_config().model_copy(
+        update={"pile": lm.PileLane(height=0.6, top=0.3, foot=1.5), "n_scans": 2}))
+    assert [d.bucket_m3 for d in whole.digs] == [d.bucket_m3 for d in direct.digs]  # the same episode, bit for bit
+    assert whole.end == direct.end and whole.reason == direct.reason and whole.end in ("done", "budget")
+
+    ep = spec_episode(spec)  # the same episode, one phase at a time
+    ep.reset(spec.seed)
+    emap = ep.look()
+    assert emap is not None and not ep.over
+    choice = ep.decide()
+    assert choice.plan.action is not None and choice.dig.shape[1] >= 2  # the planned tip path
+    (dig,) = ep.dig()
+    assert dig.bucket_m3 == whole.digs[0].bucket_m3
+    result = ep.run()
+    summary = episode_summary(result)
+    assert summary["task"] == "load" and summary["machine"] == "shovel" and summary["digs"] == len(whole.digs)
+    assert summary["end"] == whole.end and abs(summary["volume_change_m3"]) < 1e-9
+    assert 0 < summary["removed_fraction"] <= 1 and summary["wall_s"] > 0
+    rows = dig_rows(result)
+    assert len(rows) == len(whole.digs) and rows[0]["dug_l"] == pytest.approx(1000 * whole.digs[0].bucket_m3)
+
+
+def test_excavsim_trench_runs_a_loading_spec(tmp_path, capsys):
+    from excavsim.cli import main
+
+    spec = tmp_path / "load.yaml"
+    spec.write_text("task: load\nmachine: loader\ndig_budget: 1\n"
+                    "loading: {pile: {height: 0.6, top: 0.3, foot: 1.5}, n_scans: 2}\n")
+    assert main(["trench", "--spec", str(spec), "--record", str(tmp_path / "x.rrd")]) == 2
+    assert "the spec's task is load" in capsys.readouterr().err
+    assert main(["trench", "--spec", str(spec), "--goal", "small"]) == 2
+    assert "task load does not use goal" in capsys.readouterr().err
+    assert main(["trench", "--spec", str(spec)]) == 0
+    out = capsys.readouterr().out
+    assert "task load, machine loader, 1 digs at most" in out and "1 digs spent" in out
+
+
+def test_a_campaign_grid_varies_the_loading_machine_and_its_configuration():
+    from excavsim.config import ConfigError
+    from excavsim.studies.campaign.grid import expand_grid, parse_campaign
+
+    data = {"name": "loads", "base": {"task": "load", "dig_budget": 2, "loading": {"n_scans": 2}},
+            "grid": {"machine": ["loader", "shovel"], "loading.pile.height": [0.6, 0.8], "seed": [0]}}
+    episodes = expand_grid(parse_campaign(data))
+    assert len({e.id for e in episodes}) == 4
+    assert {(e.spec.machine_name, e.spec.loading["pile"]["height"], e.spec.loading["n_scans"]) for e in episodes} == \
+        {(m, h, 2) for m in ("loader", "shovel") for h in (0.6, 0.8)}
+    with pytest.raises(ConfigError, match=r"grid key 'loading.n_scans', value 0:(.|\n)*n_scans"):
+        parse_campaign({**data, "grid": {"loading.n_scans": [0]}})
+    with pytest.raises(ConfigError, match="machine 't3' does not do task load"):
+        parse_campaign({**data, "grid": {"machine": ["t3"]}})

@@ -183,3 +183,15 @@ def test_the_prediction_error_grows_away_from_the_data():
     inside, outside = m.predict(np.array([0.5, 0.5])), m.predict(np.array([1.6, 1.6]))
     assert inside.stderr[0] == pytest.approx(0.1, rel=0.6)
     assert outside.stderr[0] > inside.stderr[0] and outside.support < inside.support
+
+
+def test_a_trial_is_a_task_of_the_episode_and_takes_no_dig_source():
+    from excavsim.errors import ExcavsimError
+    from excavsim.loop.episode import Episode
+    from excavsim.tasks.truck.trial import TruckTask, load_truck_config, nominal_params
+
+    cfg = load_truck_config()
+    task = TruckTask(nominal_params(cfg), cfg)
+    with pytest.raises(ExcavsimError, match="no dig source can be given"):
+        Episode(task, dig_budget=1).reset(0, digs=object())
+    assert task.final_scan is False and task.budget_reason(1) == "the trial's script ran"

@@ -1,0 +1,47 @@
+"""The tasks the platform composes, by name.
+
+Trenching is the platform's own task (:class:`~excavsim.loop.episode.TrenchTask`); every other task
+lives in its home under ``excavsim.tasks`` and is named here by its entry point, ``module:Class``.
+The platform imports a task's module only when an episode of it is made, so ``loop`` stays below the
+tasks it runs (the layer contract of ``pyproject.toml``), as Gymnasium's registry names environments
+by entry point. A new task adds one line here and a ``task:`` value of the episode specification.
+"""
+
+from __future__ import annotations
+
+import importlib
+
+from excavsim.errors import ConfigError
+
+TASKS: dict[str, str] = {
+    "load": "excavsim.tasks.load.in_mujoco:LoadTask",  # loading from a pile in MuJoCo (Singh 1995 §7.2.1)
+}
+
+
+def task_module(name: str):
+    """The module of the task registered as ``name`` (it also defines ``format_run``, the task's table).
+
+    Raises:
+        ConfigError: ``name`` is not a registered task (the message lists them).
+    """
+    return importlib.import_module(_entry(name)[0])
+
+
+def _entry(name: str) -> tuple[str, str]:
+    try:
+        entry = TASKS[name]
+    except KeyError:
+        raise ConfigError(f"unknown task {name!r}; registered here: {', '.join(TASKS)} (trench is the "
+                          "platform's own)") from None
+    module, _, attr = entry.partition(":")
+    return module, attr
+
+
+def task_class(name: str) -> type:
+    """The task class registered as ``name``.
+
+    Raises:
+        ConfigError: ``name`` is not a registered task (the message lists them).
+    """
+    module, attr = _entry(name)
+    return getattr(importlib.import_module(module), attr)

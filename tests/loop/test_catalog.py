@@ -1,0 +1,20 @@
+"""The task catalog: tasks named by entry point, imported when an episode of them is made."""
+
+from __future__ import annotations
+
+import pytest
+
+from excavsim.errors import ConfigError
+from excavsim.loop.catalog import TASKS, task_class
+
+
+def test_every_registered_task_imports_and_has_the_task_hooks():
+    for name in TASKS:
+        cls = task_class(name)
+        for hook in ("reset",):
+            assert callable(getattr(cls, hook, None)), f"{name}: {cls.__name__} has no {hook}"
+
+
+def test_an_unknown_task_is_refused_naming_the_registered_ones():
+    with pytest.raises(ConfigError, match="unknown task 'dig'.*load"):
+        task_class("dig")
