@@ -48,8 +48,8 @@ class TrenchDigEnv(gym.Env):
     without a seed runs the spec's seed first, then seeds drawn from :attr:`np_random`.
 
     Args:
-        spec, weights, fallback, window_margin_m, window_half_width_m, observer, robot_path,
-            scene_path: as :class:`~excavsim.envs.core.DigCore`.
+        spec, weights, fallback, window_margin_m, window_half_width_m, observer, robot_path, scene_path:
+            as :class:`~excavsim.envs.core.DigCore`.
         normalize_action: the action in [-1, 1] (above) instead of the planner's units.
         render_mode: None (the default) or ``"rgb_array"``: :meth:`render` returns a frame of the
             world between digs from MuJoCo's offscreen renderer (:mod:`excavsim.envs.render`); to

@@ -37,8 +37,8 @@ class TrenchJointEnv(gym.Env):
     :data:`~excavsim.envs.joint_core.START_OPTIONS`.
 
     Args:
-        spec, weights, max_time_s, scan_period_s, patch_size, patch_spacing_m, start, robot_path,
-            scene_path: as :class:`~excavsim.envs.joint_core.JointCore`.
+        spec, weights, max_time_s, scan_period_s, patch_size, patch_spacing_m, start, robot_path, scene_path:
+            as :class:`~excavsim.envs.joint_core.JointCore`.
         render_mode: None (the default) or ``"rgb_array"``: :meth:`render` returns a frame from
             MuJoCo's offscreen renderer (see :mod:`excavsim.envs.render` for the GL backends).
         render_size: (width, height) of the frames [pixels].
