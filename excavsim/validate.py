@@ -259,6 +259,10 @@ def infer_kind(path: str | os.PathLike) -> str:
         return folder[0] if len(folder) == 1 else _by_fields(path, folder)
     if path.stem in STEM_KINDS:
         return path.stem
+    # a variant named after its kind (sensing_testbed.yaml): the longest kind the stem starts with
+    prefixed = [k for k in STEM_KINDS if path.stem.startswith(f"{k}_")]
+    if prefixed:
+        return max(prefixed, key=len)
     return _by_fields(path, KINDS)
 
 

@@ -13,9 +13,7 @@ from __future__ import annotations
 import argparse
 import contextlib
 import functools
-import importlib
 import io
-import pkgutil
 import re
 import shlex
 import subprocess
@@ -25,7 +23,6 @@ from pathlib import Path
 
 import pytest
 
-import excavsim
 from excavsim import cli, constants
 
 ROOT = constants.REPO_ROOT
@@ -185,30 +182,6 @@ def all_commands() -> list[tuple[str, list[str]]]:
 
 
 # -- configuration paths ---------------------------------------------------------------------------
-# the kinds `excavsim validate` checks, by where the file lives in configs/
-VALIDATE_KIND = {"configs/robot.yaml": "robot", "configs/scene.yaml": "scene", "configs/soils.yaml": "soils",
-                 "configs/sensing.yaml": "sensing", "configs/planner.yaml": "planner",
-                 "configs/executor.yaml": "executor"}
-VALIDATE_DIR = {"configs/trenches": "goal", "configs/experiments": "experiment", "configs/campaigns": "campaign"}
-# files `validate` has no kind for: the module (found by name, wherever the package keeps it) and the
-# loader the command that reads the file uses
-OWN_LOADER = {"configs/loading.yaml": ("planar", "load_loading_config"),
-              "configs/loading_mujoco.yaml": ("in_mujoco", "load_mujoco_config"),
-              "configs/truck.yaml": ("trial", "load_truck_config"),
-              "configs/campaigns/loading_mujoco.yaml": ("in_mujoco", "load_campaign")}
-
-
-def _module_named(leaf: str, function: str):
-    """The excavsim module whose last name is ``leaf`` and that defines ``function`` (modules move
-    between packages; their names and loaders stay)."""
-    for info in pkgutil.walk_packages(excavsim.__path__, "excavsim."):
-        if info.name.rsplit(".", 1)[-1] == leaf:
-            module = importlib.import_module(info.name)
-            if hasattr(module, function):
-                return getattr(module, function)
-    raise AssertionError(f"no module excavsim.*.{leaf} defines {function}")
-
-
 def named_config_paths() -> dict[str, list[str]]:
     """Every ``configs/...`` path the README and docs name, with where each is named."""
     found: dict[str, list[str]] = {}
@@ -230,21 +203,13 @@ def check_config_path(named: str) -> list[str]:
 
 @functools.lru_cache(maxsize=None)
 def _check_file(path: Path) -> tuple[str, ...]:
-    """The problems of one configuration file (each file is checked once, however often it is named)."""
+    """The problems of one configuration file (each file is checked once, however often it is named):
+    ``excavsim validate FILE``, which tells the file's kind from its place or its fields."""
     rel = path.relative_to(ROOT).as_posix()
-    kind = VALIDATE_KIND.get(rel) or (None if rel in OWN_LOADER else VALIDATE_DIR.get(path.parent.relative_to(ROOT).as_posix()))
-    if kind:
-        err = io.StringIO()
-        with contextlib.redirect_stderr(err), contextlib.redirect_stdout(io.StringIO()):
-            status = cli.main(["validate", kind, str(path)])
-        return () if status == 0 else (f"{rel}: excavsim validate {kind} fails: {err.getvalue().strip()}",)
-    if rel in OWN_LOADER:
-        _module_named(*OWN_LOADER[rel])(path)
-        return ()
-    if rel.startswith("configs/regress/"):
-        _module_named("suite", "load_scenarios")(path.parent, only=[path.stem])
-        return ()
-    return (f"{rel}: no check known for this file; add it to tests/test_docs.py",)
+    err = io.StringIO()
+    with contextlib.redirect_stderr(err), contextlib.redirect_stdout(io.StringIO()):
+        status = cli.main(["validate", str(path)])
+    return () if status == 0 else (f"{rel}: excavsim validate fails: {err.getvalue().strip()}",)
 
 
 # -- tests -----------------------------------------------------------------------------------------
@@ -303,7 +268,7 @@ def test_a_missing_config_path_is_reported():
 
 
 def test_an_invalid_config_named_by_the_docs_is_reported(tmp_path, monkeypatch):
-    """A goal file that `excavsim validate goal` rejects is reported with validate's message."""
+    """A goal file that `excavsim validate` rejects is reported with validate's message."""
     goal_dir = tmp_path / "configs" / "trenches"
     goal_dir.mkdir(parents=True)
     good = (ROOT / "configs/trenches/small.yaml").read_text()
@@ -312,7 +277,7 @@ def test_an_invalid_config_named_by_the_docs_is_reported(tmp_path, monkeypatch):
     monkeypatch.setattr(sys.modules[__name__], "ROOT", tmp_path)
     assert check_config_path("configs/trenches/small.yaml") == []
     problems = check_config_path("configs/trenches/broken.yaml")
-    assert len(problems) == 1 and "validate goal fails" in problems[0] and "no_such_field" in problems[0], problems
+    assert len(problems) == 1 and "validate fails" in problems[0] and "no_such_field" in problems[0], problems
 
 
 @pytest.mark.parametrize("named", sorted(named_config_paths()))
