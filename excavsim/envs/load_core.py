@@ -29,13 +29,15 @@ from typing import Any
 import numpy as np
 
 from excavsim.config import parse_config
+from excavsim.config.loading import LoadingConfig, load_loading_config
 from excavsim.envs.core import Field, check_seed, check_vector, check_weights
 from excavsim.errors import ConfigError, EnvError
 from excavsim.loop.digs import Choice
-from excavsim.loop.scenario import EpisodeSpec, ResolvedSpec, load_spec, loading_summary, spec_episode
+from excavsim.loop.episode import Episode
+from excavsim.loop.scenario import EpisodeSpec, ResolvedSpec, load_spec, loading_summary
 from excavsim.planning import loading as lp
 from excavsim.tasks.load import planar as ld
-from excavsim.tasks.load.in_mujoco import SECTIONS, map_sections
+from excavsim.tasks.load.in_mujoco import SECTIONS, LoadTask, map_sections
 
 LANE_LENGTH_M = 8.5  # models/pile_box: the lane runs from x = 0 to 8.5 m
 PROFILE_STEP_M = 0.05
@@ -106,14 +108,23 @@ class LoadCore:
             gives one; its ``dig_budget`` truncates.
         weights: reward weights over :data:`LOAD_WEIGHTS`.
         observer: a :class:`~excavsim.tasks.load.in_mujoco.LoadingObserver` (a Rerun recorder, say).
+        loading_config: the machines' numbers and the planner's grid and rules
+            (:class:`~excavsim.config.loading.LoadingConfig` or its YAML path; default
+            ``configs/loading.yaml``, as ``excavsim trench --spec`` uses); the action box is its grid's.
     """
 
-    def __init__(self, spec=None, *, weights: Mapping[str, float] | None = None, observer=None):
+    def __init__(self, spec=None, *, weights: Mapping[str, float] | None = None, observer=None,
+                 loading_config: LoadingConfig | str | pathlib.Path | None = None):
         self.spec = as_load_spec(spec)
         self.resolved = ResolvedSpec(self.spec)
         self.weights = check_weights(weights, LOAD_WEIGHTS, "loading")
         self.observer = observer
-        cfg2d = ld.load_loading_config()
+        if loading_config is None or isinstance(loading_config, (str, pathlib.Path)):
+            loading_config = load_loading_config(loading_config)
+        elif not isinstance(loading_config, LoadingConfig):
+            raise EnvError(f"loading_config must be a LoadingConfig, a YAML path or None; given "
+                           f"{type(loading_config).__name__}")
+        self.cfg2d = cfg2d = loading_config
         self.rules = rules = ld.make_rules(cfg2d, getattr(cfg2d.machines, self.spec.machine_name).capacity_units)
         gk, ga, gr, _ = rules.grid()
         self.with_radius = rules.parameterization == "k_alpha_r"
@@ -205,7 +216,9 @@ class LoadCore:
         if self._episode is not None:
             self._episode.close()
         self._clear()
-        self._episode = ep = spec_episode(self.spec, self.resolved, observer=self.observer)
+        spec = self.spec  # the episode of excavsim.loop.scenario.spec_episode, with this 2-D configuration
+        task = LoadTask(spec.machine_name, cfg=self.resolved.loading, cfg2d=self.cfg2d)
+        self._episode = ep = Episode(task, dig_budget=spec.dig_budget, observer=self.observer)
         try:
             ep.reset(seed)
             self._task = ep.task
