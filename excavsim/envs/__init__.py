@@ -13,8 +13,10 @@
 
 Importing this module registers them with Gymnasium (``gymnasium.make("excavsim/TrenchDig-v0",
 spec=...)``; install ``excavsim[envs]``). :mod:`excavsim.envs.dm` has the same environments with a
-dm_env face (:class:`~excavsim.envs.dm.DmTrenchDig`, :class:`~excavsim.envs.dm.DmTrenchJoint`), which
-needs only dm-env. The cores (:mod:`excavsim.envs.core`, :mod:`excavsim.envs.joint_core`) know neither library.
+dm_env face (:class:`~excavsim.envs.dm.DmTrenchDig`, :class:`~excavsim.envs.dm.DmTrenchJoint`,
+:class:`~excavsim.envs.dm.DmLoadDig`), which
+needs only dm-env. The cores (:mod:`excavsim.envs.core`, :mod:`excavsim.envs.joint_core`,
+:mod:`excavsim.envs.load_core`) know neither library.
 """
 
 from __future__ import annotations

@@ -13,9 +13,12 @@ import copy
 import gymnasium as gym
 import numpy as np
 import pytest
+from absl.testing import absltest
+from dm_env import test_utils
 from gymnasium.utils.env_checker import check_env, data_equivalence
 
 from excavsim.envs import LOAD_DIG_ENV_ID, EnvError
+from excavsim.envs.dm import DmLoadDig
 from excavsim.envs.load_core import LOAD_WEIGHTS, PROFILE_X
 from excavsim.envs.load_env import LoadDigEnv, LoadPlannerPolicy
 from excavsim.envs.render import offscreen_error
@@ -68,6 +71,17 @@ def test_gymnasium_check_env_passes_and_the_spaces_are_the_documented_ones():
         assert u.observation_space["joints"].shape == (3,)  # the loader's travel, boom, bucket
     finally:
         env.close()
+
+
+class DmLoadDigTest(test_utils.EnvironmentTestMixin, absltest.TestCase):
+    """dm_env's own checks of the loading environment; the sequence reaches LAST (2 digs) and starts again."""
+
+    def make_object_under_test(self):
+        return DmLoadDig(tiny(), seed=5, loading_config=COARSE)
+
+    def make_action_sequence(self):
+        for _ in range(4):
+            yield self.make_action()
 
 
 def test_a_seed_reproduces_an_episode_exactly_and_rewards_are_the_sum_of_their_terms():
