@@ -7,11 +7,16 @@
   (:class:`~excavsim.envs.joint_env.TrenchJointEnv`): one step per control period, the action the
   servos' set-point rates; the first the whole trench (3,000 steps), the second one dig (600 steps,
   the single-dig task the PPO baseline learns). Both start with the bucket just above the soil.
+* ``excavsim/LoadDig-v0`` (:class:`~excavsim.envs.load_env.LoadDigEnv`): loading from a pile in
+  MuJoCo, one step per dig, the action the loading planner's (k, alpha); the episode is the loop of
+  ``excavsim trench --spec`` with ``task: load`` and the agent in the loading planner's place.
 
 Importing this module registers them with Gymnasium (``gymnasium.make("excavsim/TrenchDig-v0",
 spec=...)``; install ``excavsim[envs]``). :mod:`excavsim.envs.dm` has the same environments with a
-dm_env face (:class:`~excavsim.envs.dm.DmTrenchDig`, :class:`~excavsim.envs.dm.DmTrenchJoint`), which
-needs only dm-env. The cores (:mod:`excavsim.envs.core`, :mod:`excavsim.envs.joint_core`) know neither library.
+dm_env face (:class:`~excavsim.envs.dm.DmTrenchDig`, :class:`~excavsim.envs.dm.DmTrenchJoint`,
+:class:`~excavsim.envs.dm.DmLoadDig`), which
+needs only dm-env. The cores (:mod:`excavsim.envs.core`, :mod:`excavsim.envs.joint_core`,
+:mod:`excavsim.envs.load_core`) know neither library.
 """
 
 from __future__ import annotations
@@ -19,13 +24,14 @@ from __future__ import annotations
 from excavsim.envs.core import DIG_WEIGHTS, OUTCOMES, DigCore, EnvError
 from excavsim.envs.joint_core import DIG_TASK, JOINT_WEIGHTS, TRENCH_TASK, JointCore
 
-__all__ = ["DIG_WEIGHTS", "DIG_ENV_ID", "ENV_IDS", "JOINT_DIG_ENV_ID", "JOINT_ENV_ID", "JOINT_WEIGHTS", "OUTCOMES",
-           "DigCore", "EnvError", "JointCore", "register"]
+__all__ = ["DIG_WEIGHTS", "DIG_ENV_ID", "ENV_IDS", "JOINT_DIG_ENV_ID", "JOINT_ENV_ID", "JOINT_WEIGHTS",
+           "LOAD_DIG_ENV_ID", "OUTCOMES", "DigCore", "EnvError", "JointCore", "register"]
 
 DIG_ENV_ID = "excavsim/TrenchDig-v0"
 JOINT_ENV_ID = "excavsim/TrenchJoint-v0"
 JOINT_DIG_ENV_ID = "excavsim/TrenchJointDig-v0"
-ENV_IDS = (DIG_ENV_ID, JOINT_ENV_ID, JOINT_DIG_ENV_ID)
+LOAD_DIG_ENV_ID = "excavsim/LoadDig-v0"
+ENV_IDS = (DIG_ENV_ID, JOINT_ENV_ID, JOINT_DIG_ENV_ID, LOAD_DIG_ENV_ID)
 """Every environment this package registers."""
 
 
@@ -41,6 +47,8 @@ def register() -> bool:
     registry = gymnasium.envs.registration.registry
     if DIG_ENV_ID not in registry:
         gymnasium.register(DIG_ENV_ID, entry_point="excavsim.envs.dig_env:TrenchDigEnv")
+    if LOAD_DIG_ENV_ID not in registry:
+        gymnasium.register(LOAD_DIG_ENV_ID, entry_point="excavsim.envs.load_env:LoadDigEnv")
     for env_id, task in ((JOINT_ENV_ID, TRENCH_TASK), (JOINT_DIG_ENV_ID, DIG_TASK)):
         if env_id not in registry:
             gymnasium.register(env_id, entry_point="excavsim.envs.joint_env:TrenchJointEnv", kwargs=dict(task),

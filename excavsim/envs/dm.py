@@ -1,4 +1,4 @@
-"""The two environments with a dm_env face: :class:`DmTrenchDig` and :class:`DmTrenchJoint`.
+"""The environments with a dm_env face: :class:`DmTrenchDig`, :class:`DmTrenchJoint` and :class:`DmLoadDig`.
 
 The same cores as the Gymnasium environments (:mod:`excavsim.envs.core`), with dm_env's
 conventions: ``reset()`` returns a ``FIRST`` time step; ``step`` on a fresh environment or after a
@@ -22,6 +22,7 @@ from dm_env import specs
 
 from excavsim.envs.core import MAX_SEED, DigCore, Field, check_seed
 from excavsim.envs.joint_core import JointCore
+from excavsim.envs.load_core import LoadCore
 
 
 def field_spec(name: str, field: Field) -> specs.Array:
@@ -112,3 +113,16 @@ class DmTrenchJoint(_DmFace):
     """
 
     _core_class = JointCore
+
+
+class DmLoadDig(_DmFace):
+    """``LoadDig`` with a dm_env face: one step per dig of loading from a pile, the action the loading
+    planner's (k, alpha) [m, rad] (see :class:`~excavsim.envs.load_core.LoadCore` and
+    :class:`~excavsim.envs.load_env.LoadDigEnv`).
+
+    Args:
+        spec: the episode (task load); seed: the first episode's seed (see the module docstring); the
+            rest as :class:`~excavsim.envs.load_core.LoadCore`.
+    """
+
+    _core_class = LoadCore

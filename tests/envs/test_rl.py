@@ -20,10 +20,12 @@ import pytest
 from gymnasium.utils.env_checker import check_env as gym_check_env
 
 import excavsim.envs
-from excavsim.envs import DIG_ENV_ID, ENV_IDS, JOINT_DIG_ENV_ID, JOINT_ENV_ID, EnvError
+from excavsim.config.loading import load_loading_config
+from excavsim.envs import DIG_ENV_ID, ENV_IDS, JOINT_DIG_ENV_ID, JOINT_ENV_ID, LOAD_DIG_ENV_ID, EnvError
 from excavsim.envs.batched import BatchedJointEnv
 from excavsim.envs.render import RenderModeError, offscreen_error
 
+_LOADING = load_loading_config()
 TINY = {
     "name": "tiny", "goal": "small", "dig_budget": 2, "seed": 0,
     "sensing": {"map": {"n_scans": 1}, "scanner": {"n_azimuth": 60, "n_elevation": 60}},
@@ -33,6 +35,10 @@ SHORT = {  # each environment with a tiny spec and, at the joint level, 0.3 s ep
     DIG_ENV_ID: {"spec": {**TINY, "dig_budget": 1}},
     JOINT_ENV_ID: {"spec": TINY, "max_time_s": 0.3, "scan_period_s": 0.2},
     JOINT_DIG_ENV_ID: {"spec": TINY, "max_time_s": 0.3},
+    LOAD_DIG_ENV_ID: {"spec": {"name": "tiny", "dig_budget": 1, "seed": 0, "loading": {  # a 0.6 m pile, one coarse scan
+        "pile": {"height": 0.6, "top": 0.3, "foot": 1.5}, "n_scans": 1, "scanner": {"n_azimuth": 80, "n_elevation": 20}}},
+        "loading_config": _LOADING.model_copy(update={"planner": _LOADING.planner.model_copy(  # a coarse planner grid
+            update={"k_step": 0.2, "alpha_deg": [-30.0, 40.0, 10.0]})})},
 }
 DIG_DOWN = np.array([0.0, -0.3, -0.4, 0.3], np.float32)  # shoulder and elbow down, wrist curling: the bucket cuts
 
