@@ -55,6 +55,43 @@ def soil_steps(active, heights, strength, grids, mj_arrays, vel6, buckets, edges
                                  boxes[i], early_out)
 
 
+@numba.njit(cache=True)
+def servo_rates(active, a, ctrls, qposs, act, qadr, hold, limit, gain):
+    """The servos' set-point rates of every active copy written into its ``data.ctrl`` (typed list):
+    :meth:`JointCore.checked_rates <excavsim.envs.joint_core.JointCore.checked_rates>` element by
+    element (the agent's four rates ``clip(a, -1, 1) * limit``, the wrist's yaw and roll driven to
+    ``hold`` by the servo law of :func:`~excavsim.robot.servo.setpoint_rates`); ``a`` (N, 4) finite,
+    ``act``/``qadr`` (N, 6) the actuators and joint addresses, ``hold`` (N, 2), ``limit`` (N, 6), ``gain`` (N,)."""
+    for i in range(a.shape[0]):
+        if not active[i]:
+            continue
+        ctrl, qpos = ctrls[i], qposs[i]
+        for k in range(4):
+            v = a[i, k]
+            if v < -1.0:
+                v = -1.0
+            if v > 1.0:
+                v = 1.0
+            ctrl[act[i, k]] = v * limit[i, k]
+        for k in range(4, 6):
+            v = gain[i] * (hold[i, k - 4] - qpos[qadr[i, k]])
+            lo, hi = -limit[i, k], limit[i, k]
+            if v < lo:
+                v = lo
+            if v > hi:
+                v = hi
+            ctrl[act[i, k]] = v
+
+
+@numba.njit(cache=True)
+def gather_cells(heights, rows, cols, out):
+    """``out[i, j] = heights[i][rows[j], cols[j]]``: the footprint's cells of every copy's true terrain."""
+    for i in range(len(heights)):
+        h = heights[i]
+        for j in range(rows.shape[0]):
+            out[i, j] = h[rows[j], cols[j]]
+
+
 _SOIL_LISTS = ("heights", "strength", "grids", "mj_arrays", "buckets", "edges", "surfaces", "tables", "rocks",
                "params", "states", "pressures", "outs", "boxes")
 
@@ -113,6 +150,16 @@ class BatchedJointEnv(gym.vector.VectorEnv):
         self._map_of: list[Any] = [None] * self.num_envs
         self._obs: dict[str, np.ndarray] | None = None
         self._resets = 0
+        # the per-copy constants of the compiled servo rates, and the views they write (set at each reset)
+        self._ctrls = List([np.zeros(1)] * self.num_envs)
+        self._qposs = List([np.zeros(1)] * self.num_envs)
+        self._act = np.zeros((self.num_envs, 6), dtype=np.int64)
+        self._qadr = np.zeros((self.num_envs, 6), dtype=np.int64)
+        self._hold = np.zeros((self.num_envs, 2))
+        self._limit = np.zeros((self.num_envs, 6))
+        self._gain = np.zeros(self.num_envs)
+        self._h0: np.ndarray | None = None  # (N, cells) the footprint's first heights, when the copies share it
+        self._cells: np.ndarray | None = None
 
     # -- reset ----------------------------------------------------------------------------------
     def reset(self, *, seed: int | list[int] | None = None, options: dict[str, Any] | None = None):
@@ -165,6 +212,30 @@ class BatchedJointEnv(gym.vector.VectorEnv):
             self._maps = np.zeros((self.num_envs,) + emap.heights.shape)
         self._maps[i] = emap.heights
         self._map_of[i] = emap
+        core = self.cores[i]
+        d = sim.data
+        self._ctrls[i], self._qposs[i] = d.ctrl, d.qpos
+        self._act[i], self._qadr[i] = sim._act, sim.index.qpos
+        self._hold[i], self._limit[i] = core._hold, core._rate_limit
+        self._gain[i] = float(sim.robot.setpoint_gain_per_s)
+        truth, first = core.truth, self.cores[0].truth
+        if self._h0 is None or self._h0.shape[1] != len(truth.h0):
+            self._h0 = np.zeros((self.num_envs, len(truth.h0)))
+            self._cells = np.zeros_like(self._h0)
+        self._h0[i] = truth.h0
+        self._shared = all(_same_footprint(c.truth, first) for c in self.cores if hasattr(c, "truth"))
+
+    def _measure(self) -> tuple[np.ndarray, np.ndarray] | None:
+        """Every copy's :meth:`TrueTrench.measure <excavsim.envs.core.TrueTrench.measure>` at once
+        (the same numbers: the same operations on the rows of stacked arrays), or None when the
+        copies' footprints differ (then each copy measures itself)."""
+        if not self._shared:
+            return None
+        first = self.cores[0].truth
+        gather_cells(self._soil["heights"], first.idx[0], first.idx[1], self._cells)
+        removed = np.clip(self._h0 - np.maximum(self._cells, first.z_goal), 0, None).sum(axis=1) * first.cell_area
+        over = np.clip(first.z_goal - self._cells, 0, None).sum(axis=1) * first.cell_area
+        return removed, over
 
     # -- step -----------------------------------------------------------------------------------
     def step(self, actions):
@@ -191,11 +262,11 @@ class BatchedJointEnv(gym.vector.VectorEnv):
         soil = self._soil
         batched = np.zeros(n, dtype=bool)
         for i in np.flatnonzero(active):
-            core = self.cores[i]
-            sim = core.sim
-            if core.over:
+            if self.cores[i].over:
                 raise EnvError(f"copy {i}'s episode has ended without its autoreset: call reset() first")
-            sim.data.ctrl[sim._act] = core.checked_rates(a[i])
+        servo_rates(active, a, self._ctrls, self._qposs, self._act, self._qadr, self._hold, self._limit, self._gain)
+        for i in np.flatnonzero(active):
+            sim = self.cores[i].sim
             if sim.diverged is None and sim.soil_enabled and sim.soil.dimaio is None and sim.soil.early_out:
                 mujoco.mj_objectVelocity(sim.model, sim.data, _OBJ_BODY, sim.soil._body_id, self._vel[i], 0)
                 batched[i] = True
@@ -212,6 +283,7 @@ class BatchedJointEnv(gym.vector.VectorEnv):
             except Diverged as exc:
                 diverged[i] = exc
         steps: dict[int, dict[str, Any]] = {}
+        measured = self._measure()
         for i in np.flatnonzero(active):
             core = self.cores[i]
             if i in diverged:
@@ -219,7 +291,8 @@ class BatchedJointEnv(gym.vector.VectorEnv):
                 observations[i] = core.reading
                 infos = self._add_info(infos, info, i)
                 continue
-            steps[i] = core.account(observations[i])
+            steps[i] = core.account(observations[i], None if measured is None
+                                    else (float(measured[0][i]), float(measured[1][i])))
             if core.emap is not self._map_of[i]:  # rescanned
                 self._maps[i] = core.emap.heights
                 self._map_of[i] = core.emap
@@ -345,4 +418,10 @@ def _physics_step(sim, batched: bool, clear: bool):
     return sim.observe()
 
 
-__all__ = ["BatchedJointEnv", "soil_steps"]
+def _same_footprint(a, b) -> bool:
+    """Whether two copies' true-trench measures read the same cells against the same goal."""
+    return (a.cell_area == b.cell_area and a.idx[0].shape == b.idx[0].shape and np.array_equal(a.idx[0], b.idx[0])
+            and np.array_equal(a.idx[1], b.idx[1]) and np.array_equal(a.z_goal, b.z_goal))
+
+
+__all__ = ["BatchedJointEnv", "gather_cells", "servo_rates", "soil_steps"]

@@ -234,6 +234,7 @@ def test_the_batched_env_steps_exactly_as_n_single_envs_and_autoresets_next_step
     try:
         assert isinstance(venv.unwrapped, BatchedJointEnv)
         ov, _ = venv.reset(seed=seeds)
+        assert venv.unwrapped._shared  # the copies' trench measures are taken together (the batched path)
         for i, (env, s) in enumerate(zip(singles, seeds)):
             o, _ = env.reset(seed=s)
             for k in o:
