@@ -324,12 +324,14 @@ class BatchedJointEnv(gym.vector.VectorEnv):
             infos = self._add_info(infos, self._reset_info(i), i)
         soil = self._soil
         batched = np.zeros(n, dtype=bool)
-        for i in np.flatnonzero(active):
-            if self.cores[i].over:
+        stepping = np.flatnonzero(active).tolist()  # Python ints: cheaper indices than numpy's
+        cores = self.cores
+        for i in stepping:
+            if cores[i].over:
                 raise EnvError(f"copy {i}'s episode has ended without its autoreset: call reset() first")
         servo_rates(active, a, self._ctrls, self._qposs, self._act, self._qadr, self._hold, self._limit, self._gain)
-        for i in np.flatnonzero(active):
-            sim = self.cores[i].sim
+        for i in stepping:
+            sim = cores[i].sim
             if sim.diverged is None and sim.soil_enabled and sim.soil.dimaio is None and sim.soil.early_out:
                 mujoco.mj_objectVelocity(sim.model, sim.data, _OBJ_BODY, sim.soil._body_id, self._vel[i], 0)
                 batched[i] = True
@@ -339,23 +341,23 @@ class BatchedJointEnv(gym.vector.VectorEnv):
                    dt, soil["states"], soil["pressures"], soil["outs"], soil["boxes"], True, self._clear)
         observations: list[Any] = [None] * n
         diverged: dict[int, BaseException] = {}
-        for i in np.flatnonzero(active):
-            sim = self.cores[i].sim
+        in_batch, clear = batched.tolist(), self._clear.tolist()
+        for i in stepping:
             try:
-                observations[i] = _physics_step(sim, bool(batched[i]), bool(self._clear[i]))
+                observations[i] = _physics_step(cores[i].sim, in_batch[i], clear[i])
             except Diverged as exc:
                 diverged[i] = exc
         steps: dict[int, dict[str, Any]] = {}
         measured = self._measure()
-        for i in np.flatnonzero(active):
-            core = self.cores[i]
+        removed, over = (None, None) if measured is None else (measured[0].tolist(), measured[1].tolist())
+        for i in stepping:
+            core = cores[i]
             if i in diverged:
                 _obs, _r, terminated[i], truncated[i], info = core.diverged(diverged[i])
                 observations[i] = core.reading
                 infos = self._add_info(infos, info, i)
                 continue
-            steps[i] = core.account(observations[i], None if measured is None
-                                    else (float(measured[0][i]), float(measured[1][i])))
+            steps[i] = core.account(observations[i], None if measured is None else (removed[i], over[i]))
             if core.emap is not self._map_of[i]:  # rescanned
                 self._maps[i] = core.emap.heights
                 self._map_of[i] = core.emap
@@ -366,7 +368,7 @@ class BatchedJointEnv(gym.vector.VectorEnv):
             self.cores[i]._potential = self.cores[i]._depth_potential()
         stepped = []
         for i, step in steps.items():
-            _o, rewards[i], terminated[i], truncated[i], info = self.cores[i].finish(step, None)
+            _o, rewards[i], terminated[i], truncated[i], info = cores[i].finish(step, None)
             stepped.append((i, info))
         infos = self._step_infos(infos, stepped)
         self._obs = obs
@@ -418,15 +420,19 @@ class BatchedJointEnv(gym.vector.VectorEnv):
         out = {"q": np.zeros((n, 6), np.float32), "qdot": np.zeros((n, 6), np.float32),
                "ft": np.zeros((n, 6), np.float32), "tip": np.zeros((n, 4), np.float32),
                "patch": np.zeros((n, 2, p, p), np.float32), "time_left": np.zeros((n, 1), np.float32)}
-        for i in np.flatnonzero(which):
+        q, qdot, ft, tip4 = np.zeros((n, 6)), np.zeros((n, 6)), np.zeros((n, 6)), np.zeros((n, 4))
+        time_left = [0.0] * n
+        for i in np.flatnonzero(which).tolist():  # gathered in float64, cast to float32 once per field
             core, obs = self.cores[i], observations[i]
             tip, pitch, wrench = core.tip_and_wrench(obs)
             tips[i] = tip
-            out["q"][i] = obs.q
-            out["qdot"][i] = obs.qdot
-            out["ft"][i] = wrench
-            out["tip"][i] = (tip[0], tip[1], tip[2], pitch)
-            out["time_left"][i, 0] = max(core.max_time_s - (core.sim.time - core.t0), 0.0)
+            q[i] = obs.q
+            qdot[i] = obs.qdot
+            ft[i] = wrench
+            tip4[i] = (tip[0], tip[1], tip[2], pitch)
+            time_left[i] = max(core.max_time_s - (core.sim.time - core.t0), 0.0)
+        out["q"][:], out["qdot"][:], out["ft"][:], out["tip"][:] = q, qdot, ft, tip4
+        out["time_left"][:, 0] = time_left
         layout = core0.layout
         if getattr(self, "_layout", None) is not layout:
             self._layout, (self._grid, self._goal) = layout, _layout_constants(layout)
