@@ -155,6 +155,30 @@ def _layout_constants(layout) -> tuple[np.ndarray, np.ndarray]:
     return grid, goal
 
 
+@numba.njit(cache=True)
+def watch_ok(stepped, counts, base, qposs, qvels, before, after, dt, half_step, ok):
+    """A conservative batched watchdog: ``ok[i]`` True only where copy ``i``'s step is surely fine by
+    :meth:`Simulation._watchdog <excavsim.world.simulation.Simulation._watchdog>`'s rules (no MuJoCo
+    warning grew, the clock advanced by ``dt`` within ``half_step``, every joint position and
+    velocity finite and below 1e300 in size, fewer than 100 of each, so that their sums are finite);
+    the other copies go through the world's own watchdog, which words the reason."""
+    for i in range(stepped.shape[0]):
+        if not stepped[i]:
+            continue
+        good = abs(after[i] - before[i] - dt) <= half_step and qposs[i].shape[0] < 100 and qvels[i].shape[0] < 100
+        c, b = counts[i], base[i]
+        for k in range(c.shape[0]):
+            if c[k] > b[k]:
+                good = False
+        for x in qposs[i]:
+            if not abs(x) < 1e300:
+                good = False
+        for x in qvels[i]:
+            if not abs(x) < 1e300:
+                good = False
+        ok[i] = good
+
+
 _SOIL_LISTS = ("heights", "strength", "grids", "mj_arrays", "buckets", "edges", "surfaces", "tables", "rocks",
                "params", "states", "pressures", "outs", "boxes")
 
@@ -221,6 +245,11 @@ class BatchedJointEnv(gym.vector.VectorEnv):
         self._hold = np.zeros((self.num_envs, 2))
         self._limit = np.zeros((self.num_envs, 6))
         self._gain = np.zeros(self.num_envs)
+        # the batched watchdog's views (set at each reset)
+        self._counts: List | None = None  # typed lists of the warning counters' strided views: made at the first reset
+        self._base: List | None = None
+        self._qvels = List([np.zeros(1)] * self.num_envs)
+        self._ok = np.zeros(self.num_envs, dtype=np.bool_)
         self._h0: np.ndarray | None = None  # (N, cells) the footprint's first heights, when the copies share it
         self._cells: np.ndarray | None = None
 
@@ -278,6 +307,10 @@ class BatchedJointEnv(gym.vector.VectorEnv):
         core = self.cores[i]
         d = sim.data
         self._ctrls[i], self._qposs[i] = d.ctrl, d.qpos
+        if self._counts is None:
+            self._counts = List([sim._warning_view] * self.num_envs)
+            self._base = List([sim._warnings] * self.num_envs)
+        self._counts[i], self._base[i], self._qvels[i] = sim._warning_view, sim._warnings, d.qvel
         self._act[i], self._qadr[i] = sim._act, sim.index.qpos
         self._hold[i], self._limit[i] = core._hold, core._rate_limit
         self._gain[i] = float(sim.robot.setpoint_gain_per_s)
@@ -342,9 +375,28 @@ class BatchedJointEnv(gym.vector.VectorEnv):
         observations: list[Any] = [None] * n
         diverged: dict[int, BaseException] = {}
         in_batch, clear = batched.tolist(), self._clear.tolist()
+        before, after = np.zeros(n), np.zeros(n)
+        physics = np.zeros(n, dtype=np.bool_)  # the copies MuJoCo stepped
         for i in stepping:
+            sim = cores[i].sim
             try:
-                observations[i] = _physics_step(cores[i].sim, in_batch[i], clear[i])
+                _soil_done(sim, in_batch[i], clear[i])
+            except Diverged as exc:
+                diverged[i] = exc
+                continue
+            d = sim.data
+            before[i] = d.time
+            mujoco.mj_step(sim.model, d, sim.substeps)
+            sim.steps += 1
+            after[i] = d.time
+            physics[i] = True
+        sim0 = cores[0].sim
+        watch_ok(physics, self._counts, self._base, self._qposs, self._qvels, before, after, sim0.control_dt,
+                 0.5 * sim0.model.opt.timestep, self._ok)
+        ok = self._ok.tolist()
+        for i in np.flatnonzero(physics).tolist():
+            try:
+                observations[i] = _after_physics(cores[i].sim, ok[i], float(before[i]))
             except Diverged as exc:
                 diverged[i] = exc
         steps: dict[int, dict[str, Any]] = {}
@@ -464,11 +516,11 @@ class BatchedJointEnv(gym.vector.VectorEnv):
             c.close()
 
 
-def _physics_step(sim, batched: bool, clear: bool):
-    """The rest of :meth:`Simulation.step <excavsim.world.simulation.Simulation.step>` once the
+def _soil_done(sim, batched: bool, clear: bool) -> None:
+    """The first part of :meth:`Simulation.step <excavsim.world.simulation.Simulation.step>` once the
     copy's soil kernel has run in the batch (``batched``; otherwise the soil steps here, on its own):
-    the soil's bookkeeping, its wrench held on the bucket, MuJoCo's substeps, the watchdog; the
-    observation after it. The same operations in the same order as ``Simulation.step``."""
+    the soil's bookkeeping and its wrench held on the bucket. With :func:`_after_physics` around
+    MuJoCo's substeps: the same operations in the same order as ``Simulation.step``."""
     d = sim.data
     if sim.diverged is not None:
         raise Diverged(f"the simulation diverged earlier and cannot go on: {sim.diverged}")
@@ -481,14 +533,18 @@ def _physics_step(sim, batched: bool, clear: bool):
         sim._xfrc_bucket[:] = sim.contact.wrench
     else:
         sim._xfrc_bucket[:] = 0.0
-    before = float(d.time)
-    mujoco.mj_step(sim.model, d, sim.substeps)
-    sim.steps += 1
-    why = sim._watchdog(before)
-    if why is not None:
-        sim.diverged = f"{why} in the control step from t = {sim._clock:.3f} s (step {sim.steps})"
-        raise Diverged(f"the simulation diverged: {sim.diverged}")
-    sim._clock = float(d.time)
+
+
+def _after_physics(sim, ok: bool, before: float):
+    """The rest of ``Simulation.step`` after MuJoCo's substeps from time ``before``: the world's
+    watchdog unless the batched check (:func:`watch_ok`) found the step fine, the clock, the step
+    hooks and the observation."""
+    if not ok:
+        why = sim._watchdog(before)
+        if why is not None:
+            sim.diverged = f"{why} in the control step from t = {sim._clock:.3f} s (step {sim.steps})"
+            raise Diverged(f"the simulation diverged: {sim.diverged}")
+    sim._clock = float(sim.data.time)
     for hook in sim.step_hooks:
         hook(sim)
     return sim.observe()
@@ -500,4 +556,4 @@ def _same_footprint(a, b) -> bool:
             and np.array_equal(a.idx[1], b.idx[1]) and np.array_equal(a.z_goal, b.z_goal))
 
 
-__all__ = ["BatchedJointEnv", "gather_cells", "patch_kernel", "servo_rates", "soil_steps"]
+__all__ = ["BatchedJointEnv", "gather_cells", "patch_kernel", "servo_rates", "soil_steps", "watch_ok"]
