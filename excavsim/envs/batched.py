@@ -4,17 +4,20 @@
 gives (its default vectorization mode, or ``vectorization_mode="vector_entry_point"``). Each copy
 is a :class:`~excavsim.envs.joint_core.JointCore` with its own world; one step of the batch:
 
-1. the actions of all copies are checked at once and turned into the servos' set-point rates;
+1. the actions of all copies are checked at once and turned into the servos' set-point rates, written
+   into every copy's ``data.ctrl`` in one compiled call (:func:`servo_rates`);
 2. the soil of every copy steps in **one compiled call** (:func:`soil_steps`, a loop over the
    copies around the world's own kernel :func:`~excavsim.world.kernels.soil_step`, on the same
    arrays the copies' :class:`~excavsim.world.soil.SoilModel` own), instead of one call per copy;
 3. MuJoCo steps each copy's physics (``mj_step`` over the control period's substeps, the soil's
-   wrench held), with the world's watchdog;
-4. the rewards are accounted per copy, and the height patches of all copies are computed in one
-   vectorized pass (:class:`~excavsim.envs.joint_core.PatchLayout`) on their maps stacked.
+   wrench held); one compiled check (:func:`watch_ok`) passes the copies the world's watchdog would
+   pass, and the watchdog itself looks at the others;
+4. the true trench of all copies is measured in one gather (:func:`gather_cells`) and one numpy
+   pass, the rewards are accounted per copy, and the height patches of all copies are computed in
+   one compiled pass (:func:`patch_kernel`) on their maps stacked.
 
-The copies step exactly as N single environments do, to the bit (tests/test_rl.py checks it):
-the world's per-step code is the same, in the same order. A copy whose soil uses DiMaio's model
+The copies step exactly as N single environments do, to the bit (tests/envs/test_rl.py checks it):
+the world's per-step operations on each copy are the same, in the same order. A copy whose soil uses DiMaio's model
 (``truth.model: dimaio``) steps its soil on its own (the batched kernel is the wedge model's).
 
 Autoreset follows Gymnasium's ``NEXT_STEP`` mode (as ``SyncVectorEnv``): the step after a copy's
