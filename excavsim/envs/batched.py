@@ -4,17 +4,20 @@
 gives (its default vectorization mode, or ``vectorization_mode="vector_entry_point"``). Each copy
 is a :class:`~excavsim.envs.joint_core.JointCore` with its own world; one step of the batch:
 
-1. the actions of all copies are checked at once and turned into the servos' set-point rates;
+1. the actions of all copies are checked at once and turned into the servos' set-point rates, written
+   into every copy's ``data.ctrl`` in one compiled call (:func:`servo_rates`);
 2. the soil of every copy steps in **one compiled call** (:func:`soil_steps`, a loop over the
    copies around the world's own kernel :func:`~excavsim.world.kernels.soil_step`, on the same
    arrays the copies' :class:`~excavsim.world.soil.SoilModel` own), instead of one call per copy;
 3. MuJoCo steps each copy's physics (``mj_step`` over the control period's substeps, the soil's
-   wrench held), with the world's watchdog;
-4. the rewards are accounted per copy, and the height patches of all copies are computed in one
-   vectorized pass (:class:`~excavsim.envs.joint_core.PatchLayout`) on their maps stacked.
+   wrench held); one compiled check (:func:`watch_ok`) passes the copies the world's watchdog would
+   pass, and the watchdog itself looks at the others;
+4. the true trench of all copies is measured in one gather (:func:`gather_cells`) and one numpy
+   pass, the rewards are accounted per copy, and the height patches of all copies are computed in
+   one compiled pass (:func:`patch_kernel`) on their maps stacked.
 
-The copies step exactly as N single environments do, to the bit (tests/test_rl.py checks it):
-the world's per-step code is the same, in the same order. A copy whose soil uses DiMaio's model
+The copies step exactly as N single environments do, to the bit (tests/envs/test_rl.py checks it):
+the world's per-step operations on each copy are the same, in the same order. A copy whose soil uses DiMaio's model
 (``truth.model: dimaio``) steps its soil on its own (the batched kernel is the wedge model's).
 
 Autoreset follows Gymnasium's ``NEXT_STEP`` mode (as ``SyncVectorEnv``): the step after a copy's
@@ -23,6 +26,7 @@ episode ended resets it (its action is ignored, its reward 0) and returns its fi
 
 from __future__ import annotations
 
+import math
 from typing import Any
 
 import gymnasium as gym
@@ -53,6 +57,129 @@ def soil_steps(active, heights, strength, grids, mj_arrays, vel6, buckets, edges
             clear[i] = soil_step(heights[i], strength[i], grids[i], mj_arrays[i], vel6[i], buckets[i], edges[i],
                                  surfaces[i], tables[i], rocks[i], params[i], dt_s, states[i], pressures[i], outs[i],
                                  boxes[i], early_out)
+
+
+@numba.njit(cache=True)
+def servo_rates(active, a, ctrls, qposs, act, qadr, hold, limit, gain):
+    """The servos' set-point rates of every active copy written into its ``data.ctrl`` (typed list):
+    :meth:`JointCore.checked_rates <excavsim.envs.joint_core.JointCore.checked_rates>` element by
+    element (the agent's four rates ``clip(a, -1, 1) * limit``, the wrist's yaw and roll driven to
+    ``hold`` by the servo law of :func:`~excavsim.robot.servo.setpoint_rates`); ``a`` (N, 4) finite,
+    ``act``/``qadr`` (N, 6) the actuators and joint addresses, ``hold`` (N, 2), ``limit`` (N, 6), ``gain`` (N,)."""
+    for i in range(a.shape[0]):
+        if not active[i]:
+            continue
+        ctrl, qpos = ctrls[i], qposs[i]
+        for k in range(4):
+            v = a[i, k]
+            if v < -1.0:
+                v = -1.0
+            if v > 1.0:
+                v = 1.0
+            ctrl[act[i, k]] = v * limit[i, k]
+        for k in range(4, 6):
+            v = gain[i] * (hold[i, k - 4] - qpos[qadr[i, k]])
+            lo, hi = -limit[i, k], limit[i, k]
+            if v < lo:
+                v = lo
+            if v > hi:
+                v = hi
+            ctrl[act[i, k]] = v
+
+
+@numba.njit(cache=True)
+def gather_cells(heights, rows, cols, out):
+    """``out[i, j] = heights[i][rows[j], cols[j]]``: the footprint's cells of every copy's true terrain."""
+    for i in range(len(heights)):
+        h = heights[i]
+        for j in range(rows.shape[0]):
+            out[i, j] = h[rows[j], cols[j]]
+
+
+@numba.njit(cache=True, inline="always")
+def _bilinear(h, x, y, x0, y0, cell, ny, nx):
+    """:meth:`PatchLayout.heights_at <excavsim.envs.joint_core.PatchLayout.heights_at>` at one point
+    of one map, the same operations in the same order."""
+    u = (x - x0) / cell - 0.5
+    u = min(max(u, 0.0), nx - 1.0)
+    v = (y - y0) / cell - 0.5
+    v = min(max(v, 0.0), ny - 1.0)
+    c0 = min(np.int64(u), nx - 2)
+    r0 = min(np.int64(v), ny - 2)
+    fu, fv = u - c0, v - r0
+    return ((1 - fu) * (1 - fv) * h[r0, c0] + fu * (1 - fv) * h[r0, c0 + 1]
+            + (1 - fu) * fv * h[r0 + 1, c0] + fu * fv * h[r0 + 1, c0 + 1])
+
+
+@numba.njit(cache=True)
+def patch_kernel(heights, tips, off_x, off_y, grid, goal, terrain, goal_out, depth, inside):
+    """:meth:`PatchLayout.patches <excavsim.envs.joint_core.PatchLayout.patches>` of every copy in
+    one compiled pass, element by element with the same arithmetic (so the same numbers, to the bit).
+
+    Args:
+        heights: (N, ny, nx) the copies' maps; tips: (N, 3) their tips [m]; off_x, off_y: (P, P) offsets [m].
+        grid: (x0, y0, cell) of the maps; goal: (cos waist, sin waist, half width, near x, far x,
+            surface z, surface z - depth, tan near wall, tan far wall).
+        terrain, goal_out: (N, P, P) written; depth: (N,) written; inside: (N,) bool written.
+    """
+    x0, y0, cell = grid[0], grid[1], grid[2]
+    cw, sw, hw, near, far, z_ref, z_bottom, tan_near, tan_far = (goal[0], goal[1], goal[2], goal[3], goal[4],
+                                                                 goal[5], goal[6], goal[7], goal[8])
+    ny, nx = heights.shape[1], heights.shape[2]
+    for n in range(heights.shape[0]):
+        h = heights[n]
+        tx, ty, tz = tips[n, 0], tips[n, 1], tips[n, 2]
+        for a in range(off_x.shape[0]):
+            for b in range(off_x.shape[1]):
+                px, py = tx + off_x[a, b], ty + off_y[a, b]
+                terrain[n, a, b] = _bilinear(h, px, py, x0, y0, cell, ny, nx) - tz
+                radial = px * cw + py * sw
+                lateral = -px * sw + py * cw
+                z = z_ref
+                if abs(lateral) <= hw and radial >= near and radial <= far:
+                    z_near = z_ref - (radial - near) * tan_near
+                    z_far = z_ref - (far - radial) * tan_far
+                    z = max(max(z_near, z_far), z_bottom)
+                goal_out[n, a, b] = z - tz
+        t_radial = tx * cw + ty * sw
+        t_lateral = -tx * sw + ty * cw
+        inside[n] = abs(t_lateral) <= hw and t_radial >= near and t_radial <= far
+        depth[n] = _bilinear(h, tx, ty, x0, y0, cell, ny, nx) - tz
+
+
+def _layout_constants(layout) -> tuple[np.ndarray, np.ndarray]:
+    """The grid and goal numbers :func:`patch_kernel` takes, computed as :class:`PatchLayout` and
+    :func:`~excavsim.handoff.goal.goal_profile` compute them."""
+    g = layout.goal
+    grid = np.array([layout.x0, layout.y0, layout.cell], dtype=np.float64)
+    goal = np.array([layout.cw, layout.sw, layout.half_width, g.near_x_m, g.far_x_m, g.surface_z_m,
+                     g.surface_z_m - g.depth_m, math.tan(math.radians(g.near_wall_deg)),
+                     math.tan(math.radians(g.far_wall_deg))], dtype=np.float64)
+    return grid, goal
+
+
+@numba.njit(cache=True)
+def watch_ok(stepped, counts, base, qposs, qvels, before, after, dt, half_step, ok):
+    """A conservative batched watchdog: ``ok[i]`` True only where copy ``i``'s step is surely fine by
+    :meth:`Simulation._watchdog <excavsim.world.simulation.Simulation._watchdog>`'s rules (no MuJoCo
+    warning grew, the clock advanced by ``dt`` within ``half_step``, every joint position and
+    velocity finite and below 1e300 in size, fewer than 100 of each, so that their sums are finite);
+    the other copies go through the world's own watchdog, which words the reason."""
+    for i in range(stepped.shape[0]):
+        if not stepped[i]:
+            continue
+        good = abs(after[i] - before[i] - dt) <= half_step and qposs[i].shape[0] < 100 and qvels[i].shape[0] < 100
+        c, b = counts[i], base[i]
+        for k in range(c.shape[0]):
+            if c[k] > b[k]:
+                good = False
+        for x in qposs[i]:
+            if not abs(x) < 1e300:
+                good = False
+        for x in qvels[i]:
+            if not abs(x) < 1e300:
+                good = False
+        ok[i] = good
 
 
 _SOIL_LISTS = ("heights", "strength", "grids", "mj_arrays", "buckets", "edges", "surfaces", "tables", "rocks",
@@ -113,6 +240,21 @@ class BatchedJointEnv(gym.vector.VectorEnv):
         self._map_of: list[Any] = [None] * self.num_envs
         self._obs: dict[str, np.ndarray] | None = None
         self._resets = 0
+        # the per-copy constants of the compiled servo rates, and the views they write (set at each reset)
+        self._ctrls = List([np.zeros(1)] * self.num_envs)
+        self._qposs = List([np.zeros(1)] * self.num_envs)
+        self._act = np.zeros((self.num_envs, 6), dtype=np.int64)
+        self._qadr = np.zeros((self.num_envs, 6), dtype=np.int64)
+        self._hold = np.zeros((self.num_envs, 2))
+        self._limit = np.zeros((self.num_envs, 6))
+        self._gain = np.zeros(self.num_envs)
+        # the batched watchdog's views (set at each reset)
+        self._counts: List | None = None  # typed lists of the warning counters' strided views: made at the first reset
+        self._base: List | None = None
+        self._qvels = List([np.zeros(1)] * self.num_envs)
+        self._ok = np.zeros(self.num_envs, dtype=np.bool_)
+        self._h0: np.ndarray | None = None  # (N, cells) the footprint's first heights, when the copies share it
+        self._cells: np.ndarray | None = None
 
     # -- reset ----------------------------------------------------------------------------------
     def reset(self, *, seed: int | list[int] | None = None, options: dict[str, Any] | None = None):
@@ -165,6 +307,34 @@ class BatchedJointEnv(gym.vector.VectorEnv):
             self._maps = np.zeros((self.num_envs,) + emap.heights.shape)
         self._maps[i] = emap.heights
         self._map_of[i] = emap
+        core = self.cores[i]
+        d = sim.data
+        self._ctrls[i], self._qposs[i] = d.ctrl, d.qpos
+        if self._counts is None:
+            self._counts = List([sim._warning_view] * self.num_envs)
+            self._base = List([sim._warnings] * self.num_envs)
+        self._counts[i], self._base[i], self._qvels[i] = sim._warning_view, sim._warnings, d.qvel
+        self._act[i], self._qadr[i] = sim._act, sim.index.qpos
+        self._hold[i], self._limit[i] = core._hold, core._rate_limit
+        self._gain[i] = float(sim.robot.setpoint_gain_per_s)
+        truth, first = core.truth, self.cores[0].truth
+        if self._h0 is None or self._h0.shape[1] != len(truth.h0):
+            self._h0 = np.zeros((self.num_envs, len(truth.h0)))
+            self._cells = np.zeros_like(self._h0)
+        self._h0[i] = truth.h0
+        self._shared = all(_same_footprint(c.truth, first) for c in self.cores if hasattr(c, "truth"))
+
+    def _measure(self) -> tuple[np.ndarray, np.ndarray] | None:
+        """Every copy's :meth:`TrueTrench.measure <excavsim.envs.core.TrueTrench.measure>` at once
+        (the same numbers: the same operations on the rows of stacked arrays), or None when the
+        copies' footprints differ (then each copy measures itself)."""
+        if not self._shared:
+            return None
+        first = self.cores[0].truth
+        gather_cells(self._soil["heights"], first.idx[0], first.idx[1], self._cells)
+        removed = np.clip(self._h0 - np.maximum(self._cells, first.z_goal), 0, None).sum(axis=1) * first.cell_area
+        over = np.clip(first.z_goal - self._cells, 0, None).sum(axis=1) * first.cell_area
+        return removed, over
 
     # -- step -----------------------------------------------------------------------------------
     def step(self, actions):
@@ -190,12 +360,14 @@ class BatchedJointEnv(gym.vector.VectorEnv):
             infos = self._add_info(infos, self._reset_info(i), i)
         soil = self._soil
         batched = np.zeros(n, dtype=bool)
-        for i in np.flatnonzero(active):
-            core = self.cores[i]
-            sim = core.sim
-            if core.over:
+        stepping = np.flatnonzero(active).tolist()  # Python ints: cheaper indices than numpy's
+        cores = self.cores
+        for i in stepping:
+            if cores[i].over:
                 raise EnvError(f"copy {i}'s episode has ended without its autoreset: call reset() first")
-            sim.data.ctrl[sim._act] = core.checked_rates(a[i])
+        servo_rates(active, a, self._ctrls, self._qposs, self._act, self._qadr, self._hold, self._limit, self._gain)
+        for i in stepping:
+            sim = cores[i].sim
             if sim.diverged is None and sim.soil_enabled and sim.soil.dimaio is None and sim.soil.early_out:
                 mujoco.mj_objectVelocity(sim.model, sim.data, _OBJ_BODY, sim.soil._body_id, self._vel[i], 0)
                 batched[i] = True
@@ -205,21 +377,42 @@ class BatchedJointEnv(gym.vector.VectorEnv):
                    dt, soil["states"], soil["pressures"], soil["outs"], soil["boxes"], True, self._clear)
         observations: list[Any] = [None] * n
         diverged: dict[int, BaseException] = {}
-        for i in np.flatnonzero(active):
-            sim = self.cores[i].sim
+        in_batch, clear = batched.tolist(), self._clear.tolist()
+        before, after = np.zeros(n), np.zeros(n)
+        physics = np.zeros(n, dtype=np.bool_)  # the copies MuJoCo stepped
+        for i in stepping:
+            sim = cores[i].sim
             try:
-                observations[i] = _physics_step(sim, bool(batched[i]), bool(self._clear[i]))
+                _soil_done(sim, in_batch[i], clear[i])
+            except Diverged as exc:
+                diverged[i] = exc
+                continue
+            d = sim.data
+            before[i] = d.time
+            mujoco.mj_step(sim.model, d, sim.substeps)
+            sim.steps += 1
+            after[i] = d.time
+            physics[i] = True
+        sim0 = cores[0].sim
+        watch_ok(physics, self._counts, self._base, self._qposs, self._qvels, before, after, sim0.control_dt,
+                 0.5 * sim0.model.opt.timestep, self._ok)
+        ok = self._ok.tolist()
+        for i in np.flatnonzero(physics).tolist():
+            try:
+                observations[i] = _after_physics(cores[i].sim, ok[i], float(before[i]))
             except Diverged as exc:
                 diverged[i] = exc
         steps: dict[int, dict[str, Any]] = {}
-        for i in np.flatnonzero(active):
-            core = self.cores[i]
+        measured = self._measure()
+        removed, over = (None, None) if measured is None else (measured[0].tolist(), measured[1].tolist())
+        for i in stepping:
+            core = cores[i]
             if i in diverged:
                 _obs, _r, terminated[i], truncated[i], info = core.diverged(diverged[i])
                 observations[i] = core.reading
                 infos = self._add_info(infos, info, i)
                 continue
-            steps[i] = core.account(observations[i])
+            steps[i] = core.account(observations[i], None if measured is None else (removed[i], over[i]))
             if core.emap is not self._map_of[i]:  # rescanned
                 self._maps[i] = core.emap.heights
                 self._map_of[i] = core.emap
@@ -230,7 +423,7 @@ class BatchedJointEnv(gym.vector.VectorEnv):
             self.cores[i]._potential = self.cores[i]._depth_potential()
         stepped = []
         for i, step in steps.items():
-            _o, rewards[i], terminated[i], truncated[i], info = self.cores[i].finish(step, None)
+            _o, rewards[i], terminated[i], truncated[i], info = cores[i].finish(step, None)
             stepped.append((i, info))
         infos = self._step_infos(infos, stepped)
         self._obs = obs
@@ -282,18 +475,29 @@ class BatchedJointEnv(gym.vector.VectorEnv):
         out = {"q": np.zeros((n, 6), np.float32), "qdot": np.zeros((n, 6), np.float32),
                "ft": np.zeros((n, 6), np.float32), "tip": np.zeros((n, 4), np.float32),
                "patch": np.zeros((n, 2, p, p), np.float32), "time_left": np.zeros((n, 1), np.float32)}
-        for i in np.flatnonzero(which):
+        q, qdot, ft, tip4 = np.zeros((n, 6)), np.zeros((n, 6)), np.zeros((n, 6)), np.zeros((n, 4))
+        time_left = [0.0] * n
+        for i in np.flatnonzero(which).tolist():  # gathered in float64, cast to float32 once per field
             core, obs = self.cores[i], observations[i]
             tip, pitch, wrench = core.tip_and_wrench(obs)
             tips[i] = tip
-            out["q"][i] = obs.q
-            out["qdot"][i] = obs.qdot
-            out["ft"][i] = wrench
-            out["tip"][i] = (tip[0], tip[1], tip[2], pitch)
-            out["time_left"][i, 0] = max(core.max_time_s - (core.sim.time - core.t0), 0.0)
-        terrain, goal, depth, inside = core0.layout.patches(self._maps, tips)
-        out["patch"][:, 0] = terrain
-        out["patch"][:, 1] = goal
+            q[i] = obs.q
+            qdot[i] = obs.qdot
+            ft[i] = wrench
+            tip4[i] = (tip[0], tip[1], tip[2], pitch)
+            time_left[i] = max(core.max_time_s - (core.sim.time - core.t0), 0.0)
+        out["q"][:], out["qdot"][:], out["ft"][:], out["tip"][:] = q, qdot, ft, tip4
+        out["time_left"][:, 0] = time_left
+        layout = core0.layout
+        if getattr(self, "_layout", None) is not layout:
+            self._layout, (self._grid, self._goal) = layout, _layout_constants(layout)
+            self._terrain, self._goal_patch = np.zeros((n, p, p)), np.zeros((n, p, p))
+            self._depth, self._inside = np.zeros(n), np.zeros(n, dtype=np.bool_)
+        patch_kernel(self._maps, tips, layout.off_x, layout.off_y, self._grid, self._goal, self._terrain,
+                     self._goal_patch, self._depth, self._inside)
+        depth, inside = self._depth, self._inside
+        out["patch"][:, 0] = self._terrain
+        out["patch"][:, 1] = self._goal_patch
         for i in np.flatnonzero(which):
             self.cores[i]._tip_depth, self.cores[i]._tip_inside = float(depth[i]), bool(inside[i])
         return out
@@ -315,11 +519,11 @@ class BatchedJointEnv(gym.vector.VectorEnv):
             c.close()
 
 
-def _physics_step(sim, batched: bool, clear: bool):
-    """The rest of :meth:`Simulation.step <excavsim.world.simulation.Simulation.step>` once the
+def _soil_done(sim, batched: bool, clear: bool) -> None:
+    """The first part of :meth:`Simulation.step <excavsim.world.simulation.Simulation.step>` once the
     copy's soil kernel has run in the batch (``batched``; otherwise the soil steps here, on its own):
-    the soil's bookkeeping, its wrench held on the bucket, MuJoCo's substeps, the watchdog; the
-    observation after it. The same operations in the same order as ``Simulation.step``."""
+    the soil's bookkeeping and its wrench held on the bucket. With :func:`_after_physics` around
+    MuJoCo's substeps: the same operations in the same order as ``Simulation.step``."""
     d = sim.data
     if sim.diverged is not None:
         raise Diverged(f"the simulation diverged earlier and cannot go on: {sim.diverged}")
@@ -332,17 +536,27 @@ def _physics_step(sim, batched: bool, clear: bool):
         sim._xfrc_bucket[:] = sim.contact.wrench
     else:
         sim._xfrc_bucket[:] = 0.0
-    before = float(d.time)
-    mujoco.mj_step(sim.model, d, sim.substeps)
-    sim.steps += 1
-    why = sim._watchdog(before)
-    if why is not None:
-        sim.diverged = f"{why} in the control step from t = {sim._clock:.3f} s (step {sim.steps})"
-        raise Diverged(f"the simulation diverged: {sim.diverged}")
-    sim._clock = float(d.time)
+
+
+def _after_physics(sim, ok: bool, before: float):
+    """The rest of ``Simulation.step`` after MuJoCo's substeps from time ``before``: the world's
+    watchdog unless the batched check (:func:`watch_ok`) found the step fine, the clock, the step
+    hooks and the observation."""
+    if not ok:
+        why = sim._watchdog(before)
+        if why is not None:
+            sim.diverged = f"{why} in the control step from t = {sim._clock:.3f} s (step {sim.steps})"
+            raise Diverged(f"the simulation diverged: {sim.diverged}")
+    sim._clock = float(sim.data.time)
     for hook in sim.step_hooks:
         hook(sim)
     return sim.observe()
 
 
-__all__ = ["BatchedJointEnv", "soil_steps"]
+def _same_footprint(a, b) -> bool:
+    """Whether two copies' true-trench measures read the same cells against the same goal."""
+    return (a.cell_area == b.cell_area and a.idx[0].shape == b.idx[0].shape and np.array_equal(a.idx[0], b.idx[0])
+            and np.array_equal(a.idx[1], b.idx[1]) and np.array_equal(a.z_goal, b.z_goal))
+
+
+__all__ = ["BatchedJointEnv", "gather_cells", "patch_kernel", "servo_rates", "soil_steps", "watch_ok"]

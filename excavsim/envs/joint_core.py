@@ -279,14 +279,16 @@ class JointCore:
         step = self.account(obs)
         return self.finish(step, self._observation(obs))
 
-    def account(self, obs) -> dict[str, Any]:
+    def account(self, obs, measured: tuple[float, float] | None = None) -> dict[str, Any]:
         """The bookkeeping of a step the world has taken: the reward's terms but the shaping, the
-        ends, the info; rescans when a scan is due. :meth:`finish` completes it with the observation."""
+        ends, the info; rescans when a scan is due. :meth:`finish` completes it with the observation.
+        ``measured``: :meth:`TrueTrench.measure <excavsim.envs.core.TrueTrench.measure>`'s numbers
+        when already taken (the batched environment measures all copies at once)."""
         sim = self.sim
         self.steps += 1
         w = self.weights
         dt = sim.control_dt
-        removed, over = self.truth.measure()
+        removed, over = self.truth.measure() if measured is None else measured
         spoil, load = float(sim.soil.spoil), float(sim.soil.load)
         d_removed, d_over = removed - self._measured[0], over - self._measured[1]
         d_spoil, d_load = spoil - self._spoil, load - self._load

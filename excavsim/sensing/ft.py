@@ -33,9 +33,12 @@ Speed: the executor reads the sensor every control step. :meth:`ForceSensor.read
 validation and the balance in compiled code (:func:`wrench_kernel`) around MuJoCo's kinematics,
 with the arithmetic of the numpy reference (:func:`environment_wrench`, which :meth:`ForceSensor.reading`
 keeps using): the same products and sums in the same order, and for the rotation into world axes
-the fused multiply-adds of the BLAS product numpy calls (:func:`compiled_matches_numpy` checks on
-first use that they give numpy's numbers bit for bit on this machine; where they do not, the
-sensor computes with numpy instead).
+the fused multiply-adds of the BLAS product numpy calls. The rotation back into the tip frame
+(``tip_rot.T @ v``) rounds differently with the CPU numpy's BLAS picks its kernels for: a plain sum
+in order on some, a chain of fused multiply-adds on others (OpenBLAS's SkylakeX ``dgemv_t``);
+:func:`compiled_order` finds on first use which of the kernel's orders gives numpy's numbers bit for
+bit on this machine (:func:`compiled_matches_numpy`: one does); where none does, the sensor computes
+with numpy instead. Either way a reading is the numpy reference's, to the bit.
 """
 
 from __future__ import annotations
@@ -140,8 +143,23 @@ def _rot_row(m, off, v0, v1, v2):
     return _fma(m[off + 2], v2, _fma(m[off], v0, m[off + 1] * v1))
 
 
+TIP_ORDERS = ("plain", "fma")
+"""The orders :func:`wrench_kernel` can sum ``tip_rot.T @ v`` in (its ``tip_order`` index): ``"plain"``,
+a0 x0 + a1 x1 + a2 x2 rounded after each operation (numpy's own loop); ``"fma"``,
+fma(a2, x2, fma(a1, x1, a0 x0)) (OpenBLAS's transposed ``gemv`` on AVX-512 machines)."""
+
+
+@numba.njit(cache=True, inline="always")
+def _tip_row(m, k, v0, v1, v2, tip_order):
+    """Column ``k`` of a row-major 3x3 matrix ``m`` dotted with (v0, v1, v2), in order ``tip_order``
+    (an index into :data:`TIP_ORDERS`)."""
+    if tip_order == 1:
+        return _fma(m[6 + k], v2, _fma(m[3 + k], v1, m[k] * v0))
+    return m[k] * v0 + m[3 + k] * v1 + m[6 + k] * v2
+
+
 @numba.njit(cache=True)
-def wrench_kernel(force, torque, xmat, xpos, com, ft_site, tip_site, bucket, weight, out):
+def wrench_kernel(force, torque, xmat, xpos, com, ft_site, tip_site, bucket, weight, out, tip_order=0):
     """The environment's wrench about the tip from one wrist reading, as :func:`environment_wrench`
     computes it for one reading (same operations, same order), straight from MuJoCo's arrays.
 
@@ -151,6 +169,8 @@ def wrench_kernel(force, torque, xmat, xpos, com, ft_site, tip_site, bucket, wei
         com: ``subtree_com`` (nbody, 3); ft_site, tip_site, bucket: the sensor site, tip site and bucket body.
         weight: (3,) the bucket's weight [N].
         out: (4, 3) written: force_tip, torque_tip, force_world, torque_world.
+        tip_order: how ``tip_rot.T @ v`` is summed (an index into :data:`TIP_ORDERS`; :func:`compiled_order`
+            gives the one that equals numpy's on this machine).
 
     Returns:
         False (and ``out`` untouched) when the reading is not finite.
@@ -178,9 +198,9 @@ def wrench_kernel(force, torque, xmat, xpos, com, ft_site, tip_site, bucket, wei
         c2 = cp[i] * weight[j] - cp[j] * weight[i]
         out[3, k] = -mw[k] - c1 - c2
         out[2, k] = fe[k]
-    for k in range(3):  # tip_rot.T @ v: numpy's own loop, sums in order
-        out[0, k] = tr[k] * fe[0] + tr[3 + k] * fe[1] + tr[6 + k] * fe[2]
-        out[1, k] = tr[k] * out[3, 0] + tr[3 + k] * out[3, 1] + tr[6 + k] * out[3, 2]
+    for k in range(3):  # tip_rot.T @ v, in the machine's order
+        out[0, k] = _tip_row(tr, k, fe[0], fe[1], fe[2], tip_order)
+        out[1, k] = _tip_row(tr, k, out[3, 0], out[3, 1], out[3, 2], tip_order)
     return True
 
 
@@ -195,17 +215,17 @@ def _finite_q(q, qpos, qadr):
     return True
 
 
-_MATCHES: list[bool] = []
+_ORDER: list[int] = []
 
 
-def compiled_matches_numpy(n: int = 2000) -> bool:
-    """Whether :func:`wrench_kernel` gives :func:`environment_wrench`'s numbers bit for bit on this
-    machine (checked once, on ``n`` random readings and frames; the BLAS kernel numpy's matrix
-    product runs, and so its rounding, depends on the CPU)."""
-    if not _MATCHES:
+def compiled_order(n: int = 2000) -> int:
+    """The :data:`TIP_ORDERS` index with which :func:`wrench_kernel` gives :func:`environment_wrench`'s
+    numbers bit for bit on this machine, or -1 when no order does (checked once, on ``n`` random
+    readings and frames; the BLAS kernel numpy's matrix product runs, and so its rounding, depends
+    on the CPU)."""
+    if not _ORDER:
         rng = np.random.default_rng(17)
-        ok = True
-        out = np.empty((4, 3))
+        cases = []
         for _ in range(n):
             rot = [rng.normal(size=(3, 3)) for _ in range(2)]
             xmat = np.stack([r.ravel() for r in rot])
@@ -214,12 +234,27 @@ def compiled_matches_numpy(n: int = 2000) -> bool:
             f, t = rng.normal(size=3) * 500.0, rng.normal(size=3) * 200.0
             ref = environment_wrench(f, t, sensor_rot=rot[0], sensor_pos=xpos[0], tip_rot=rot[1], tip_pos=xpos[1],
                                      com=com[0], weight=weight)
-            wrench_kernel(f, t, xmat, xpos, com, 0, 1, 0, weight, out)
-            if not all(np.array_equal(r, o) for r, o in zip(ref, out)):
-                ok = False
+            cases.append((f, t, xmat, xpos, com, weight, ref))
+        out = np.empty((4, 3))
+        found = -1
+        for order in range(len(TIP_ORDERS)):
+            ok = True
+            for f, t, xmat, xpos, com, weight, ref in cases:
+                wrench_kernel(f, t, xmat, xpos, com, 0, 1, 0, weight, out, order)
+                if not all(np.array_equal(r, o) for r, o in zip(ref, out)):
+                    ok = False
+                    break
+            if ok:
+                found = order
                 break
-        _MATCHES.append(ok)
-    return _MATCHES[0]
+        _ORDER.append(found)
+    return _ORDER[0]
+
+
+def compiled_matches_numpy(n: int = 2000) -> bool:
+    """Whether :func:`wrench_kernel`, in one of its orders (:func:`compiled_order`), gives
+    :func:`environment_wrench`'s numbers bit for bit on this machine."""
+    return compiled_order(n) >= 0
 
 
 class ForceSensor:
@@ -259,7 +294,8 @@ class ForceSensor:
         d = self._data
         self._qpos, self._xmat, self._xpos, self._com = d.qpos, d.site_xmat, d.site_xpos, d.subtree_com
         self._qshape = (len(self._qadr),)
-        self._fast = compiled_matches_numpy()
+        self._tip_order = compiled_order()
+        self._fast = self._tip_order >= 0
         self.reset()
 
     @classmethod
@@ -307,7 +343,7 @@ class ForceSensor:
         mujoco.mj_kinematics(self.model, self._data)
         mujoco.mj_comPos(self.model, self._data)
         if not wrench_kernel(f, t, self._xmat, self._xpos, self._com, self._ft_site, self._tip_site, self._bucket,
-                             self._weight, out):
+                             self._weight, out, self._tip_order):
             _checked(obs, len(self._qadr))  # raises: the reading is not finite
         return out
 

@@ -692,6 +692,7 @@ def bench_envs(*, copies: int = 8, steps: int = 200, seed: int = 0) -> list[Row]
 
     env = gym.make(env_id, **horizon)
     env.reset(seed=seed)
+    env.step(actions[0, 0])  # warm, as the vector environments below: a fresh numba cache compiles here
     cpu, wall = timed(lambda: [env.step(actions[k, 0]) for k in range(steps)])
     env.close()
     single = add("single", steps, cpu, wall, "one TrenchJointDig-v0")

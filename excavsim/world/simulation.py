@@ -168,8 +168,10 @@ class Simulation:
         n = self._dig_rng.standard_normal(3) * (self._ft_dig * float(np.linalg.norm(contact.force)))
         site = self.index.ft_site
         rot = d.site_xmat[site].reshape(3, 3)  # columns: the sensor's axes in the world
-        arm = d.xipos[b] - d.site_xpos[site]
-        return np.concatenate([rot.T @ n, rot.T @ np.cross(arm, n)])
+        a = d.xipos[b] - d.site_xpos[site]
+        # arm x n written out: np.cross's own products and differences (the same numbers) without its fixed cost
+        moment = np.array([a[1] * n[2] - a[2] * n[1], a[2] * n[0] - a[0] * n[2], a[0] * n[1] - a[1] * n[0]])
+        return np.concatenate([rot.T @ n, rot.T @ moment])
 
     @property
     def truth(self) -> Truth:

@@ -22,7 +22,7 @@ from gymnasium.utils.env_checker import check_env as gym_check_env
 import excavsim.envs
 from excavsim.config.loading import load_loading_config
 from excavsim.envs import DIG_ENV_ID, ENV_IDS, JOINT_DIG_ENV_ID, JOINT_ENV_ID, LOAD_DIG_ENV_ID, EnvError
-from excavsim.envs.batched import BatchedJointEnv
+from excavsim.envs.batched import BatchedJointEnv, watch_ok
 from excavsim.envs.render import RenderModeError, offscreen_error
 
 _LOADING = load_loading_config()
@@ -240,6 +240,7 @@ def test_the_batched_env_steps_exactly_as_n_single_envs_and_autoresets_next_step
     try:
         assert isinstance(venv.unwrapped, BatchedJointEnv)
         ov, _ = venv.reset(seed=seeds)
+        assert venv.unwrapped._shared  # the copies' trench measures are taken together (the batched path)
         for i, (env, s) in enumerate(zip(singles, seeds)):
             o, _ = env.reset(seed=s)
             for k in o:
@@ -265,6 +266,28 @@ def test_the_batched_env_steps_exactly_as_n_single_envs_and_autoresets_next_step
         venv.close()
         for env in singles:
             env.close()
+
+
+def test_the_batched_watchdog_passes_only_steps_the_worlds_watchdog_would_pass():
+    """watch_ok flags (for the world's own watchdog to word) a grown warning counter, a clock that
+    did not advance by the control period, a non-finite or huge joint state; a fine step passes."""
+    from numba.typed import List
+
+    n = 6
+    counts = List([np.zeros(8, np.int32) for _ in range(n)])
+    base = List([np.zeros(8, np.int64) for _ in range(n)])
+    qpos = List([np.zeros(7) for _ in range(n)])
+    qvel = List([np.zeros(6) for _ in range(n)])
+    before, after = np.zeros(n), np.full(n, 0.01)
+    counts[1][3] = 1
+    after[2] = 0.0  # MuJoCo reset the state
+    qpos[3][2] = np.nan
+    qvel[4][0] = 1e305  # finite, but sums of such could overflow
+    ok = np.zeros(n, dtype=np.bool_)
+    stepped = np.ones(n, dtype=np.bool_)
+    stepped[5] = False
+    watch_ok(stepped, counts, base, qpos, qvel, before, after, 0.01, 0.001, ok)
+    assert ok.tolist() == [True, False, False, False, False, False]
 
 
 def test_sync_and_async_make_vec_still_work_on_the_dig_task():
