@@ -245,7 +245,8 @@ def group_table(rows: list[dict[str, Any]], keys: list[str], ep_dir: pathlib.Pat
     """The episodes grouped by the grid values of ``keys`` (seeds and every other key pooled): per
     group, episodes, done, stalls per episode, litres per dig, digs of the episodes that ended done,
     the share of failed digs (stall, no contact, timeout or under 1 l), and the digs that repeat an
-    earlier failed action (:func:`repeated_failures`; counted from the episodes' per-dig rows)."""
+    earlier failed action (:func:`repeated_failures`; counted from the episodes' per-dig rows). A task
+    without stalls or failed digs (a truck trial) counts none."""
     groups: dict[tuple, list[dict]] = {}
     for row in rows:
         if row["status"] == "ok":
@@ -266,10 +267,10 @@ def group_table(rows: list[dict[str, Any]], keys: list[str], ep_dir: pathlib.Pat
                 known += 1
                 repeats += repeated_failures(rec["digs"], _grid_steps(rec))
         lines.append([str(v) for v in values] + [
-            str(len(rs)), f"{len(done)}/{len(rs)}", f"{sum(r['stalls'] for r in rs) / len(rs):.2f}",
-            f"{sum(r['dug_l_per_dig'] * r['digs'] for r in rs) / max(digs, 1):.1f}",
+            str(len(rs)), f"{len(done)}/{len(rs)}", f"{sum(r.get('stalls', 0) for r in rs) / len(rs):.2f}",
+            f"{sum(r.get('dug_l_per_dig', 0.0) * r['digs'] for r in rs) / max(digs, 1):.1f}",
             f"{sum(r['digs'] for r in done) / len(done):.1f}" if done else "-",
-            f"{100 * sum(r['failed_digs'] for r in rs) / max(digs, 1):.1f}",
+            f"{100 * sum(r.get('failed_digs', 0) for r in rs) / max(digs, 1):.1f}",
             f"{repeats}" + ("" if known == len(rs) else f" ({known} of {len(rs)} ep.)")])
     widths = [max(len(c) for c in col) for col in zip(header, *lines)]
     fmt = "  ".join(f"{{:<{w}}}" if i < len(keys) else f"{{:>{w}}}" for i, w in enumerate(widths))

@@ -18,7 +18,7 @@ from tests.studies.campaign.test_campaign import TINY_BASE
 from excavsim import constants
 from excavsim.errors import ConfigError
 from excavsim.studies.campaign import runner as cmp
-from excavsim.studies.campaign.report import format_table, summary_rows
+from excavsim.studies.campaign.report import format_table, group_table, summary_rows
 
 TASKS = [{"task": "load", "machine": "shovel", "loading": {"n_scans": 1}}, "truck", "trench"]
 
@@ -72,6 +72,8 @@ def test_one_table_with_each_tasks_metrics_where_they_apply(tmp_path):
     assert load["task"] == "load" and float(load["deliv. l"]) > 100 and load["cycle s"] == "-"
     assert truck["task"] == "truck" and truck["deliv. l"] == "-" and 1 < float(truck["cycle s"]) < 20
     assert truck["done"] == "1" and truck["removed %"] == "-" and float(truck["dumped l"]) > 5
+    grouped = [line.split() for line in group_table(rows, ["task"], ep_dir).splitlines()[1:]]  # report_by too
+    assert [g[0] for g in grouped] == ["load", "truck"] and grouped[1][2] == "1/1"
 
 
 @pytest.mark.slow
