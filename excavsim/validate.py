@@ -125,14 +125,15 @@ def _regress(path: pathlib.Path) -> str:
 
 
 def _baseline(path: pathlib.Path) -> str:
-    from excavsim.studies.regress.suite import METRICS
+    from excavsim.studies.regress.suite import TASK_METRICS
 
     doc = load_baseline_file(path)
     for name, scenario in doc.scenarios.items():
-        unknown = sorted(set(scenario.metrics) - set(METRICS))
+        allowed = TASK_METRICS[scenario.task]
+        unknown = sorted(set(scenario.metrics) - set(allowed))
         if unknown:
             raise ConfigError(f"{_where(path)}: scenarios.{shorten(name)}.metrics: unknown {shorten(unknown)}; "
-                              f"allowed: {', '.join(METRICS)}")
+                              f"allowed for task {scenario.task}: {', '.join(allowed)}")
     return f"RegressBaseline (format {doc.format}, {_count(len(doc.scenarios), 'scenario')})"
 
 

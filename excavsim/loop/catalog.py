@@ -15,11 +15,13 @@ from excavsim.errors import ConfigError
 
 TASKS: dict[str, str] = {
     "load": "excavsim.tasks.load.in_mujoco:LoadTask",  # loading from a pile in MuJoCo (Singh 1995 §7.2.1)
+    "truck": "excavsim.tasks.truck.episode:TruckTrial",  # one truck-loading trial on the T3 (Rowe 1997 §6.2)
 }
 
 
 def task_module(name: str):
-    """The module of the task registered as ``name`` (it also defines ``format_run``, the task's table).
+    """The module of the task registered as ``name`` (it also defines ``format_run``, the task's table, and
+    may define ``summary`` and ``dig_rows``, its campaign row and per-dig rows).
 
     Raises:
         ConfigError: ``name`` is not a registered task (the message lists them).

@@ -36,28 +36,38 @@ from excavsim.config.semantic import check_goal
 from excavsim.errors import UsageError, shorten
 
 
-TASK_MACHINES = {"trench": ("t3",), "load": ("loader", "shovel")}
+TASK_MACHINES = {"trench": ("t3",), "load": ("loader", "shovel"), "truck": ("t3",)}
 """The tasks an episode specification can name, each with the machines that do it (the first is the default)."""
 TRENCH_ONLY = ("goal", "done_fraction", "tolerance_m", "robot", "scene", "planner", "executor", "sensing", "memory",
                "predictor")
 """Fields of :class:`EpisodeSpec` that configure the trenching task only."""
+FIELD_TASKS: dict[str, tuple[str, ...]] = {**{f: ("trench",) for f in TRENCH_ONLY}, "dig_budget": ("trench", "load"),
+                                           "loading": ("load",), "truck": ("truck",)}
+"""The fields of :class:`EpisodeSpec` that only some tasks use, each with those tasks (a truck trial is one
+dig-swing-dump cycle: it has no dig budget). The other fields (name, task, machine, soil, seed) every task uses."""
+TASK_OVERRIDES = {"load": ("loading", "configs/loading_mujoco.yaml"), "truck": ("truck", "configs/truck.yaml")}
+"""The field holding each application task's configuration overrides, and the file they apply to."""
 
 
 class EpisodeSpec(StrictModel):
     """One episode: its task and machine, soil, seed, stopping rules and configuration overrides."""
 
     name: str = Field(default="episode", description="label for logs and result files")
-    task: str = Field(default="trench", description="the task: trench (dig a trench goal with the T3) or load "
-                                                    "(load from a pile in MuJoCo: excavsim.tasks.load.in_mujoco)")
-    machine: str | None = Field(default=None, description="the machine: t3 (task trench); loader or shovel (task "
-                                                          "load); default the task's first")
+    task: str = Field(default="trench", description="the task: trench (dig a trench goal with the T3), load "
+                                                    "(load from a pile in MuJoCo: excavsim.tasks.load.in_mujoco) or "
+                                                    "truck (one truck-loading trial of the mass-excavation script "
+                                                    "on the T3, Rowe 1997 §6.2: excavsim.tasks.truck)")
+    machine: str | None = Field(default=None, description="the machine: t3 (tasks trench and truck); loader or "
+                                                          "shovel (task load); default the task's first")
     loading: dict[str, Any] = Field(default_factory=dict,
                                     description="overrides of configs/loading_mujoco.yaml (task load)")
+    truck: dict[str, Any] = Field(default_factory=dict, description="overrides of configs/truck.yaml (task truck)")
     goal: str | TrenchGoal = Field(
         default="sand", description="a trench of configs/trenches (by name), a YAML path, or the goal inline")
     soil: str | None = Field(default=None, description="soil preset of configs/soils.yaml (default: the scene's)")
     seed: int = Field(default=0, ge=0, le=2**32 - 1, description="episode seed (soil, sensor noise, scanner drift)")
-    dig_budget: int = Field(default=20, ge=1, le=1000, description="most digs to try")
+    dig_budget: int = Field(default=20, ge=1, le=1000,
+                            description="most digs to try (tasks trench and load; a truck trial is one cycle)")
     done_fraction: float = Field(default=0.95, gt=0, le=1, description="goal volume fraction that counts as done")
     tolerance_m: float = Field(default=0.03, gt=0, le=1, description="no map cell may stay this far above the goal")
     robot: dict[str, Any] = Field(default_factory=dict, description="overrides of configs/robot.yaml")
@@ -85,15 +95,18 @@ class EpisodeSpec(StrictModel):
         if self.machine is not None and self.machine not in machines:
             raise ConfigError(f"machine {shorten(repr(self.machine))} does not do task {self.task}; allowed: "
                               f"{', '.join(machines)}")
-        if self.task == "load":
-            fields = type(self).model_fields
-            given = [f for f in TRENCH_ONLY if getattr(self, f) != fields[f].get_default(call_default_factory=True)]
-            if given:
-                raise ConfigError(f"task load does not use {', '.join(given)} (fields of task trench); its "
-                                  "configuration overrides go in loading:")
-        elif self.loading:
-            raise ConfigError("loading: overrides configs/loading_mujoco.yaml for task load; this spec's task is "
-                              f"{self.task}")
+        fields = type(self).model_fields
+        given = [f for f, tasks in FIELD_TASKS.items() if self.task not in tasks
+                 and getattr(self, f) != fields[f].get_default(call_default_factory=True)]
+        sections = {section: (task, path) for task, (section, path) in TASK_OVERRIDES.items()}
+        if other := [f for f in given if f not in sections]:
+            owners = sorted({t for f in other for t in FIELD_TASKS[f]})
+            own = TASK_OVERRIDES.get(self.task)
+            raise ConfigError(f"task {self.task} does not use {', '.join(other)} (fields of task "
+                              f"{', '.join(owners)})" + (f"; its configuration overrides go in {own[0]}:" if own else ""))
+        if given:
+            task, path = sections[given[0]]
+            raise ConfigError(f"{given[0]}: overrides {path} for task {task}; this spec's task is {self.task}")
         if self.soil is not None:
             get_soil(self.soil)  # raises with the allowed names
         if self.predictor != "wedge":
@@ -150,7 +163,8 @@ class ResolvedSpec:
     """The configurations an :class:`EpisodeSpec` stands for, with every override applied: for task
     trench the goal and the robot, scene, planner, executor and sensing configurations; for task load
     ``loading`` (configs/loading_mujoco.yaml with the spec's soil and overrides; its ``max_digs`` is
-    the CLI's, an episode of a spec digs at most the spec's ``dig_budget``)."""
+    the CLI's, an episode of a spec digs at most the spec's ``dig_budget``); for task truck ``truck``
+    (configs/truck.yaml with the spec's overrides, a :class:`~excavsim.config.truck.TruckFile`)."""
 
     def __init__(self, spec: EpisodeSpec, *, robot_path: str | pathlib.Path | None = None,
                  scene_path: str | pathlib.Path | None = None):
@@ -160,6 +174,11 @@ class ResolvedSpec:
 
             cfg = _override(load_loading_mujoco_config(), spec.loading, LoadingMujocoConfig, f"{spec.name}: loading")
             self.loading = cfg.model_copy(update={"soil": spec.soil}) if spec.soil else cfg
+            return
+        if spec.task == "truck":
+            from excavsim.config.truck import TruckFile, load_truck_file
+
+            self.truck: TruckFile = _override(load_truck_file(), spec.truck, TruckFile, f"{spec.name}: truck")
             return
         self.goal: TrenchGoal = resolve_goal(spec.goal)
         self.robot: RobotConfig = _override(load_robot_config(robot_path), spec.robot, RobotConfig,
@@ -193,6 +212,11 @@ def spec_episode(spec: EpisodeSpec, resolved: ResolvedSpec | None = None, *,
 
         return Episode(task_class("load")(spec.machine_name, cfg=r.loading), dig_budget=spec.dig_budget, progress=progress,
                        observer=observer)
+    if spec.task == "truck":  # one trial: one cycle
+        from excavsim.loop.catalog import task_class
+
+        return Episode(task_class("truck")(spec.machine_name, cfg=r.truck, soil=spec.soil), dig_budget=1,
+                       progress=progress, observer=observer)
     if spec.predictor != "wedge":  # learned online, from scratch, from this episode's digs (§5.2)
         from excavsim.loop.online import OnlineLearning
 
@@ -218,7 +242,7 @@ def run_spec(spec: EpisodeSpec, *, progress: Callable[[str], None] | None = None
              robot_path: str | pathlib.Path | None = None, scene_path: str | pathlib.Path | None = None):
     """Build the world of ``spec`` and run its episode; returns the task's result (for trench an
     :class:`~excavsim.handoff.episode.EpisodeResult`, for load a
-    :class:`~excavsim.tasks.load.in_mujoco.MujocoRun`).
+    :class:`~excavsim.tasks.load.in_mujoco.MujocoRun`, for truck a :class:`~excavsim.tasks.truck.trial.Trial`).
 
     Args:
         robot_path, scene_path: base configuration files the spec's overrides apply to (default
@@ -233,6 +257,11 @@ def run_spec(spec: EpisodeSpec, *, progress: Callable[[str], None] | None = None
 def _is_loading(res) -> bool:
     """Whether ``res`` is a loading episode's result (a MujocoRun) rather than a trench's."""
     return hasattr(res, "delivered_m3")
+
+
+def _is_truck(res) -> bool:
+    """Whether ``res`` is a truck-loading trial's result (a Trial) rather than a trench's."""
+    return hasattr(res, "pile") and hasattr(res, "dumped_m3")
 
 
 def run_with_outputs(spec: EpisodeSpec, *, robot_path: str | None = None, scene_path: str | None = None,
@@ -258,14 +287,14 @@ def run_with_outputs(spec: EpisodeSpec, *, robot_path: str | None = None, scene_
     from excavsim.handoff.episode import ObserverGroup, format_episode
 
     ResolvedSpec(spec, robot_path=robot_path, scene_path=scene_path)  # every file checked first
-    if spec.task != "trench":  # another task of the one episode (loading from a pile): run it, say its table
+    if spec.task != "trench":  # another task of the one episode (loading, truck loading): run it, say its table
         if record or live is not None or save_maps or timing:
             raise UsageError(f"--record, --live, --save-maps and --timing follow trenching episodes; the spec's "
                              f"task is {spec.task}")
         from excavsim.loop.catalog import task_module
 
-        say(f"excavsim trench --spec: task {spec.task}, machine {spec.machine_name}, {spec.dig_budget} digs at "
-            f"most, seed {spec.seed}")
+        cycles = "one trial" if spec.task == "truck" else f"{spec.dig_budget} digs at most"
+        say(f"excavsim trench --spec: task {spec.task}, machine {spec.machine_name}, {cycles}, seed {spec.seed}")
         result = run_spec(spec, progress=say)
         say(task_module(spec.task).format_run(result))
         return result
@@ -306,7 +335,12 @@ def run_with_outputs(spec: EpisodeSpec, *, robot_path: str | None = None, scene_
 def dig_rows(res) -> list[dict[str, Any]]:
     """One JSON-ready row per dig of an episode: for a trench its action (NaN for a fallback dig),
     volumes [l], outcome and failure, and the predicted and measured peak wrist-pitch torques [N m];
-    for loading its action, section and volumes [l] and its peak soil force [kN]."""
+    for loading its action, section and volumes [l] and its peak soil force [kN]; for a truck trial
+    its one cycle (:func:`excavsim.tasks.truck.episode.dig_rows`)."""
+    if _is_truck(res):
+        from excavsim.loop.catalog import task_module
+
+        return task_module("truck").dig_rows(res)
     if _is_loading(res):
         return [{"dig": i, "section": d.section, "k_m": d.action.k, "h_m": d.action.h,
                  "alpha_deg": math.degrees(d.action.alpha), "d1_m": d.action.d1, "r_m": d.action.r,
@@ -331,7 +365,13 @@ def episode_summary(res) -> dict[str, Any]:
     Per-dig lists are reduced to totals, means and peaks; ``end`` is the stopping rule that fired
     (``done``, ``no_dig``, ``budget``, ``diverged`` or ``timeout``), ``reason`` its full text;
     ``diverged_digs`` counts the digs in which the simulation diverged (at most one: the episode ends there).
+    A loading episode's is :func:`loading_summary`, a truck trial's its task's
+    (:func:`excavsim.tasks.truck.episode.summary`).
     """
+    if _is_truck(res):
+        from excavsim.loop.catalog import task_module
+
+        return task_module("truck").summary(res)
     if _is_loading(res):
         return loading_summary(res)
     digs = res.digs
@@ -368,12 +408,14 @@ def loading_summary(run) -> dict[str, Any]:
     ``removed_fraction`` of the pile, ``dug_l_per_dig`` in the bucket at lift-out, ``planned_l_per_dig``,
     ``efficiency``: delivered per dig over the heaped capacity, ``sim_s``, ``wall_s``,
     ``volume_change_m3``: the volume account's drift), and the loading's own (delivered, spilled, the
-    lane's soil and the map's at the end, the peak soil force)."""
+    lane's soil and the map's at the end, the peak soil force; ``failed_digs``: digs that delivered under a
+    tenth of the heaped capacity, assumed)."""
     digs = run.digs
     n = len(digs)
     out: dict[str, Any] = {
         "task": "load", "machine": run.machine, "end": run.end, "reason": run.reason, "digs": n,
         "removed_fraction": run.removed_fraction, "pile_removed": bool(run.done),
+        "failed_digs": sum(d.delivered_m3 < 0.1 * run.capacity_m3 for d in digs),
         "dug_l_per_dig": 1000 * sum(d.bucket_m3 for d in digs) / n if n else 0.0,
         "planned_l_per_dig": 1000 * sum(d.planned_m3 for d in digs) / n if n else 0.0,
         "efficiency": run.efficiency() if n else 0.0,

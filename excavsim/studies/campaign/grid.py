@@ -5,6 +5,17 @@ and a grid of dotted keys, each with a list of values; :func:`expand_grid` turns
 cartesian product of :class:`Episode` s, each with an id made of its grid values and a hash of its
 specification (so that a resumed or extended campaign recognizes the episodes it has run).
 :func:`load_campaign` validates every grid value against the configuration it overrides.
+
+**Campaigns over tasks.** The grid may vary ``task`` (trench, load, truck). A value of ``task`` is a task
+name or a mapping of the episode fields that go with that task (its machine, its configuration
+overrides, its dig budget), e.g. ``{task: load, machine: shovel, loading: {n_scans: 2}}``; the mapping
+must name ``task``. The rule for fields that belong to one task
+(:data:`~excavsim.loop.scenario.FIELD_TASKS`): the **base's** such fields apply only to the episodes of
+the tasks they belong to (the base's goal and planner go to the trench episodes; a load or truck
+episode leaves them at their defaults), so one base serves every task; a **grid key** of such a field
+(e.g. ``planner.grid.k_step_m``) beside a varied task is refused, since it would run the other tasks'
+episodes twice: put it in that task's mapping instead. A campaign that does not vary ``task`` is
+expanded exactly as before (the same ids).
 """
 
 from __future__ import annotations
@@ -22,9 +33,16 @@ from pydantic import Field
 
 from excavsim.config import StrictModel, load_config, parse_config
 from excavsim.errors import ConfigError
-from excavsim.loop.scenario import EpisodeSpec, ResolvedSpec, merge, resolve_goal
+from excavsim.loop.scenario import FIELD_TASKS, EpisodeSpec, ResolvedSpec, merge, resolve_goal
 
-OVERRIDE_SECTIONS = ("robot", "scene", "planner", "executor", "sensing", "loading")
+OVERRIDE_SECTIONS = ("robot", "scene", "planner", "executor", "sensing", "loading", "truck")
+
+
+def _short(key: str, value: Any) -> Any:
+    """A grid value as it labels an episode: a task's mapping by its task and machine (``load_shovel``)."""
+    if key == "task" and isinstance(value, dict):
+        return "_".join(str(value[k]) for k in ("task", "machine") if value.get(k))
+    return value
 
 
 def slug(value: Any) -> str:
@@ -76,6 +94,16 @@ def _apply(data: dict, key: str, value: Any) -> None:
         raise ConfigError(f"grid key {key!r}: {head!r} is not an episode field; allowed: "
                           f"{', '.join(f for f in EpisodeSpec.model_fields if f != 'name')} "
                           f"(goal and {', '.join(OVERRIDE_SECTIONS)} take dotted keys into their fields)")
+    if head == "task" and not rest and isinstance(value, dict):  # a task with the fields that go with it
+        if not isinstance(value.get("task"), str):
+            raise ConfigError(f"grid key 'task': a mapping value must name its task, e.g. {{task: load, machine: "
+                              f"shovel}}; given {value!r}")
+        for key, sub in value.items():
+            if key in OVERRIDE_SECTIONS and isinstance(sub, dict):  # merged over the base's overrides
+                data[key] = merge(data[key], sub, where=f"{key}.")
+            else:
+                _apply(data, key, sub)
+        return
     if not rest:
         data[head] = value
     elif head == "goal":
@@ -87,6 +115,27 @@ def _apply(data: dict, key: str, value: Any) -> None:
         raise ConfigError(f"grid key {key!r}: {head} takes a single value; write {head!r} without a dotted suffix")
 
 
+def _fit_task(data: dict, grid_keys: list[str]) -> None:
+    """Leave the fields of other tasks than ``data``'s at their defaults (the base's; see the module
+    docstring), in place.
+
+    Raises:
+        ConfigError: a grid key (other than ``task``) sets a field of another task while the task varies.
+    """
+    task = data.get("task", "trench")
+    fields = EpisodeSpec.model_fields
+    for name, tasks in FIELD_TASKS.items():
+        if task in tasks:
+            continue
+        default = fields[name].get_default(call_default_factory=True)
+        if (keys := [k for k in grid_keys if k.split(".")[0] == name]) and data[name] != default:
+            hint = (f": put it in that task's value, e.g. task: [{{task: {tasks[0]}, {name}: ...}}]"
+                    if "task" in grid_keys else "")
+            raise ConfigError(f"grid key {keys[0]!r} configures task {', '.join(tasks)} only; this episode's task "
+                              f"is {task}{hint}")
+        data[name] = default
+
+
 def episode_id(spec: EpisodeSpec, params: dict[str, Any]) -> str:
     """A stable, file-name-safe id: the grid values (numbers after their key), then a hash of the spec.
 
@@ -96,6 +145,7 @@ def episode_id(spec: EpisodeSpec, params: dict[str, Any]) -> str:
     canonical = json.dumps(spec.model_dump(mode="json", exclude={"name"}, exclude_defaults=True),
                            sort_keys=True, separators=(",", ":"))
     digest = hashlib.sha256(canonical.encode()).hexdigest()[:10]
+    params = {k: _short(k, v) for k, v in params.items()}
     parts = [v if isinstance(v, str) else f"{k.rsplit('.', 1)[-1]}{json.dumps(v)}" for k, v in params.items()]
     label = "-".join(slug(p) for p in parts) if params else slug(spec.name)
     label = label[:60].strip("-_.")
@@ -117,7 +167,8 @@ def expand_grid(spec: CampaignSpec) -> list[Episode]:
         data = copy.deepcopy(base)
         for key, value in params.items():
             _apply(data, key, value)
-        name = " ".join(f"{k}={slug(v)}" for k, v in params.items()) or spec.base.name
+        _fit_task(data, keys)
+        name = " ".join(f"{k}={slug(_short(k, v))}" for k, v in params.items()) or spec.base.name
         data["name"] = name
         ep = parse_config(data, EpisodeSpec, source=f"campaign {spec.name}: episode {name}")
         eid = episode_id(ep, params)
@@ -148,6 +199,7 @@ def check_campaign(spec: CampaignSpec, *, source: str) -> list[Episode]:
             try:
                 data = copy.deepcopy(base)
                 _apply(data, key, value)
+                _fit_task(data, [key])
                 ResolvedSpec(parse_config(data, EpisodeSpec, source=f"grid {key}"))
             except ConfigError as exc:
                 raise ConfigError(f"{source}: grid key {key!r}, value {value!r}:\n  {exc}") from None

@@ -63,6 +63,8 @@ def summary_rows(episodes: list[Episode], ep_dir: pathlib.Path) -> list[dict[str
             if not isinstance(value, list):
                 row[key] = value
         row["error"] = (rec.get("error") or "").splitlines()[0] if rec.get("error") else ""
+        if "task" in ep.params:  # a campaign over tasks: the task by name (not its grid mapping) and its machine
+            row["task"], row["machine"] = ep.spec.task, ep.spec.machine_name
         rows.append(row)
     return rows
 
@@ -108,25 +110,37 @@ def _outcome(row: dict) -> str:
     return row.get("end", "error") if row["status"] == "ok" else "error"
 
 
+# the task-specific columns of the table: shown when some episode has the metric (loading, truck loading)
+TASK_COLUMNS = (("delivered_l", "deliv. l"), ("spilled_l", "spilled l"), ("dumped_l", "dumped l"),
+                ("missed_l", "missed l"), ("cycle_s", "cycle s"), ("placement_error_cm", "place. cm"))
+
+
 def format_table(spec: CampaignSpec, rows: list[dict[str, Any]]) -> str:
-    """A compact text table: one line per condition (grid values other than seed), means over its episodes."""
+    """A compact text table: one line per condition (grid values other than seed), means over its episodes.
+
+    A campaign over tasks has a task and a machine column; the columns of one task's metrics
+    (:data:`TASK_COLUMNS`) appear when some episode has them, with "-" where they do not apply."""
     keys = [k for k in spec.grid if k != "seed"]
+    if "task" in keys:
+        keys.insert(keys.index("task") + 1, "machine")
     groups: dict[tuple, list[dict]] = {}
     for row in rows:
         groups.setdefault(tuple(row[k] for k in keys), []).append(row)
+    extra = [(key, label) for key, label in TASK_COLUMNS if any(r.get(key) is not None for r in rows)]
 
     def mean(rs: list[dict], key: str, scale: float = 1.0) -> str:
         vals = [r[key] for r in rs if r["status"] == "ok" and r.get(key) is not None]
         return f"{scale * sum(vals) / len(vals):.1f}" if vals else "-"
 
     header = [k.rsplit(".", 1)[-1] for k in keys] + ["episodes", "errors", "done", "l/dig", "digs", "stalls",
-                                                      "removed %"]
+                                                      "removed %"] + [label for _, label in extra]
     lines = []
     for values, rs in groups.items():
         lines.append([str(v) for v in values] + [str(len(rs)), str(sum(r["status"] != "ok" for r in rs)),
                                                  str(sum(_outcome(r) == "done" for r in rs)),
                                                  mean(rs, "dug_l_per_dig"), mean(rs, "digs"), mean(rs, "stalls"),
-                                                 mean(rs, "removed_fraction", 100.0)])
+                                                 mean(rs, "removed_fraction", 100.0)]
+                     + [mean(rs, key) for key, _ in extra])
     widths = [max(len(c) for c in col) for col in zip(header, *lines)]
     fmt = "  ".join(f"{{:<{w}}}" if i < len(keys) else f"{{:>{w}}}" for i, w in enumerate(widths))
     return "\n".join(fmt.format(*line) for line in [header, *lines])
@@ -231,7 +245,8 @@ def group_table(rows: list[dict[str, Any]], keys: list[str], ep_dir: pathlib.Pat
     """The episodes grouped by the grid values of ``keys`` (seeds and every other key pooled): per
     group, episodes, done, stalls per episode, litres per dig, digs of the episodes that ended done,
     the share of failed digs (stall, no contact, timeout or under 1 l), and the digs that repeat an
-    earlier failed action (:func:`repeated_failures`; counted from the episodes' per-dig rows)."""
+    earlier failed action (:func:`repeated_failures`; counted from the episodes' per-dig rows). A task
+    without stalls or failed digs (a truck trial) counts none."""
     groups: dict[tuple, list[dict]] = {}
     for row in rows:
         if row["status"] == "ok":
@@ -252,10 +267,10 @@ def group_table(rows: list[dict[str, Any]], keys: list[str], ep_dir: pathlib.Pat
                 known += 1
                 repeats += repeated_failures(rec["digs"], _grid_steps(rec))
         lines.append([str(v) for v in values] + [
-            str(len(rs)), f"{len(done)}/{len(rs)}", f"{sum(r['stalls'] for r in rs) / len(rs):.2f}",
-            f"{sum(r['dug_l_per_dig'] * r['digs'] for r in rs) / max(digs, 1):.1f}",
+            str(len(rs)), f"{len(done)}/{len(rs)}", f"{sum(r.get('stalls', 0) for r in rs) / len(rs):.2f}",
+            f"{sum(r.get('dug_l_per_dig', 0.0) * r['digs'] for r in rs) / max(digs, 1):.1f}",
             f"{sum(r['digs'] for r in done) / len(done):.1f}" if done else "-",
-            f"{100 * sum(r['failed_digs'] for r in rs) / max(digs, 1):.1f}",
+            f"{100 * sum(r.get('failed_digs', 0) for r in rs) / max(digs, 1):.1f}",
             f"{repeats}" + ("" if known == len(rs) else f" ({known} of {len(rs)} ep.)")])
     widths = [max(len(c) for c in col) for col in zip(header, *lines)]
     fmt = "  ".join(f"{{:<{w}}}" if i < len(keys) else f"{{:>{w}}}" for i, w in enumerate(widths))

@@ -409,8 +409,12 @@ def _progress_line(count: int, total: int, rec: dict, eta_s: float) -> str:
         def num(key: str, scale: float = 1.0, fmt: str = ".1f") -> str:  # None: not finite in the episode
             return "?" if s.get(key) is None else format(scale * s[key], fmt)
 
-        text = (f"{head} {s['end']} after {s['digs']} digs, {num('dug_l_per_dig')} l/dig, "
-                f"{num('removed_fraction', 100.0, '.0f')} % removed ({rec['wall_s']:.0f} s)")
+        if s.get("task") == "truck":
+            text = (f"{head} {s['end']}: {num('dumped_l')} l dumped, {num('missed_l')} l missed, cycle "
+                    f"{num('cycle_s', fmt='.2f')} s ({rec['wall_s']:.0f} s)")
+        else:
+            text = (f"{head} {s['end']} after {s['digs']} digs, {num('dug_l_per_dig')} l/dig, "
+                    f"{num('removed_fraction', 100.0, '.0f')} % removed ({rec['wall_s']:.0f} s)")
     return f"{text}; ETA {_duration(eta_s)}" if count < total else text
 
 

@@ -76,9 +76,26 @@ METRICS: dict[str, Metric] = {
     "underdig_max_cm": Metric("lower", 1.5),
     "underdig_rms_cm": Metric("lower", 0.5),
     "peak_wrist_pitch_nm": Metric("lower", 0.0, 0.10),
+    # loading from a pile (task load): the pile's removed_fraction and digs as above, and
+    "delivered_l": Metric("higher", 10.0, 0.10),   # soil poured at the truck [l]
+    "spilled_l": Metric("lower", 20.0, 0.25),      # soil that left the lane otherwise [l]
+    "failed_digs": Metric("lower", 0.0),           # digs that delivered under a tenth of the heaped capacity
+    # truck loading (task truck): one trial of the mass-excavation script
+    "dumped_l": Metric("higher", 1.0, 0.10),       # soil the dump emptied from the bucket [l]
+    "missed_l": Metric("lower", 1.0, 0.25),        # soil dumped beside the truck's bed (the spillage) [l]
+    "cycle_s": Metric("lower", 0.2),               # the script's cycle time (Rowe 1997 §6.2) [s]
+    "placement_error_cm": Metric("lower", 3.0),    # the pile's distance from the target [cm]
 }
+TASK_METRICS: dict[str, tuple[str, ...]] = {
+    "trench": ("removed_fraction", "dug_l_per_dig", "efficiency", "digs", "stalls", "overdig_max_cm",
+               "underdig_max_cm", "underdig_rms_cm", "peak_wrist_pitch_nm"),
+    "load": ("removed_fraction", "digs", "failed_digs", "delivered_l", "spilled_l", "efficiency"),
+    "truck": ("dumped_l", "missed_l", "cycle_s", "placement_error_cm"),
+}
+"""The metrics judged per task (a scenario's task is its spec's ``task``; a baseline entry without one is trench)."""
 TIMINGS = ("planning_s", "wall_s", "sim_s")  # printed, never judged
 STORED = (*METRICS, "end", "sim_s")  # per seed in the baseline; wall-clock times are machine-dependent
+# (a scenario stores the metrics of its task only, TASK_METRICS)
 
 
 class GoldenScenario(EpisodeSpec):
@@ -175,6 +192,7 @@ class Sample:
 
     seeds: list[int]
     rows: list[dict[str, Any]]
+    task: str = "trench"  # which metrics are judged (TASK_METRICS)
 
     def values(self, key: str) -> list | None:
         """Each seed's value of ``key``, or None when some row lacks it."""
@@ -197,8 +215,14 @@ def _episode_line(prefix: str, name: str, seed: int, r: dict) -> str:
         v = r.get(key)
         return format(scale * v, fmt) if isinstance(v, int | float) else "?"
 
-    return (f"{prefix}{name} seed {seed}: {num('digs')} digs, {num('removed_fraction', 100)} % removed, "
-            f"{num('stalls')} stalls, ended {r.get('end', '?')} ({num('wall_s', fmt='.1f')} s wall)")
+    if r.get("task") == "truck":
+        what = (f"{num('dumped_l', fmt='.1f')} l dumped, {num('missed_l', fmt='.1f')} l missed, cycle "
+                f"{num('cycle_s', fmt='.2f')} s")
+    elif r.get("task") == "load":
+        what = f"{num('digs')} digs, {num('removed_fraction', 100)} % of the pile removed, {num('delivered_l')} l delivered"
+    else:
+        what = f"{num('digs')} digs, {num('removed_fraction', 100)} % removed, {num('stalls')} stalls"
+    return f"{prefix}{name} seed {seed}: {what}, ended {r.get('end', '?')} ({num('wall_s', fmt='.1f')} s wall)"
 
 
 def run_goldens(goldens: dict[str, Golden], *, seeds_of: dict[str, Golden] | None = None, label: str = "",
@@ -212,7 +236,7 @@ def run_goldens(goldens: dict[str, Golden], *, seeds_of: dict[str, Golden] | Non
         rows[g.name][seed] = episode_summary(run_spec(spec))
         if progress:
             progress(_episode_line(f"{label}[{i}/{len(plan)}] ", g.name, seed, rows[g.name][seed]))
-    return {name: Sample(list(r), list(r.values())) for name, r in rows.items()}
+    return {name: Sample(list(r), list(r.values()), goldens[name].spec.task) for name, r in rows.items()}
 
 
 # -- the baseline file ---------------------------------------------------------------------------------
@@ -225,7 +249,10 @@ def write_baseline(path: pathlib.Path, samples: dict[str, Sample]) -> None:
     for name, sample in sorted(samples.items()):
         doc["scenarios"][name] = {
             "seeds": sample.seeds, "end": sample.values("end"), "sim_s": sample.values("sim_s"),
-            "metrics": {m: rs.summarize(sample.values(m)) for m in METRICS if sample.values(m) is not None}}
+            "metrics": {m: rs.summarize(sample.values(m)) for m in TASK_METRICS[sample.task]
+                        if sample.values(m) is not None}}
+        if sample.task != "trench":  # a trench entry is written as before the tasks
+            doc["scenarios"][name]["task"] = sample.task
     fd, tmp = tempfile.mkstemp(dir=path.parent, prefix=".baseline-", suffix=".json")
     with os.fdopen(fd, "w") as fh:
         json.dump(_json_safe(doc), fh, indent=1, sort_keys=True, allow_nan=False)
@@ -265,7 +292,7 @@ def load_baseline(path: pathlib.Path) -> dict[str, Sample]:
                 if vals is not None and len(vals) == n:
                     for row, v in zip(rows, vals, strict=True):
                         row[key] = v
-            out[name] = Sample(list(sc["seeds"]), rows)
+            out[name] = Sample(list(sc["seeds"]), rows, sc.get("task", "trench"))
     except (KeyError, TypeError, AttributeError, ValueError) as exc:  # a field missing or of another shape
         raise DataFileError(f"{path}: a scenario entry is malformed ({type(exc).__name__}: {shorten(exc)}); "
                             f"re{rewrite}") from None
@@ -303,8 +330,9 @@ def compare(reference: dict[str, Sample], now: dict[str, Sample], *, paired: boo
         ref = reference.get(name)
         if paired and ref is not None:
             by_seed = dict(zip(ref.seeds, ref.rows, strict=True))
-            ref = Sample(cur.seeds, [by_seed[s] for s in cur.seeds])
-        for metric, rule in METRICS.items():
+            ref = Sample(cur.seeds, [by_seed[s] for s in cur.seeds], cur.task)
+        for metric in TASK_METRICS[cur.task]:
+            rule = METRICS[metric]
             now_v = cur.values(metric)
             ref_v = ref.values(metric) if ref is not None else None
             now_s = rs.summarize(now_v) if now_v else None
@@ -525,5 +553,5 @@ def run_against(directory: pathlib.Path = REGRESS_DIR, *, ref: str | None = None
     with ref_checkout(commit) as checkout, CheckoutRun(checkout, jobs, label=label, on_result=arrived) as run:
         now = run_goldens(goldens, label="now ", progress=progress)
         found = run.results()
-    reference = {n: Sample(list(g.seeds), [found[(n, s)] for s in g.seeds]) for n, g in goldens.items()}
+    reference = {n: Sample(list(g.seeds), [found[(n, s)] for s in g.seeds], g.spec.task) for n, g in goldens.items()}
     return Report("against", f"git {label}", reference, now, compare(reference, now, paired=True))

@@ -33,7 +33,7 @@ import numpy as np
 
 from excavsim import constants
 from excavsim.config import get_soil, load_robot_config, load_sensing_config
-from excavsim.config.truck import TRUCK_YAML, load_truck_file
+from excavsim.config.truck import TRUCK_YAML, TruckFile, load_truck_file
 from excavsim.errors import GoalError, UsageError
 from excavsim.execution.mass_script import (BOOM, BUCKET, FRACTIONS, STICK, SWING, TUNED, MassParams, TimingModel,
                                             TruckSite, compute_params, follow_path, mass_script, run_joint_script)
@@ -82,7 +82,11 @@ class TruckConfig:
 
 def load_truck_config(path: str | Path | None = None) -> TruckConfig:
     """Read ``configs/truck.yaml`` (or ``path``), validated (:class:`~excavsim.config.truck.TruckFile`), in radians."""
-    f = load_truck_file(path)
+    return truck_config(load_truck_file(path))
+
+
+def truck_config(f: TruckFile) -> TruckConfig:
+    """The run-time configuration (radians) of a validated ``configs/truck.yaml``."""
     tg, tr, ln, rg = f.target, f.truck, f.learning, f.ranges
     site = TruckSite(tg.r_m, math.radians(tg.theta_deg), tr.side_z_m, tr.half_width_m, tr.clearance_m, tr.dump_z_m)
     dig = np.array(f.dig_path, dtype=float)
@@ -160,6 +164,20 @@ def true_pile(sim: Simulation, before: np.ndarray, min_theta: float) -> Pile:
     return deposit_peak(np.asarray(x, float), np.asarray(y, float), before, g.heights, min_theta)
 
 
+def missed_volume(sim: Simulation, before: np.ndarray, cfg: TruckConfig, min_theta: float) -> float:
+    """The soil the dump put beside the truck (privileged truth, for reports) [m^3]: the deposit on the
+    dump side (polar angle above ``min_theta``) farther than the bed's half-width from the target. The
+    truck is moved away (§6.2), so a bed of the truck's half-width centred on the target stands for it
+    (assumed: the thesis gives the bed's width only, Fig. 3); soil outside it would have missed the truck."""
+    g = sim.soil.grid
+    x, y = (np.asarray(v, float) for v in g.xy(np.arange(g.shape[0]), np.arange(g.shape[1])))
+    xx, yy = np.meshgrid(x, y)
+    tx, ty = cfg.site.r_d * math.cos(cfg.site.theta_d), cfg.site.r_d * math.sin(cfg.site.theta_d)
+    outside = (np.arctan2(yy, xx) > min_theta) & (np.hypot(xx - tx, yy - ty) > cfg.site.half_width)
+    deposit = np.clip(g.heights - before, 0.0, None)
+    return float(deposit[outside].sum() * g.cell_area)
+
+
 class Scanner:
     """The box's scanner and the map builder, as the loop uses them around a trial."""
 
@@ -192,6 +210,9 @@ class Trial:
     r_d: float = math.nan      # the target the trial was run for (set by tune)
     theta_d: float = math.nan
     trace: TrialTrace | None = None  # kept when a recording asks for it (run_trial's trace)
+    missed_m3: float = math.nan  # soil dumped beside the truck's bed (privileged truth; see missed_volume)
+    sim_s: float = math.nan  # the trial's simulated time, the fixed dig included [s]
+    objective: Objective | None = None  # the cost of §6.2 the trial was run under (its target and weights)
 
     @property
     def failed(self) -> bool:
@@ -273,13 +294,15 @@ class TruckTask:
     ``finished(trial)``.
 
     Args:
-        params, cfg, index, source, soil, trace: as :func:`run_trial`'s.
+        params, cfg, index, source, soil, trace: as :func:`run_trial`'s; ``params`` None runs the
+            computed parameters (§4.2) on this trial's own dig (:func:`nominal_params` without its
+            separate world: the same numbers for the same seed and soil).
     """
 
     final_scan = False
     wall_limit_s = math.inf
 
-    def __init__(self, params: MassParams, cfg: TruckConfig, *, index: int = 0, source: str = "",
+    def __init__(self, params: MassParams | None, cfg: TruckConfig, *, index: int = 0, source: str = "",
                  soil: str | None = None, trace: bool = False):
         self.params, self.cfg, self.index, self.source = params, cfg, index, source
         self.soil, self.trace = soil, trace
@@ -291,7 +314,10 @@ class TruckTask:
         self.sim = sim = world if world is not None else Simulation(soil=self.soil, seed=seed)
         self.arm = arm_from_model(sim.model)
         self.scanner = Scanner(sim, seed)
-        dig(sim, self.cfg, self.arm)
+        q = dig(sim, self.cfg, self.arm)
+        if self.params is None:
+            self.params = compute_params(self.arm, self.cfg.site, timing_model(sim, self.cfg), q[1:4],
+                                         self.cfg.dig_swing, open_pitch=self.cfg.open_pitch)
         self.loaded = sim.truth.volumes.bucket
         self.trial: Trial | None = None
         return sim, self.cfg
@@ -325,7 +351,9 @@ class TruckTask:
         true = true_pile(sim, self.before_true, min_theta)
         dumped = self.loaded - sim.truth.volumes.bucket
         out = Trial(self.index, self.params, run.duration, pile, true, run.outcome, dumped, self.loaded, math.nan,
-                    self.source, min_dumped_fraction=cfg.min_dumped_fraction)
+                    self.source, min_dumped_fraction=cfg.min_dumped_fraction, r_d=cfg.site.r_d,
+                    theta_d=cfg.site.theta_d, missed_m3=missed_volume(sim, self.before_true, cfg, min_theta),
+                    sim_s=float(sim.time), objective=cfg.objective)
         if self.trace:
             t = np.array([o[0] for o in servos.obs]) - run.start
             q = np.stack([o[1] for o in servos.obs])

@@ -15,8 +15,8 @@ from excavsim.cli import main
 from excavsim.config import ConfigError
 from excavsim.errors import ExcavsimError
 from excavsim.studies.regress import stats as rs
-from excavsim.studies.regress.suite import (BASELINE_FORMAT, METRICS, Sample, compare, load_baseline, load_scenarios,
-                                   parse_seeds, write_baseline)
+from excavsim.studies.regress.suite import (BASELINE_FORMAT, METRICS, TASK_METRICS, Sample, compare, load_baseline,
+                                           load_scenarios, parse_seeds, write_baseline)
 
 # one dig of the small trench, a coarse planner grid, a small scanner: about half a second an episode
 TINY = {
@@ -107,9 +107,28 @@ def test_compare_pairs_by_seed_and_knows_new_and_missing_scenarios():
     now = _sample([4, 3, 2, 1, 0], **{m: v[::-1] for m, v in values.items()})  # the same episodes, listed backwards
     assert {c.verdict for c in compare({"s": ref}, {"s": now}, paired=True)} == {"same"}
     rows = compare({"s": ref, "gone": ref}, {"s": now, "fresh": now})
-    assert [c.verdict for c in rows if c.scenario == "fresh"] == ["new"] * len(METRICS)
+    assert [c.verdict for c in rows if c.scenario == "fresh"] == ["new"] * len(TASK_METRICS["trench"])
     assert [(c.scenario, c.verdict) for c in rows if c.metric == "-"] == [("gone", "missing")]
     assert not [c for c in compare({"s": ref, "gone": ref}, {"s": now}, partial=True) if c.scenario == "gone"]
+
+
+def test_each_task_is_judged_on_its_metrics_and_the_baseline_keeps_its_task(tmp_path):
+    from excavsim.studies.regress.suite import load_baseline, write_baseline
+
+    values = {m: [1.0, 2.0, 3.0, 4.0] for m in METRICS}
+    samples = {task: Sample([0, 1, 2, 3], [{k: v[i] for k, v in values.items()} for i in range(4)], task)
+               for task in TASK_METRICS}
+    rows = compare(samples, samples)
+    for task, metrics in TASK_METRICS.items():
+        assert tuple(c.metric for c in rows if c.scenario == task) == metrics
+    assert "cycle_s" in TASK_METRICS["truck"] and "delivered_l" in TASK_METRICS["load"]
+    assert not {"cycle_s", "delivered_l", "failed_digs"} & set(TASK_METRICS["trench"])
+    write_baseline(tmp_path / "b.json", samples)
+    doc = json.loads((tmp_path / "b.json").read_text())
+    assert "task" not in doc["scenarios"]["trench"] and doc["scenarios"]["truck"]["task"] == "truck"
+    assert set(doc["scenarios"]["load"]["metrics"]) == set(TASK_METRICS["load"])
+    back = load_baseline(tmp_path / "b.json")
+    assert {n: s.task for n, s in back.items()} == {t: t for t in TASK_METRICS}
 
 
 def test_the_baseline_keeps_per_seed_values_and_refuses_other_formats(tmp_path):

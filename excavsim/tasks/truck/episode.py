@@ -1,0 +1,94 @@
+"""Truck loading as a task of the episode specification (``task: truck``, Rowe 1997 §6.2).
+
+An :class:`~excavsim.loop.scenario.EpisodeSpec` with ``task: truck`` is one trial of
+:mod:`excavsim.tasks.truck.trial` on the T3: the fixed dig, a scan, the mass-excavation script with the
+parameters computed for the site (§4.2; the self-tuning over trials is ``excavsim tune``), the dump, a
+scan again. The spec's ``truck:`` overrides ``configs/truck.yaml`` (validated by
+:class:`~excavsim.config.truck.TruckFile`); ``soil`` and ``seed`` choose the world. This module is what
+the platform's catalog (:mod:`excavsim.loop.catalog`) names: the task class, the campaign row
+(:func:`summary`), the per-cycle rows (:func:`dig_rows`) and the printed table (:func:`format_run`).
+"""
+
+from __future__ import annotations
+
+import math
+from typing import Any
+
+from excavsim.config.truck import TruckFile
+from excavsim.errors import ConfigError
+from excavsim.tasks.truck.trial import Trial, TruckTask, truck_config
+
+
+class TruckTrial(TruckTask):
+    """One truck-loading trial of an episode specification: a :class:`~excavsim.tasks.truck.trial.TruckTask`
+    with the computed parameters (§4.2) on the trial's own dig.
+
+    Args:
+        machine: the machine; only ``t3`` does this task (Rowe's script runs on the T3 here).
+        cfg: ``configs/truck.yaml`` with the spec's overrides, validated.
+        soil: a soil preset of configs/soils.yaml (default the scene's).
+    """
+
+    def __init__(self, machine: str, *, cfg: TruckFile, soil: str | None = None):
+        if machine != "t3":
+            raise ConfigError(f"machine {machine!r} does not do task truck; allowed: t3")
+        self.file = cfg
+        super().__init__(None, truck_config(cfg), source="computed", soil=soil)
+
+
+def trial_end(trial: Trial) -> tuple[str, str]:
+    """How a trial ended, in the platform's words: ``done`` (the script ended and emptied the bucket),
+    ``timeout`` (the script did not end) or ``budget`` (its one cycle ran but left too much in the
+    bucket: a failure, §5.4.1), with the reason."""
+    kept = 1.0 - trial.dumped_m3 / trial.loaded_m3 if trial.loaded_m3 > 0 else 1.0
+    if trial.outcome != "end":
+        return "timeout", f"the mass-excavation script did not end ({trial.outcome})"
+    if trial.failed:
+        return "budget", (f"the trial's script ran but left {100 * kept:.0f} % of the load in the bucket "
+                          f"(a failure: more than {100 * (1 - trial.min_dumped_fraction):.0f} %, §5.4.1)")
+    return "done", f"the script ended and dumped {100 * (1 - kept):.0f} % of the load"
+
+
+def summary(trial: Trial) -> dict[str, Any]:
+    """A trial's metrics as a flat dict of JSON numbers and strings (a campaign row; ``regress``'s
+    sample): ``end``/``reason`` (:func:`trial_end`), ``digs`` (1: the one cycle), the load in the bucket
+    after the fixed dig (``loaded_l``, also ``dug_l_per_dig``), what the dump emptied (``dumped_l``, its
+    share ``dumped_fraction``), what stayed in the bucket (``kept_l``), the soil that missed the truck's
+    bed (``missed_l``, the spillage, :func:`~excavsim.tasks.truck.trial.missed_volume`), the script's cycle
+    time (``cycle_s``, §6.2), the pile measured on the maps (``pile_r_m``, ``pile_theta_deg``) and its
+    placement error (``placement_error_cm``), the cost of §6.2 (``cost``), ``failed`` (§5.4.1), and
+    the simulated and wall times."""
+    end, reason = trial_end(trial)
+    loaded, dumped = trial.loaded_m3, trial.dumped_m3
+    o, r, theta = trial.objective, trial.pile.r, trial.pile.theta
+    err2 = (o.r_d - r) ** 2 + o.r_d ** 2 * (o.theta_d - theta) ** 2 if o is not None else math.nan
+    cost = float(o.cost(trial.time_s, r, theta, float(trial.failed))) if o is not None else math.nan
+    return {
+        "task": "truck", "machine": "t3", "end": end, "reason": reason, "digs": 1,
+        "dug_l_per_dig": 1000 * loaded, "loaded_l": 1000 * loaded, "dumped_l": 1000 * dumped,
+        "dumped_fraction": dumped / loaded if loaded > 0 else 0.0, "kept_l": 1000 * (loaded - dumped),
+        "missed_l": 1000 * trial.missed_m3, "cycle_s": trial.time_s, "pile_r_m": trial.pile.r,
+        "pile_theta_deg": math.degrees(trial.pile.theta),
+        "placement_error_cm": 100 * math.sqrt(err2), "cost": cost, "failed": int(trial.failed), "outcome": trial.outcome,
+        "sim_s": trial.sim_s, "wall_s": trial.wall_s,
+    }
+
+
+def dig_rows(trial: Trial) -> list[dict[str, Any]]:
+    """The trial's one cycle as a per-dig row: its parameters' source, the load, what was dumped and
+    missed [l], the cycle time [s] and the pile, measured and true."""
+    return [{"dig": 1, "source": trial.source, "loaded_l": 1000 * trial.loaded_m3, "dumped_l": 1000 * trial.dumped_m3,
+             "missed_l": 1000 * trial.missed_m3, "cycle_s": trial.time_s, "pile_r_m": trial.pile.r,
+             "pile_theta_deg": math.degrees(trial.pile.theta), "true_r_m": trial.true.r,
+             "true_theta_deg": math.degrees(trial.true.theta), "outcome": trial.outcome}]
+
+
+def format_run(trial: Trial) -> str:
+    """A trial as printed by ``excavsim trench --spec`` (or ``run``): its outcome and numbers."""
+    s = summary(trial)
+    return (f"truck-loading trial (Rowe 1997 §6.2): {s['reason']}\n"
+            f"  loaded {s['loaded_l']:.1f} l, dumped {s['dumped_l']:.1f} l, {s['missed_l']:.1f} l beside the "
+            f"truck's bed; cycle {s['cycle_s']:.2f} s\n"
+            f"  pile at r = {s['pile_r_m']:.3f} m, theta = {s['pile_theta_deg']:.1f} deg (target r = "
+            f"{trial.r_d:.3f} m, theta = {math.degrees(trial.theta_d):.1f} deg): error "
+            f"{s['placement_error_cm']:.1f} cm; cost {s['cost']:.2f}")

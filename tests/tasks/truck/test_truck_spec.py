@@ -1,0 +1,48 @@
+"""``task: truck`` in the episode specification: one truck-loading trial through the platform's episode."""
+
+from __future__ import annotations
+
+import pytest
+
+from excavsim.errors import ConfigError
+from excavsim.loop.scenario import EpisodeSpec, ResolvedSpec, dig_rows, episode_summary, run_spec
+
+
+def test_a_truck_spec_runs_the_computed_trial_and_gives_a_summary_row():
+    from excavsim.tasks.truck.trial import load_truck_config, nominal_params, run_trial
+
+    spec = EpisodeSpec(task="truck", seed=0)
+    assert spec.machine_name == "t3"
+    trial = run_spec(spec)
+    cfg = load_truck_config()
+    alone = run_trial(nominal_params(cfg), cfg)  # the computed parameters on a world of their own
+    assert trial.params == alone.params and trial.time_s == alone.time_s and trial.dumped_m3 == alone.dumped_m3
+    s = episode_summary(trial)
+    assert s["task"] == "truck" and s["digs"] == 1 and s["end"] == "done" and s["failed"] == 0
+    assert s["loaded_l"] > 5 and s["dumped_fraction"] > 0.9 and 0 <= s["missed_l"] < s["dumped_l"]
+    assert 1.0 < s["cycle_s"] < 20.0 and 0 < s["placement_error_cm"] < 50 and s["cost"] > 5 * s["cycle_s"]
+    assert dig_rows(trial)[0]["cycle_s"] == s["cycle_s"]
+
+
+def test_truck_overrides_are_validated_by_the_truck_model_and_other_tasks_fields_refused():
+    r = ResolvedSpec(EpisodeSpec(task="truck", truck={"target": {"r_m": 1.6}, "cost": {"w1_per_s": 2.0}}))
+    assert r.truck.target.r_m == 1.6 and r.truck.cost.w1_per_s == 2.0 and r.truck.target.theta_deg == 35.0
+    with pytest.raises(ConfigError, match="r_m"):
+        ResolvedSpec(EpisodeSpec(task="truck", truck={"target": {"r_m": -1.0}}))
+    with pytest.raises(ConfigError, match="task truck does not use goal, dig_budget .*overrides go in truck:"):
+        EpisodeSpec(task="truck", goal="small", dig_budget=3)
+    with pytest.raises(ConfigError, match="truck: overrides configs/truck.yaml for task truck; this spec's task is load"):
+        EpisodeSpec(task="load", truck={"latency_s": 0.2})
+    with pytest.raises(ConfigError, match="machine 'loader' does not do task truck; allowed: t3"):
+        EpisodeSpec(task="truck", machine="loader")
+
+
+def test_trench_spec_runs_a_truck_spec(tmp_path, capsys):
+    from excavsim.cli import main
+
+    path = tmp_path / "truck.yaml"
+    path.write_text("name: t\ntask: truck\nsoil: testbed_sand\ntruck: {target: {theta_deg: 30.0}}\n")
+    assert main(["trench", "--spec", str(path)]) == 0
+    out = capsys.readouterr().out
+    assert "task truck, machine t3, one trial" in out and "truck-loading trial (Rowe 1997 §6.2)" in out
+    assert "theta = 30.0 deg" in out
