@@ -479,8 +479,8 @@ def run_episode(sim: Simulation, *, seed: int = 0, goal: TrenchGoal | None = Non
         seed: the episode seed (the scanner's noise and drift).
         digs: where each cycle's dig comes from (default :class:`~excavsim.loop.digs.PlannedDigs` with
             the episode's :class:`~excavsim.planning.experience.DigExperience`).
-        goal, dig_budget, done_fraction, tolerance_m, planner_cfg, executor_cfg, sensing_cfg, progress,
-            observer: see :class:`Episode`.
+        goal, dig_budget, done_fraction, tolerance_m, planner_cfg, executor_cfg, sensing_cfg, progress, observer:
+            see :class:`Episode`.
 
     Returns:
         The digs' metrics and the trench against the goal on the true terrain; ``end`` is ``done``,

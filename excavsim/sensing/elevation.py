@@ -2,17 +2,17 @@
 
 The processing is the thesis' (Figs. 101-102 and the text around them):
 
-1. **Calibration** (optionally with the mount's pose, ``calibrate_pose``: :func:`calibrate_pose`) of every range image: a linear least-squares fit ``measured = scale * surveyed +
-   offset`` over the rays aimed at the surveyed targets on the walls, with one pass of outlier
-   rejection (a target hidden by a pile or a wild range), applied to the whole image as
-   ``(r - offset) / scale``.
+1. **Calibration** of every range image (optionally with the mount's pose, ``calibrate_pose``:
+   :func:`calibrate_pose`): a linear least-squares fit ``measured = scale * surveyed + offset`` over
+   the rays aimed at the surveyed targets on the walls, with one pass of outlier rejection (a target
+   hidden by a pile or a wild range), applied to the whole image as ``(r - offset) / scale``.
 2. **Median filter** across N images (default 10), per pixel, ignoring dropouts.
 3. **Levelling** (ours, not the thesis'): the points that fall on the surveyed tops of the box's
    walls fit a plane of the height error (:func:`wall_levelling`), subtracted from every point. The
    range calibration cannot see a misaligned mount, which tilts and lifts the map by a centimetre
    or two: enough to make a finished trench look 5 % short of its goal, or done when it is not.
-3b. **Edge filter** (optional, ``edge_filter_m``; Fig. 96's filtered pixels): the pixels at range
-   jumps are dropped (:func:`edge_pixels`), the mixed pixels a finite beam returns at edges.
+   The **edge filter** (optional, ``edge_filter_m``; Fig. 96's filtered pixels) drops the pixels at
+   range jumps (:func:`edge_pixels`), the mixed pixels a finite beam returns at edges.
 4. **Binning**: pixels become world points along the known ray directions; points inside the soil
    area (less a 3 cm margin at the walls, whose faces would otherwise be read as soil) are reduced
    to their median height per cell of the map (default 5 cm).
