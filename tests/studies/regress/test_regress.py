@@ -224,7 +224,7 @@ def test_against_head_runs_a_temporary_worktree_and_gives_identical_paired_resul
     assert doc["mode"] == "against" and doc["baseline_source"].startswith("git HEAD (")
     metrics = doc["scenarios"]["tiny"]["metrics"]
     assert doc["scenarios"]["tiny"]["seeds"] == doc["scenarios"]["tiny"]["baseline_seeds"] == [0, 1]
-    assert set(metrics) == set(METRICS)
+    assert set(metrics) == set(TASK_METRICS["trench"])
     if not _episode_code_is_committed():  # a developer's uncommitted change: HEAD may dig differently;
         return  # on a clean checkout (CI) the identity below is always asserted
     assert code == 0 and {m["verdict"] for m in metrics.values()} == {"same"}
