@@ -287,16 +287,21 @@ def run_with_outputs(spec: EpisodeSpec, *, robot_path: str | None = None, scene_
     from excavsim.handoff.episode import ObserverGroup, format_episode
 
     ResolvedSpec(spec, robot_path=robot_path, scene_path=scene_path)  # every file checked first
-    if spec.task != "trench":  # another task of the one episode (loading, truck loading): run it, say its table
-        if record or live is not None or save_maps or timing:
-            raise UsageError(f"--record, --live, --save-maps and --timing follow trenching episodes; the spec's "
-                             f"task is {spec.task}")
+    if spec.task != "trench":  # another task of the one episode: run it, say its table, record it if it can
         from excavsim.loop.catalog import task_module
 
+        module = task_module(spec.task)
+        recorder = getattr(module, "episode_recorder", None)  # a task's Rerun recorder of its episode, if any
+        if live is not None or save_maps or timing or (record and recorder is None):
+            can = "only --record" if recorder is not None else "none of them"
+            raise UsageError(f"--record, --live, --save-maps and --timing follow trenching episodes; task "
+                             f"{spec.task} takes {can}")
         cycles = "one trial" if spec.task == "truck" else f"{spec.dig_budget} digs at most"
         say(f"excavsim trench --spec: task {spec.task}, machine {spec.machine_name}, {cycles}, seed {spec.seed}")
-        result = run_spec(spec, progress=say)
-        say(task_module(spec.task).format_run(result))
+        result = run_spec(spec, progress=say, observer=recorder(record) if record else None)
+        say(module.format_run(result))
+        if record:
+            say(f"recorded to {record}; replay it with: excavsim replay {record}")
         return result
     observer = None
     if record or live is not None:

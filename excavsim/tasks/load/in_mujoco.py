@@ -487,6 +487,14 @@ def machine_tip(machine, q: np.ndarray) -> np.ndarray:
     return machine.forward(q[1:], q[0])[:2]
 
 
+def episode_recorder(path: str):
+    """The Rerun recorder of a loading episode (the platform's hook for ``excavsim trench --spec ...
+    --record``): the lane, the scanned maps, the planned digs, the machine's motion, per dig."""
+    from excavsim.record.loading import LoadingRecorder
+
+    return LoadingRecorder(path)
+
+
 def format_run(run: MujocoRun) -> str:
     """A MuJoCo episode's digs as a table [m^3] and its end."""
     lines = [f"{'dig':>4} {'k m':>5} {'h m':>5} {'alpha':>6} {'d1 m':>5} {'r m':>5} {'base x':>7} {'planned':>8} "

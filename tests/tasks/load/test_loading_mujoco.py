@@ -369,13 +369,18 @@ def test_excavsim_trench_runs_a_loading_spec(tmp_path, capsys):
     spec = tmp_path / "load.yaml"
     spec.write_text("task: load\nmachine: loader\ndig_budget: 1\n"
                     "loading: {pile: {height: 0.6, top: 0.3, foot: 1.5}, n_scans: 2}\n")
-    assert main(["trench", "--spec", str(spec), "--record", str(tmp_path / "x.rrd")]) == 2
-    assert "the spec's task is load" in capsys.readouterr().err
+    assert main(["trench", "--spec", str(spec), "--save-maps", str(tmp_path / "maps")]) == 2
+    assert "task load takes only --record" in capsys.readouterr().err
     assert main(["trench", "--spec", str(spec), "--goal", "small"]) == 2
     assert "task load does not use goal" in capsys.readouterr().err
-    assert main(["trench", "--spec", str(spec)]) == 0
+    rrd = tmp_path / "x.rrd"
+    assert main(["trench", "--spec", str(spec), "--record", str(rrd)]) == 0
     out = capsys.readouterr().out
     assert "task load, machine loader, 1 digs at most" in out and "1 digs spent" in out
+    assert f"recorded to {rrd}" in out
+    from excavsim.record.replay import check_recording
+
+    check_recording(str(rrd))  # a recording the installed Rerun loads (rerun rrd verify)
 
 
 def test_a_campaign_grid_varies_the_loading_machine_and_its_configuration():

@@ -46,3 +46,6 @@ def test_trench_spec_runs_a_truck_spec(tmp_path, capsys):
     out = capsys.readouterr().out
     assert "task truck, machine t3, one trial" in out and "truck-loading trial (Rowe 1997 §6.2)" in out
     assert "theta = 30.0 deg" in out
+    # a truck trial has no recorder of its own episode yet (excavsim tune --record records its trials)
+    assert main(["trench", "--spec", str(path), "--record", str(tmp_path / "t.rrd")]) == 2
+    assert "task truck takes none of them" in capsys.readouterr().err
