@@ -488,8 +488,9 @@ def machine_tip(machine, q: np.ndarray) -> np.ndarray:
 
 
 def episode_recorder(path: str):
-    """The Rerun recorder of a loading episode (the platform's hook for ``excavsim trench --spec ...
-    --record``): the lane, the scanned maps, the planned digs, the machine's motion, per dig."""
+    """The Rerun recorder of a loading episode, the platform's hook for ``trench --spec --record``.
+
+    It records the lane, the scanned maps, the planned digs and the machine's motion, per dig."""
     from excavsim.record.loading import LoadingRecorder
 
     return LoadingRecorder(path)
