@@ -17,7 +17,85 @@ from excavsim.envs.render import RENDER_MODES, FrameRenderer, check_render_mode
 from excavsim.envs.spaces import dict_space
 
 
-class TrenchDigEnv(gym.Env):
+class DigStepEnv(gym.Env):
+    """What every dig-level environment shares (one step per dig, the action a planner's, in its
+    units or normalized to [-1, 1]): spaces from the core's fields, seeding, the normalized action's
+    mapping, rendering between digs and closing. A subclass names its core (:attr:`core_class`), its
+    id for messages (:attr:`env_id`), what its action is (:attr:`action_noun`) and where its world is
+    (:meth:`_world`)."""
+
+    metadata = {"render_modes": list(RENDER_MODES), "render_fps": 1}  # a frame per dig
+    core_class: type = DigCore
+    env_id = "TrenchDig-v0"
+    action_noun = "dig action"
+
+    def __init__(self, spec=None, *, render_mode: str | None = None, normalize_action: bool = False,
+                 render_size: tuple[int, int] = (480, 360), **kwargs: Any):
+        self.render_mode = check_render_mode(render_mode)
+        self.core = self.core_class(spec, **kwargs)
+        self.normalize_action = bool(normalize_action)
+        if self.normalize_action:
+            self.action_space = gym.spaces.Box(-1.0, 1.0, shape=self.core.action_low.shape, dtype=np.float32)
+        else:
+            self.action_space = gym.spaces.Box(self.core.action_low.astype(np.float32),
+                                               self.core.action_high.astype(np.float32), dtype=np.float32)
+        self.observation_space = dict_space(self.core.fields)
+        self._frames = FrameRenderer(*render_size)
+        self._resets = 0
+
+    @property
+    def result(self):
+        """The task's result of the last episode once it ended (see the class docstring), else None."""
+        return self.core.result
+
+    def reset(self, *, seed: int | None = None, options: dict[str, Any] | None = None):
+        """Start an episode (see the class docstring for seeding); returns (observation, info).
+
+        Raises:
+            EnvError: a seed outside [0, 2**32 - 1] or an option (none is defined).
+        """
+        if options:
+            raise EnvError(f"{self.env_id} takes no reset options; given {sorted(options)}")
+        return self.core.reset(_episode_seed(self, seed))
+
+    def step(self, action):
+        """Dig ``action``; returns (observation, reward, terminated, truncated, info)."""
+        if self.normalize_action:
+            ones = np.ones(self.core.action_low.shape)
+            a = check_vector(action, -ones, ones, f"the normalized {self.action_noun}")
+            low, high = self.core.action_low, self.core.action_high
+            action = low + (np.clip(a, -1.0, 1.0) + 1.0) / 2.0 * (high - low)
+        return self.core.step(action)
+
+    def _world(self):
+        """The running episode's world (with ``model`` and ``data``), or None."""
+        return getattr(self.core, "_sim", None)
+
+    def render(self):
+        """The frame now (the world between digs), (height, width, 3) uint8, with
+        ``render_mode="rgb_array"``; None without a render mode or before the first reset.
+
+        Raises:
+            EnvError: no OpenGL backend works in this process.
+        """
+        world = self._world()
+        if self.render_mode is None or world is None:
+            return None
+        return self._frames.render(world.model, world.data)
+
+    def close(self):
+        """Abandon the running episode and free the renderer (closing twice is fine)."""
+        self._frames.close()
+        self.core.close()
+
+    def __del__(self):
+        # a dropped environment ends its episode (its observers hear finished(None))
+        core = getattr(self, "core", None)
+        if core is not None:
+            core.close()
+
+
+class TrenchDigEnv(DigStepEnv):
     """A trenching episode, one step per dig: the action is (k, alpha, d1) [m, rad, m].
 
     See :class:`~excavsim.envs.core.DigCore` for the rules (snapping to the planner's grid, the
@@ -57,68 +135,9 @@ class TrenchDigEnv(gym.Env):
         render_size: (width, height) of the frames [pixels].
     """
 
-    metadata = {"render_modes": list(RENDER_MODES), "render_fps": 1}  # a frame per dig
-
-    def __init__(self, spec=None, *, render_mode: str | None = None, normalize_action: bool = False,
-                 render_size: tuple[int, int] = (480, 360), **kwargs: Any):
-        self.render_mode = check_render_mode(render_mode)
-        self.core = DigCore(spec, **kwargs)
-        self.normalize_action = bool(normalize_action)
-        if self.normalize_action:
-            self.action_space = gym.spaces.Box(-1.0, 1.0, shape=self.core.action_low.shape, dtype=np.float32)
-        else:
-            self.action_space = gym.spaces.Box(self.core.action_low.astype(np.float32),
-                                               self.core.action_high.astype(np.float32), dtype=np.float32)
-        self.observation_space = dict_space(self.core.fields)
-        self._frames = FrameRenderer(*render_size)
-        self._resets = 0
-
-    @property
-    def result(self):
-        """The :class:`~excavsim.handoff.episode.EpisodeResult` of the last episode once it ended, else None."""
-        return self.core.result
-
-    def reset(self, *, seed: int | None = None, options: dict[str, Any] | None = None):
-        """Start an episode (see the class docstring for seeding); returns (observation, info).
-
-        Raises:
-            EnvError: a seed outside [0, 2**32 - 1] or an option (none is defined).
-        """
-        if options:
-            raise EnvError(f"TrenchDig-v0 takes no reset options; given {sorted(options)}")
-        return self.core.reset(_episode_seed(self, seed))
-
-    def step(self, action):
-        """Dig ``action`` (k, alpha, d1); returns (observation, reward, terminated, truncated, info)."""
-        if self.normalize_action:
-            ones = np.ones(self.core.action_low.shape)
-            a = check_vector(action, -ones, ones, "the normalized dig action")
-            low, high = self.core.action_low, self.core.action_high
-            action = low + (np.clip(a, -1.0, 1.0) + 1.0) / 2.0 * (high - low)
-        return self.core.step(action)
-
-    def render(self):
-        """The frame now (the world between digs), (height, width, 3) uint8, with
-        ``render_mode="rgb_array"``; None without a render mode or before the first reset.
-
-        Raises:
-            EnvError: no OpenGL backend works in this process.
-        """
-        sim = getattr(self.core, "_sim", None)
-        if self.render_mode is None or sim is None:
-            return None
-        return self._frames.render(sim.model, sim.data)
-
-    def close(self):
-        """Abandon the running episode and free the renderer (closing twice is fine)."""
-        self._frames.close()
-        self.core.close()
-
-    def __del__(self):
-        # a dropped environment ends its episode (its observers hear finished(None))
-        core = getattr(self, "core", None)
-        if core is not None:
-            core.close()
+    core_class = DigCore
+    env_id = "TrenchDig-v0"
+    action_noun = "dig action"
 
 
 def _episode_seed(env: gym.Env, seed: int | None) -> int:

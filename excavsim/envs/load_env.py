@@ -7,19 +7,11 @@ planner's (Gymnasium).
 
 from __future__ import annotations
 
-from typing import Any
-
-import gymnasium as gym
-import numpy as np
-
-from excavsim.envs.core import EnvError, check_vector
-from excavsim.envs.dig_env import _episode_seed
+from excavsim.envs.dig_env import DigStepEnv, PlannerPolicy
 from excavsim.envs.load_core import LoadCore
-from excavsim.envs.render import RENDER_MODES, FrameRenderer, check_render_mode
-from excavsim.envs.spaces import dict_space
 
 
-class LoadDigEnv(gym.Env):
+class LoadDigEnv(DigStepEnv):
     """A loading episode (front loader or front shovel, a pile in a lane), one step per dig.
 
     See :class:`~excavsim.envs.load_core.LoadCore` for the rules (snapping to the planner's grid,
@@ -55,70 +47,16 @@ class LoadDigEnv(gym.Env):
         render_size: (width, height) of the frames [pixels].
     """
 
-    metadata = {"render_modes": list(RENDER_MODES), "render_fps": 1}  # a frame per dig
+    core_class = LoadCore
+    env_id = "LoadDig-v0"
+    action_noun = "loading action"
 
-    def __init__(self, spec=None, *, render_mode: str | None = None, normalize_action: bool = False,
-                 render_size: tuple[int, int] = (480, 360), **kwargs: Any):
-        self.render_mode = check_render_mode(render_mode)
-        self.core = LoadCore(spec, **kwargs)
-        self.normalize_action = bool(normalize_action)
-        if self.normalize_action:
-            self.action_space = gym.spaces.Box(-1.0, 1.0, shape=self.core.action_low.shape, dtype=np.float32)
-        else:
-            self.action_space = gym.spaces.Box(self.core.action_low.astype(np.float32),
-                                               self.core.action_high.astype(np.float32), dtype=np.float32)
-        self.observation_space = dict_space(self.core.fields)
-        self._frames = FrameRenderer(*render_size)
-        self._resets = 0
-
-    @property
-    def result(self):
-        """The :class:`~excavsim.tasks.load.in_mujoco.MujocoRun` of the last episode once it ended, else None."""
-        return self.core.result
-
-    def reset(self, *, seed: int | None = None, options: dict[str, Any] | None = None):
-        """Start an episode (see the class docstring for seeding); returns (observation, info).
-
-        Raises:
-            EnvError: a seed outside [0, 2**32 - 1] or an option (none is defined).
-        """
-        if options:
-            raise EnvError(f"LoadDig-v0 takes no reset options; given {sorted(options)}")
-        return self.core.reset(_episode_seed(self, seed))
-
-    def step(self, action):
-        """Dig ``action``; returns (observation, reward, terminated, truncated, info)."""
-        if self.normalize_action:
-            ones = np.ones(self.core.action_low.shape)
-            a = check_vector(action, -ones, ones, "the normalized loading action")
-            low, high = self.core.action_low, self.core.action_high
-            action = low + (np.clip(a, -1.0, 1.0) + 1.0) / 2.0 * (high - low)
-        return self.core.step(action)
-
-    def render(self):
-        """The frame now (the world between digs), (height, width, 3) uint8, with
-        ``render_mode="rgb_array"``; None without a render mode or before the first reset.
-
-        Raises:
-            EnvError: no OpenGL backend works in this process.
-        """
+    def _world(self):
         task = self.core._task
-        if self.render_mode is None or task is None:
-            return None
-        return self._frames.render(task.world.model, task.world.data)
-
-    def close(self):
-        """Abandon the running episode and free the renderer (closing twice is fine)."""
-        self._frames.close()
-        self.core.close()
-
-    def __del__(self):
-        core = getattr(self, "core", None)
-        if core is not None:
-            core.close()
+        return None if task is None else task.world
 
 
-class LoadPlannerPolicy:
+class LoadPlannerPolicy(PlannerPolicy):
     """The loading planner as a policy of :class:`LoadDigEnv`: the planner's action on the current map
     (``info["planner_action"]``), the middle of the action space once the episode ended (the step
     that reports the end digs nothing). Through the environment it reproduces the plain loading episode.
@@ -126,11 +64,3 @@ class LoadPlannerPolicy:
     Args:
         action_space: the environment's action space (in the planner's units).
     """
-
-    def __init__(self, action_space: gym.spaces.Box):
-        self.default = ((action_space.low + action_space.high) / 2).astype(action_space.dtype)
-
-    def __call__(self, observation, info: dict[str, Any]) -> np.ndarray:
-        """The action for this cycle."""
-        action = info.get("planner_action")
-        return self.default.copy() if action is None else np.asarray(action, dtype=self.default.dtype)
