@@ -12,8 +12,14 @@ closed-form kinematics (:mod:`excavsim.robot.cylinders`), the set-points' speeds
 their distance from those targets (the set-point, not the measured length: a stalled cylinder's set-point
 stops at the target instead of winding up, and the servo pushes at relief until the load gives way) and
 clipped at each cylinder's own flow limit, and then the two pumps' flow is shared
-(Rowe 1997 §4.0: one pump powers boom and bucket, the other stick and swing; when both functions of a
-pump move together neither reaches its own peak speed; :func:`~excavsim.robot.cylinders.share_pump_flow`).
+(Rowe 1997 §4.0: when functions on one pump move together neither reaches its own peak speed; which
+functions share a pump Rowe does not say: boom with bucket and stick with swing is assumed;
+:func:`~excavsim.robot.cylinders.share_pump_flow`).
+
+A simplified hydraulic model, stated: the oil is incompressible (no cylinder stiffness from the oil
+column), the valve is an ideal proportional flow source with no spool dynamics, deadband or
+deceleration planning (a full-speed swing of the 25 t machine overshoots), relief is a hard force clip
+and the pumps deliver their rated flow at any pressure (no power limit).
 
 :class:`ExcavatorWorld` steps such a model with the world's soil (:class:`~excavsim.world.soil.SoilModel`)
 at a fixed control rate, as :class:`~excavsim.world.loading_scene.LoadingWorld` does for the loading
