@@ -36,16 +36,18 @@ from excavsim.config.semantic import check_goal
 from excavsim.errors import UsageError, shorten
 
 
-TASK_MACHINES = {"trench": ("t3",), "load": ("loader", "shovel"), "truck": ("t3",)}
+TASK_MACHINES = {"trench": ("t3",), "load": ("loader", "shovel"), "truck": ("t3",), "truck_loading": ("excavator_25t",)}
 """The tasks an episode specification can name, each with the machines that do it (the first is the default)."""
 TRENCH_ONLY = ("goal", "done_fraction", "tolerance_m", "robot", "scene", "planner", "executor", "sensing", "memory",
                "predictor")
 """Fields of :class:`EpisodeSpec` that configure the trenching task only."""
-FIELD_TASKS: dict[str, tuple[str, ...]] = {**{f: ("trench",) for f in TRENCH_ONLY}, "dig_budget": ("trench", "load"),
-                                           "loading": ("load",), "truck": ("truck",)}
+FIELD_TASKS: dict[str, tuple[str, ...]] = {**{f: ("trench",) for f in TRENCH_ONLY}, "dig_budget": ("trench", "load", "truck_loading"),
+                                           "loading": ("load",), "truck": ("truck",),
+                                           "truck_loading": ("truck_loading",)}
 """The fields of :class:`EpisodeSpec` that only some tasks use, each with those tasks (a truck trial is one
 dig-swing-dump cycle: it has no dig budget). The other fields (name, task, machine, soil, seed) every task uses."""
-TASK_OVERRIDES = {"load": ("loading", "configs/loading_mujoco.yaml"), "truck": ("truck", "configs/truck.yaml")}
+TASK_OVERRIDES = {"load": ("loading", "configs/loading_mujoco.yaml"), "truck": ("truck", "configs/truck.yaml"),
+                  "truck_loading": ("truck_loading", "configs/truck_loading.yaml")}
 """The field holding each application task's configuration overrides, and the file they apply to."""
 
 
@@ -56,18 +58,24 @@ class EpisodeSpec(StrictModel):
     task: str = Field(default="trench", description="the task: trench (dig a trench goal with the T3), load "
                                                     "(load from a pile in MuJoCo: excavsim.tasks.load.in_mujoco) or "
                                                     "truck (one truck-loading trial of the mass-excavation script "
-                                                    "on the T3, Rowe 1997 §6.2: excavsim.tasks.truck)")
+                                                    "on the T3, Rowe 1997 §6.2: excavsim.tasks.truck) or "
+                                                    "truck_loading (a truck loaded to full, pass after pass, by the "
+                                                    "25 t excavator, Rowe 1997 §4, §6: excavsim.tasks.truck_loading)")
     machine: str | None = Field(default=None, description="the machine: t3 (tasks trench and truck); loader or "
-                                                          "shovel (task load); default the task's first")
+                                                          "shovel (task load); excavator_25t (task truck_loading); "
+                                                          "default the task's first")
     loading: dict[str, Any] = Field(default_factory=dict,
                                     description="overrides of configs/loading_mujoco.yaml (task load)")
     truck: dict[str, Any] = Field(default_factory=dict, description="overrides of configs/truck.yaml (task truck)")
+    truck_loading: dict[str, Any] = Field(default_factory=dict, description="overrides of configs/truck_loading.yaml "
+                                                                            "(task truck_loading)")
     goal: str | TrenchGoal = Field(
         default="sand", description="a trench of configs/trenches (by name), a YAML path, or the goal inline")
     soil: str | None = Field(default=None, description="soil preset of configs/soils.yaml (default: the scene's)")
     seed: int = Field(default=0, ge=0, le=2**32 - 1, description="episode seed (soil, sensor noise, scanner drift)")
     dig_budget: int = Field(default=20, ge=1, le=1000,
-                            description="most digs to try (tasks trench and load; a truck trial is one cycle)")
+                            description="most digs to try (tasks trench and load; the most passes of task "
+                                        "truck_loading; a truck trial is one cycle)")
     done_fraction: float = Field(default=0.95, gt=0, le=1, description="goal volume fraction that counts as done")
     tolerance_m: float = Field(default=0.03, gt=0, le=1, description="no map cell may stay this far above the goal")
     robot: dict[str, Any] = Field(default_factory=dict, description="overrides of configs/robot.yaml")
@@ -180,6 +188,12 @@ class ResolvedSpec:
 
             self.truck: TruckFile = _override(load_truck_file(), spec.truck, TruckFile, f"{spec.name}: truck")
             return
+        if spec.task == "truck_loading":
+            from excavsim.config.truck_loading import TruckLoadingFile, load_truck_loading_file
+
+            self.truck_loading: TruckLoadingFile = _override(load_truck_loading_file(), spec.truck_loading,
+                                                             TruckLoadingFile, f"{spec.name}: truck_loading")
+            return
         self.goal: TrenchGoal = resolve_goal(spec.goal)
         self.robot: RobotConfig = _override(load_robot_config(robot_path), spec.robot, RobotConfig,
                                             f"{spec.name}: robot")
@@ -217,6 +231,11 @@ def spec_episode(spec: EpisodeSpec, resolved: ResolvedSpec | None = None, *,
 
         return Episode(task_class("truck")(spec.machine_name, cfg=r.truck, soil=spec.soil), dig_budget=1,
                        progress=progress, observer=observer)
+    if spec.task == "truck_loading":  # passes until the truck is full, at most dig_budget
+        from excavsim.loop.catalog import task_class
+
+        return Episode(task_class("truck_loading")(spec.machine_name, cfg=r.truck_loading, soil=spec.soil),
+                       dig_budget=spec.dig_budget, progress=progress, observer=observer)
     if spec.predictor != "wedge":  # learned online, from scratch, from this episode's digs (§5.2)
         from excavsim.loop.online import OnlineLearning
 
@@ -259,6 +278,12 @@ def _is_loading(res) -> bool:
     return hasattr(res, "delivered_m3")
 
 
+def _task_of(res) -> str | None:
+    """The registered task whose result ``res`` is, when the result names it (``task``), else None."""
+    task = getattr(res, "task", None)
+    return task if isinstance(task, str) else None
+
+
 def _is_truck(res) -> bool:
     """Whether ``res`` is a truck-loading trial's result (a Trial) rather than a trench's."""
     return hasattr(res, "pile") and hasattr(res, "dumped_m3")
@@ -296,7 +321,8 @@ def run_with_outputs(spec: EpisodeSpec, *, robot_path: str | None = None, scene_
             can = "only --record" if recorder is not None else "none of them"
             raise UsageError(f"--record, --live, --save-maps and --timing follow trenching episodes; task "
                              f"{spec.task} takes {can}")
-        cycles = "one trial" if spec.task == "truck" else f"{spec.dig_budget} digs at most"
+        cycles = "one trial" if spec.task == "truck" else (f"{spec.dig_budget} passes at most" if spec.task ==
+                                                           "truck_loading" else f"{spec.dig_budget} digs at most")
         say(f"excavsim trench --spec: task {spec.task}, machine {spec.machine_name}, {cycles}, seed {spec.seed}")
         result = run_spec(spec, progress=say, observer=recorder(record) if record else None)
         say(module.format_run(result))
@@ -341,7 +367,12 @@ def dig_rows(res) -> list[dict[str, Any]]:
     """One JSON-ready row per dig of an episode: for a trench its action (NaN for a fallback dig),
     volumes [l], outcome and failure, and the predicted and measured peak wrist-pitch torques [N m];
     for loading its action, section and volumes [l] and its peak soil force [kN]; for a truck trial
-    its one cycle (:func:`excavsim.tasks.truck.episode.dig_rows`)."""
+    its one cycle (:func:`excavsim.tasks.truck.episode.dig_rows`); a task whose result names it, its
+    module's ``dig_rows``."""
+    if _task_of(res) is not None:
+        from excavsim.loop.catalog import task_module
+
+        return task_module(_task_of(res)).dig_rows(res)
     if _is_truck(res):
         from excavsim.loop.catalog import task_module
 
@@ -371,8 +402,13 @@ def episode_summary(res) -> dict[str, Any]:
     (``done``, ``no_dig``, ``budget``, ``diverged`` or ``timeout``), ``reason`` its full text;
     ``diverged_digs`` counts the digs in which the simulation diverged (at most one: the episode ends there).
     A loading episode's is :func:`loading_summary`, a truck trial's its task's
-    (:func:`excavsim.tasks.truck.episode.summary`).
+    (:func:`excavsim.tasks.truck.episode.summary`); a task whose result names it (``task``), its module's
+    ``summary`` (truck_loading: :func:`excavsim.tasks.truck_loading.task.summary`).
     """
+    if _task_of(res) is not None:
+        from excavsim.loop.catalog import task_module
+
+        return task_module(_task_of(res)).summary(res)
     if _is_truck(res):
         from excavsim.loop.catalog import task_module
 

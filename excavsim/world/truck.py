@@ -290,6 +290,15 @@ class TruckWorld(ExcavatorWorld):
         self.bed_scanner = BedScanner(self.bed, self.data.site_xpos[site].copy(), np.random.default_rng((seed, 34)))
         self._areas = [(c.area_retract_m2, c.area_extend_m2)
                        for c in (self.spec.boom_cyl, self.spec.stick_cyl, self.spec.bucket_cyl)]
+        # Called with the world after every control step (the episode's observers); read-only use.
+        self.step_hooks: list = []
+
+    def step(self, target: np.ndarray) -> np.ndarray:
+        """One control step (:meth:`ExcavatorWorld.step`), then the step hooks."""
+        q = super().step(target)
+        for hook in self.step_hooks:
+            hook(self)
+        return q
 
     def _compile(self) -> mujoco.MjModel:
         spec = mujoco.MjSpec.from_file(str(self.spec.scene_xml))
