@@ -181,7 +181,9 @@ class AutoDigConfig:
             which the drag slows and the tip rises [Pa]; full_pa held ``full_s`` [s]: the bucket is full.
         relief_pa: the relief pressure (the drag's look-up table ends there) [Pa].
         attack_deg: the tip's pitch while it penetrates and drags (the blade raked towards the machine) [deg].
-        capture_deg: the tip's pitch once curled, the mouth up [deg]; curl_lift_m: the rise while curling [m].
+        capture_deg: the tip's pitch once curled, the mouth up [deg]; curl_lift_m: the rise while curling [m];
+            curl_rate_rad_s: the pitch's rate while curling [rad/s].
+        filter_s: the pressures' low-pass time constant [s] (:class:`_Filtered`).
         timeout_s: the longest dig [s].
     """
 
@@ -199,6 +201,8 @@ class AutoDigConfig:
     attack_deg: float = 35.0
     capture_deg: float = -40.0
     curl_lift_m: float = 0.6
+    curl_rate_rad_s: float = 1.2
+    filter_s: float = 0.3
     timeout_s: float = 30.0
 
 
@@ -214,6 +218,7 @@ class DigRun:
     peak_pa: np.ndarray
     q_end: np.ndarray
     phases: list[tuple[float, str]] = dataclasses.field(default_factory=list)
+    trace: np.ndarray | None = None  # (n, 4): time [s] and the filtered boom, stick, bucket pressures [Pa]
 
 
 def _to(arm: PlanarArm, pose, q_prev: np.ndarray) -> np.ndarray:
@@ -223,32 +228,49 @@ def _to(arm: PlanarArm, pose, q_prev: np.ndarray) -> np.ndarray:
     return np.clip(q, np.asarray(arm.lower), np.asarray(arm.upper))
 
 
+class _Filtered:
+    """The cylinder pressures low-passed (first order, ``tau`` [s]): the servo valves' and the soil's chatter
+    makes the raw readings swing by tens of MPa from one control step to the next (measured), so thresholds
+    act on the filtered pressure, as a real controller's would (assumed time constant)."""
+
+    def __init__(self, machine: Machine, tau: float):
+        self.machine, self.k = machine, min(1.0, machine.control_dt / tau)
+        self.value = np.asarray(machine.cylinder_pressures(), float)
+
+    def update(self) -> np.ndarray:
+        self.value = self.value + self.k * (np.asarray(self.machine.cylinder_pressures(), float) - self.value)
+        return self.value
+
+
 def autodig(machine: Machine, arm: PlanarArm, swing: float, start_r: float, surface, cfg: AutoDigConfig, *,
             min_r: float = 4.0) -> DigRun:
     """Dig one bucket load at swing angle ``swing`` [rad] from radius ``start_r`` [m] towards the machine
     (module docstring). ``surface(r)`` is the scanned ground's height [m] at radius ``r`` along the dig's line
-    (the mind's map). The bucket starts above the face, at the pose the loading script left it."""
+    (the mind's map). The bucket starts above the face, at the pose the loading script left it. Pressures are
+    compared by magnitude (the boom pushes down, the stick pulls in) after :class:`_Filtered`."""
     dt = machine.control_dt
     t = 0.0
     q = machine.joint_angles()
     attack = math.radians(cfg.attack_deg)
     peak = np.zeros(3)
     phases: list[tuple[float, str]] = []
+    trace: list[tuple[float, float, float, float]] = []
+    filt = _Filtered(machine, cfg.filter_s)
     # penetrate: down along the blade's direction from above the surface at start_r
     x, z = start_r, float(surface(start_r)) + 0.3
     z_goal = float(surface(start_r)) - cfg.depth_m
     why_pen = "depth"
     while z > z_goal:
-        p = machine.cylinder_pressures()
-        peak = np.maximum(peak, np.abs(p))
-        if abs(p[0]) > cfg.penetrate_pa and z < float(surface(x)):
+        p = np.abs(filt.update())
+        peak = np.maximum(peak, p)
+        trace.append((t, *p))
+        if p[0] > cfg.penetrate_pa and z < float(surface(x)):
             why_pen = "boom pressure"
             break
         z -= cfg.penetrate_speed_m_s * dt
         x -= 0.3 * cfg.penetrate_speed_m_s * dt
-        q = _to(arm, (x, z, attack), q[1:] if q.shape[0] == 4 else q)
-        machine.step(np.r_[swing, q])
-        q = np.r_[swing, q]
+        q = np.r_[swing, _to(arm, (x, z, attack), q[1:])]
+        machine.step(q)
         t += dt
         if t > cfg.timeout_s:
             why_pen = "timeout"
@@ -257,9 +279,10 @@ def autodig(machine: Machine, arm: PlanarArm, swing: float, start_r: float, surf
     depth = max(float(surface(x)) - z, 0.05)
     x0, held, why_drag = x, 0.0, "length"
     while True:
-        p = machine.cylinder_pressures()
-        peak = np.maximum(peak, np.abs(p))
-        ps = abs(p[1])
+        p = np.abs(filt.update())
+        peak = np.maximum(peak, p)
+        trace.append((t, *p))
+        ps = p[1]
         held = held + dt if ps > cfg.full_pa else 0.0
         if held >= cfg.full_s:
             why_drag = "stick pressure (full)"
@@ -275,31 +298,33 @@ def autodig(machine: Machine, arm: PlanarArm, swing: float, start_r: float, surf
         if ps > cfg.rise_pa:
             depth = max(depth - cfg.rise_speed_m_s * dt, 0.0)
         z = float(surface(x)) - depth
-        q3 = _to(arm, (x, z, attack), q[1:])
-        q = np.r_[swing, q3]
+        q = np.r_[swing, _to(arm, (x, z, attack), q[1:])]
         machine.step(q)
         t += dt
     phases.append((t, f"drag ended: {why_drag}"))
     # curl: the bucket closes to the capture pitch while the tip rises
     pose0 = np.array([x, z, attack])
     capture = math.radians(cfg.capture_deg)
-    n = max(1, int(math.ceil(max(abs(capture - attack) / 1.2, cfg.curl_lift_m / cfg.rise_speed_m_s) / dt)))
+    n = max(1, int(math.ceil(max(abs(capture - attack) / cfg.curl_rate_rad_s, cfg.curl_lift_m / cfg.rise_speed_m_s)
+                             / dt)))
     for k in range(1, n + 1):
         f = k / n
         pose = pose0 + f * np.array([0.0, cfg.curl_lift_m, capture - attack])
         q = np.r_[swing, _to(arm, pose, q[1:])]
         machine.step(q)
         t += dt
-        peak = np.maximum(peak, np.abs(machine.cylinder_pressures()))
+        p = np.abs(filt.update())
+        peak = np.maximum(peak, p)
+        trace.append((t, *p))
     # until the bucket's angle has passed the capture angle's (the last transition on an angle, §4.4)
     for _ in range(int(3.0 / dt)):
         qa = machine.joint_angles()
-        if qa[3] <= q[3] + math.radians(3.0):
+        if qa[3] <= q[3] + math.radians(5.0):
             break
         machine.step(q)
         t += dt
     phases.append((t, "curl ended"))
-    return DigRun(t, why_pen, why_drag, float(x0 - x), peak, machine.joint_angles(), phases)
+    return DigRun(t, why_pen, why_drag, float(x0 - x), peak, machine.joint_angles(), phases, np.array(trace))
 
 
 def approach(machine: Machine, target: np.ndarray, profile: SwingProfile, *, tol: float = 0.03,

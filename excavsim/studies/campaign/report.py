@@ -112,7 +112,9 @@ def _outcome(row: dict) -> str:
 
 # the task-specific columns of the table: shown when some episode has the metric (loading, truck loading)
 TASK_COLUMNS = (("delivered_l", "deliv. l"), ("spilled_l", "spilled l"), ("dumped_l", "dumped l"),
-                ("missed_l", "missed l"), ("cycle_s", "cycle s"), ("placement_error_cm", "place. cm"))
+                ("missed_l", "missed l"), ("cycle_s", "cycle s"), ("placement_error_cm", "place. cm"),
+                ("truck_t", "truck t"), ("spill_l", "spill l"), ("truck_s", "truck s"), ("first_cost", "cost first 3"),
+                ("last_cost", "cost last 3"))
 
 
 def format_table(spec: CampaignSpec, rows: list[dict[str, Any]]) -> str:
