@@ -43,6 +43,8 @@ class AutoDigFile(StrictModel):
     rise_mpa: float = Field(gt=0.0, le=50.0, description="stick pressure above which the tip rises [MPa]")
     full_mpa: float = Field(gt=0.0, le=50.0, description="stick pressure that, held, ends the drag [MPa]")
     full_s: float = Field(gt=0.0, le=5.0, description="how long it must be held [s]")
+    full_depth_m: float = Field(ge=0.0, le=1.0, description="... with the cut no deeper than this [m]")
+    rise_speed_m_s: float = Field(gt=0.0, le=3.0, description="how fast the tip rises out of resistance [m/s]")
     drag_speed_m_s: float = Field(gt=0.0, le=3.0, description="the drag's top speed [m/s]")
     attack_deg: float = Field(ge=-90.0, le=90.0, description="the tip's pitch while digging [deg]")
     capture_deg: float = Field(ge=-120.0, le=30.0, description="the tip's pitch once curled [deg]")

@@ -9,8 +9,9 @@ One **pass** (one bucket load) is two scripts, as in Rowe 1997 §4.3-4.4:
   speed is a look-up of the stick cylinder's pressure (full speed below ``slow_pa``, a quarter at the
   relief pressure: §4.4's "cylinder velocity commands ... a function of the measured cylinder pressures",
   the table assumed) and the tip rises while the pressure is above ``rise_pa``; the drag ends when the
-  stick's pressure has stayed above ``full_pa`` for ``full_s`` (the bucket is full and pushes a heap:
-  the dig **ends on resistance**) or after ``drag_m`` of drag. Curl: the bucket closes to its capture angle
+  stick's pressure has stayed above ``full_pa`` for ``full_s`` with the tip risen to within
+  ``full_depth_m`` of the surface (the bucket is full and pushes a heap: the dig **ends on resistance**)
+  or after ``drag_m`` of drag. Curl: the bucket closes to its capture angle
   while the tip rises, until the bucket angle passes it.
 * :func:`loading_script` (§4.3, Fig. 4 on this machine): four single-joint sub-scripts, coupled through
   conditions on the other joints. Swing: wait; **when the boom passes ``boom_trigger``, swing to the
@@ -178,7 +179,9 @@ class AutoDigConfig:
         depth_m: the cut's depth below the scanned surface [m]; drag_m: the longest drag [m].
         penetrate_speed_m_s, drag_speed_m_s, rise_speed_m_s: tip speeds [m/s].
         penetrate_pa: boom pressure that ends the penetration [Pa]; slow_pa, rise_pa: stick pressures above
-            which the drag slows and the tip rises [Pa]; full_pa held ``full_s`` [s]: the bucket is full.
+            which the drag slows and the tip rises [Pa]; full_pa held ``full_s`` [s] with the cut no deeper
+            than ``full_depth_m`` [m] (the tip has risen out of the cut and still meets resistance): the bucket
+            is full and pushes its heap.
         relief_pa: the relief pressure (the drag's look-up table ends there) [Pa].
         attack_deg: the tip's pitch while it penetrates and drags (the blade raked towards the machine) [deg].
         capture_deg: the tip's pitch once curled, the mouth up [deg]; curl_lift_m: the rise while curling [m];
@@ -197,6 +200,7 @@ class AutoDigConfig:
     rise_pa: float = 26e6
     full_pa: float = 28e6
     full_s: float = 0.4
+    full_depth_m: float = 0.1
     relief_pa: float = 34.3e6
     attack_deg: float = 35.0
     capture_deg: float = -40.0
@@ -283,7 +287,8 @@ def autodig(machine: Machine, arm: PlanarArm, swing: float, start_r: float, surf
         peak = np.maximum(peak, p)
         trace.append((t, *p))
         ps = p[1]
-        held = held + dt if ps > cfg.full_pa else 0.0
+        # full: the pressure stays high although the tip has risen to the surface (the bucket pushes its heap)
+        held = held + dt if ps > cfg.full_pa and depth <= cfg.full_depth_m else 0.0
         if held >= cfg.full_s:
             why_drag = "stick pressure (full)"
             break
@@ -408,11 +413,24 @@ def compute_params(arm: PlanarArm, site: LoadSite, dig_end: np.ndarray, swing_di
     Raises:
         GoalError: the dump pose is out of reach or the bucket cannot clear the side.
     """
-    boom0, stick0, bucket0 = (float(v) for v in dig_end[1:4])
+    # the encoders may read a hair past a limit (the joint's soft limit): the commands stay within them
+    boom0, stick0, bucket0 = (float(v) for v in np.clip(dig_end[1:4], arm.lower, arm.upper))
     stick_carry, bucket_carry = stick0, bucket0
     boom_dump, stick_dump, bucket_open = dump_pose(arm, site, dump_r, bucket_carry, pour_pitch_deg=pour_pitch_deg,
                                                    open_pitch_deg=open_pitch_deg)
-    clear = clearance_boom_angle(arm, stick_carry, bucket_carry, site.side_z_m, site.clearance_m)
+    # carry with the stick where the dig left it; if the bucket cannot clear the side that way (a dig that
+    # ended with the stick far out), the stick comes in towards the dump's angle until it can (assumed rule)
+    clear = None
+    for stick in np.linspace(stick0, stick_dump, 6):
+        try:
+            clear = clearance_boom_angle(arm, float(stick), bucket_carry, site.side_z_m, site.clearance_m)
+        except GoalError:
+            continue
+        stick_carry = float(stick)
+        break
+    if clear is None:
+        raise GoalError(f"the bucket cannot be carried over the truck's side ({site.side_z_m:.2f} m) from the "
+                        f"dig's end pose {np.round(dig_end, 3).tolist()}")
     clear_dump = clearance_boom_angle(arm, stick_dump, bucket_carry, site.side_z_m, site.clearance_m)
     boom_carry = min(max(clear, clear_dump, boom_dump), float(arm.upper[0]))
     # Fig. 4's trigger: the swing reaches the bed's edge after t_swing (the profile's time); the boom, rising
@@ -427,7 +445,7 @@ def compute_params(arm: PlanarArm, site: LoadSite, dig_end: np.ndarray, swing_di
                       open_lead=math.radians(6.0), boom_trigger=boom_trigger, boom_clear=clear, boom_carry=boom_carry,
                       boom_dump=boom_dump, stick_carry=stick_carry, stick_dump=stick_dump, bucket_carry=bucket_carry,
                       bucket_open=bucket_open, return_fraction=float(return_fraction),
-                      q_next=tuple(float(v) for v in q_next))
+                      q_next=tuple(float(v) for v in np.clip(q_next, arm.lower, arm.upper)))
 
 
 def loading_script(p: LoadParams) -> Script:

@@ -142,7 +142,8 @@ def autodig_config(f: TruckLoadingFile, relief_pa: float) -> tl.AutoDigConfig:
     a = f.autodig
     return tl.AutoDigConfig(depth_m=a.depth_m, drag_m=a.drag_m, drag_speed_m_s=a.drag_speed_m_s,
                             penetrate_pa=1e6 * a.penetrate_mpa, slow_pa=1e6 * a.slow_mpa, rise_pa=1e6 * a.rise_mpa,
-                            full_pa=1e6 * a.full_mpa, full_s=a.full_s, relief_pa=relief_pa,
+                            full_pa=1e6 * a.full_mpa, full_s=a.full_s, full_depth_m=a.full_depth_m,
+                            rise_speed_m_s=a.rise_speed_m_s, relief_pa=relief_pa,
                             attack_deg=a.attack_deg, capture_deg=a.capture_deg)
 
 
@@ -293,14 +294,18 @@ class TruckLoadingTask:
                  predicted_cost=c["predicted"])
         failed = self._failed(p)
         r_rel, th_rel = _REF_R + (p.r - p.aim_r), _REF_THETA + (p.theta - p.aim_theta)
-        p.cost = float(self.objective.cost(p.cycle_s, r_rel, th_rel, float(failed)))
-        self.memory.add(p.x, p.cycle_s, r_rel, th_rel, float(failed))
+        p.cost = float(self.objective.cost(p.cycle_s, r_rel, th_rel, failed))
+        self.memory.add(p.x, p.cycle_s, r_rel, th_rel, failed)
         self.passes.append(p)
         return (p,), None
 
-    def _failed(self, p: Pass) -> bool:
-        """§5.4.1: a pass that did not do its task (the script did not end, or too much of its load missed)."""
-        return p.outcome != "end" or p.spill_m3 > self.cfg.tuning.spill_fail_fraction * max(p.bucket_m3, 1e-9)
+    def _failed(self, p: Pass) -> float:
+        """§5.4.1's failure as a share in [0, 1]: 1 when the script did not end or ``spill_fail_fraction`` of the
+        load missed the truck, the spilled share of that below it (assumed: a graded failure, so that the
+        learner, whose cost is §6.2's time and placement, also sees the spillage that Rowe's §3 counts)."""
+        if p.outcome != "end":
+            return 1.0
+        return float(min(p.spill_m3 / (self.cfg.tuning.spill_fail_fraction * max(p.bucket_m3, 1e-9)), 1.0))
 
     def after(self, index, choice, dug, say):
         (p,) = dug
