@@ -149,22 +149,30 @@ def pitch_offset(arm: PlanarArm, pitch: float) -> np.ndarray:
 @dataclasses.dataclass(frozen=True)
 class SwingProfile:
     """The swing's set-point profile (module docstring): acceleration ``accel`` [rad/s^2] and top speed
-    ``speed`` [rad/s] (assumed, below the machine's relief torque over its inertia and its flow limit)."""
+    ``speed`` [rad/s] (assumed, below the machine's relief torque over its inertia and its flow limit); the
+    set-point never runs more than ``lead`` [rad] ahead of the swing (assumed)."""
 
     accel: float = 0.22
     speed: float = 1.0
+    lead: float = 0.08
 
 
 class _SwingTracker:
     def __init__(self, profile: SwingProfile, start: float):
         self.p, self.pos, self.vel = profile, float(start), 0.0
 
-    def next(self, target: float, dt: float) -> float:
+    def next(self, target: float, dt: float, actual: float | None = None) -> float:
         e = target - self.pos
         want = math.copysign(min(self.p.speed, math.sqrt(2.0 * self.p.accel * abs(e))), e)
         dv = float(np.clip(want - self.vel, -self.p.accel * dt, self.p.accel * dt))
         self.vel += dv
         self.pos += self.vel * dt
+        if actual is not None and abs(self.pos - actual) > self.p.lead:
+            # the swing lags (its torque saturated): hold the set-point ``lead`` ahead and the profile's speed
+            # at the swing's, so that the deceleration starts from the speed the swing really has
+            self.pos = actual + math.copysign(self.p.lead, self.pos - actual)
+            self.vel = math.copysign(min(abs(self.vel), abs(self.vel) - self.p.accel * dt), self.vel) \
+                if abs(self.vel) > self.p.accel * dt else self.vel
         if (target - self.pos) * e <= 0:  # passed it: hold the target
             self.pos, self.vel = target, 0.0
         return self.pos
@@ -342,7 +350,7 @@ def approach(machine: Machine, target: np.ndarray, profile: SwingProfile, *, tol
     target = np.asarray(target, float)
     while t < timeout_s and np.max(np.abs(q - target)) > tol:
         cmd = target.copy()
-        cmd[0] = tracker.next(target[0], dt)
+        cmd[0] = tracker.next(target[0], dt, float(q[0]))
         q = machine.step(cmd)
         t += dt
     return t
@@ -418,19 +426,22 @@ def compute_params(arm: PlanarArm, site: LoadSite, dig_end: np.ndarray, swing_di
     stick_carry, bucket_carry = stick0, bucket0
     boom_dump, stick_dump, bucket_open = dump_pose(arm, site, dump_r, bucket_carry, pour_pitch_deg=pour_pitch_deg,
                                                    open_pitch_deg=open_pitch_deg)
-    # carry with the stick where the dig left it; if the bucket cannot clear the side that way (a dig that
-    # ended with the stick far out), the stick comes in towards the dump's angle until it can (assumed rule)
-    clear = None
+    # the carry's stick: of the angles from where the dig left it to the dump's, the one that lets the bucket
+    # clear the truck's side with the lowest boom (a dig that ended with the stick tucked in hangs the bucket
+    # low: carried so, it needed the boom within 2 deg of its limit and hit the side when the boom lagged);
+    # ties keep the stick nearer the dig's (assumed rule)
+    best = None
     for stick in np.linspace(stick0, stick_dump, 6):
         try:
-            clear = clearance_boom_angle(arm, float(stick), bucket_carry, site.side_z_m, site.clearance_m)
+            c = clearance_boom_angle(arm, float(stick), bucket_carry, site.side_z_m, site.clearance_m)
         except GoalError:
             continue
-        stick_carry = float(stick)
-        break
-    if clear is None:
+        if best is None or c < best[0] - 1e-3:
+            best = (c, float(stick))
+    if best is None:
         raise GoalError(f"the bucket cannot be carried over the truck's side ({site.side_z_m:.2f} m) from the "
                         f"dig's end pose {np.round(dig_end, 3).tolist()}")
+    clear, stick_carry = best
     clear_dump = clearance_boom_angle(arm, stick_dump, bucket_carry, site.side_z_m, site.clearance_m)
     boom_carry = min(max(clear, clear_dump, boom_dump), float(arm.upper[0]))
     # Fig. 4's trigger: the swing reaches the bed's edge after t_swing (the profile's time); the boom, rising
@@ -527,7 +538,7 @@ def run_script(machine: Machine, script: Script, profile: SwingProfile) -> Scrip
         if t > limit + 1.0:
             return ScriptRun(t, "timeout", starts, boom_at_swing)
         cmd = target.copy()
-        cmd[0] = tracker.next(target[0], dt)
+        cmd[0] = tracker.next(target[0], dt, float(q[0]))
         last = q
         q = machine.step(cmd)
         t += dt

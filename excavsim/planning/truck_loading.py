@@ -11,8 +11,9 @@ truck" (§6.1) without saying how; the rules here are **assumed**, the simplest 
   passes lower one place, the next dig moves to where the face stands highest.
 * :func:`bed_map`: the bed scanner's points binned into the bed's cells (the median height per cell;
   cells no ray saw take their neighbours' mean, an empty bed the floor).
-* :func:`choose_dump`: the bed's cells smoothed over the bucket's footprint; the lowest region is where
-  the next load goes (so the load spreads evenly), ties to the bed's centre.
+* :func:`choose_dump`: the bed's cells smoothed over the bucket's footprint; the lowest region along the
+  bed's centre line is where the next load goes (so the load spreads evenly along the truck; across it the
+  pour's own sweep spreads it), ties to the bed's centre.
 * :func:`deposit_centre`: where a pass's soil went, the centre of the difference of two bed maps (the
   mind's measure of the placement, Fig. 11's polar coordinates about the swing axis).
 """
@@ -101,10 +102,12 @@ def map_volume(depth: np.ndarray, bed: BedGeometry) -> float:
     return float(depth.sum() * bed.cell_m ** 2)
 
 
-def choose_dump(depth: np.ndarray, bed: BedGeometry, *, footprint_m: float = 1.2, margin_m: float = 0.7
-                ) -> tuple[float, float]:
+def choose_dump(depth: np.ndarray, bed: BedGeometry, *, footprint_m: float = 1.2, margin_m: float = 0.7,
+                across_m: float = 0.1) -> tuple[float, float]:
     """Where the next load goes (module docstring): world (x, y) [m]. Candidates keep ``margin_m`` from the
-    sides (the load spreads over the bucket's width); the score is the mean depth over a square of
+    bed's ends and stay within ``across_m`` of its centre line: the opening bucket pours along a sweep of
+    about a metre across the bed (the swing's radius; measured) over a disc of its half-width, so only the
+    centre line of a 2.3 m bed keeps the whole pour inside. The score is the mean depth over a square of
     ``footprint_m``, plus a hundredth of the distance from the centre (ties to the centre)."""
     nr, nc = depth.shape
     k = max(1, int(round(footprint_m / bed.cell_m / 2)))
@@ -112,7 +115,7 @@ def choose_dump(depth: np.ndarray, bed: BedGeometry, *, footprint_m: float = 1.2
     win = sum(pad[i:i + nr, j:j + nc] for i in range(2 * k + 1) for j in range(2 * k + 1)) / (2 * k + 1) ** 2
     u, v = bed.centres()
     uu, vv = np.meshgrid(u, v)
-    ok = (np.abs(uu) <= 0.5 * bed.length_m - margin_m) & (np.abs(vv) <= 0.5 * bed.width_m - margin_m)
+    ok = (np.abs(uu) <= 0.5 * bed.length_m - margin_m) & (np.abs(vv) <= across_m + 1e-9)
     if not ok.any():
         ok = np.abs(vv) <= np.abs(vv).min() + 1e-9
     score = np.where(ok, win + 0.01 * np.hypot(uu, vv), np.inf)

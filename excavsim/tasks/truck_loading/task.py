@@ -234,7 +234,7 @@ class TruckLoadingTask:
         dig = plan.choose_dig(emap.height_at, np.radians(cfg.dig.swings_deg), np.asarray(cfg.dig.radii_m),
                               drag_m=cfg.autodig.drag_m, depth_m=cfg.autodig.depth_m, width_m=w.spec.bucket.width_m,
                               floor_z=cfg.dig.floor_z_m, truck_swing=truck_theta)
-        ax, ay = plan.choose_dump(self.bed_depth, self.bed)
+        ax, ay = plan.choose_dump(self.bed_depth, self.bed, margin_m=1.0)
         aim_r, aim_theta = math.hypot(ax, ay), math.atan2(ay, ax)
         k = len(self.passes)
         pred = math.nan
