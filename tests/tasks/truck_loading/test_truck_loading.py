@@ -147,3 +147,44 @@ def test_a_full_truck():
     assert 5 <= len(res.passes) <= 12
     assert res.spill_m3 < 0.15 * sum(p.dumped_m3 for p in res.passes)
     assert abs(res.volume_drift_m3) < 1e-6
+
+
+def test_bed_map_and_the_dump_choice():
+    """The mind's bed map from the scanner's points holds the fill's volume, and the next dump goes to the
+    emptier end of the bed, on its centre line."""
+    from excavsim.planning import truck_loading as plan
+
+    bed = TruckBed(TruckSpec(), math.radians(34.0))
+    t = bed.truck
+    bed.catch(np.array([t.x_m - 1.5]), np.array([t.y_m]), np.array([1.0]), 0.6)  # a load at the -x end
+    from excavsim.world.truck import BedScanner
+
+    scanner = BedScanner(bed, np.array([t.x_m, t.y_m + 0.5 * t.width_m + 1.0, t.scanner_height_m]),
+                         np.random.default_rng(0), noise_m=0.0)
+    geom = plan.BedGeometry(t.x_m, t.y_m, t.heading, t.length_m, t.width_m, t.floor_m, cell_m=0.2)
+    depth = plan.bed_map(scanner.scan(), geom)
+    assert plan.map_volume(depth, geom) == pytest.approx(1.0, rel=0.15)
+    x, y = plan.choose_dump(depth, geom, margin_m=1.0)
+    assert x >= t.x_m + 0.2 and abs(y - t.y_m) <= 0.11  # off the heap, towards the empty +x end, on the centre line
+    cx, cy, v = plan.deposit_centre(np.zeros_like(depth), depth, geom)
+    assert cx == pytest.approx(t.x_m - 1.5, abs=0.3) and cy == pytest.approx(t.y_m, abs=0.2)
+
+
+def test_the_learning_curve_from_campaign_episodes(tmp_path):
+    import json
+
+    from excavsim.tasks.truck_loading.figure import learning_curve
+
+    eps = tmp_path / "episodes"
+    eps.mkdir()
+    for k, tuned in enumerate((True, False)):
+        digs = [{"cost": 130.0 - (10.0 * i if tuned else 0.0), "cycle_s": 24.0 - (0.5 * i if tuned else 0.0),
+                 "placement_error_cm": 20.0} for i in range(6)]
+        rec = {"status": "ok", "summary": {"task": "truck_loading", "soil": "dry_sand", "tuned": int(tuned)},
+               "digs": digs}
+        (eps / f"e{k}.json").write_text(json.dumps(rec))
+    text = learning_curve(tmp_path, tmp_path / "curve.png")
+    assert (tmp_path / "curve.png").stat().st_size > 1000
+    assert "dry_sand tuned: 1 runs; passes 1-3: cost 120.0" in text and "passes 4-6: cost 90.0" in text
+    with pytest.raises(ConfigError, match="no truck_loading episode"):
+        learning_curve(tmp_path / "nothing", tmp_path / "x.png")
