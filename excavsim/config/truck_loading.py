@@ -80,12 +80,14 @@ class TuningFile(StrictModel):
     """The online tuner over the passes (Rowe 1997 §5, §6.2): LWR and the downhill simplex."""
 
     tune: bool = Field(description="tune the script's parameters online (false: computed + noise every pass)")
+    trucks: int = Field(default=1, ge=1, le=100, description="trucks loaded in one episode, one after the other "
+                                                            "(the learner's memory carried over)")
     initial_passes: int = Field(ge=1, le=100, description="passes from the computed parameters plus noise")
-    noise: list[float] = Field(min_length=4, max_length=4, description="noise of trigger lead [deg], aim dr [m], "
-                                                                       "aim dtheta [deg], return fraction [-]")
+    noise: list[float] = Field(min_length=4, max_length=4, description="noise of swing acceleration [rad/s^2], aim "
+                                                                       "dr [m], aim dtheta [deg], return fraction [-]")
     lower: list[float] = Field(min_length=4, max_length=4, description="lowest values, same order and units")
     upper: list[float] = Field(min_length=4, max_length=4, description="highest values, same order and units")
-    w1_per_s: float = Field(ge=0.0, le=1e3, description="the cost's weight of the cycle time [1/s]")
+    w1_per_s: float = Field(ge=0.0, le=1e3, description="the cost's weight of the script's time [1/s]")
     w2_per_m2: float = Field(ge=0.0, le=1e5, description="its weight of the squared placement error [1/m^2]")
     failure_cost: float = Field(ge=0.0, le=1e6, description="added for a failed pass (§5.4.1)")
     spill_fail_fraction: float = Field(gt=0.0, le=1.0, description="a pass fails when more of its load misses")

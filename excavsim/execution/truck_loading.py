@@ -368,9 +368,11 @@ class LoadSite:
 
 
 #: The parameters tuned online (Rowe 1997 §6.2; which ones here is assumed), in the learner's order:
-#: the boom trigger's lead below the clearance angle [rad], the dump's radial and swing offsets [m, rad]
-#: (added to the aim computed from the scanned fill) and the bucket's opening share that sends the swing back.
-TUNED = ("trigger_lead", "aim_dr", "aim_dtheta", "return_fraction")
+#: the swing profile's acceleration [rad/s^2] (how hard the machine may swing: faster, or overshooting the
+#: truck, §1's "understanding of the machine's own performance abilities"), the dump's radial and swing
+#: offsets [m, rad] (added to the aim computed from the scanned fill) and the bucket's opening share that
+#: sends the swing back.
+TUNED = ("swing_accel", "aim_dr", "aim_dtheta", "return_fraction")
 
 
 @dataclasses.dataclass(frozen=True)

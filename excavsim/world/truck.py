@@ -292,6 +292,7 @@ class TruckWorld(ExcavatorWorld):
                        for c in (self.spec.boom_cyl, self.spec.stick_cyl, self.spec.bucket_cyl)]
         # Called with the world after every control step (the episode's observers); read-only use.
         self.step_hooks: list = []
+        self.hauled_m3 = 0.0  # soil in the trucks that have left [m^3]
 
     def step(self, target: np.ndarray) -> np.ndarray:
         """One control step (:meth:`ExcavatorWorld.step`), then the step hooks."""
@@ -317,10 +318,18 @@ class TruckWorld(ExcavatorWorld):
         f = self.cylinder_forces()[1:]
         return np.array([fi / (a_ext if fi >= 0 else a_ret) for fi, (a_ret, a_ext) in zip(f, self._areas)])
 
+    def haul(self) -> float:
+        """The loaded truck drives off and an empty one parks in its place: the bed's soil moves to the
+        hauled account; returns it [m^3]."""
+        v = self.bed.volume()
+        self.hauled_m3 += v
+        self.bed.fill[:] = 0.0
+        return v
+
     def volume_account(self) -> dict[str, float]:
         """Where the soil is [m^3] (privileged truth): the pit, the bucket, the bed, the ground outside
-        the pit (spoil), and their total, which stays constant."""
+        the pit (spoil), the trucks that left (hauled), and their total, which stays constant."""
         v = self.soil.volumes()
         bed = self.bed.volume()
         return {"pit": float(v.box), "bucket": float(v.bucket), "bed": bed, "spoil": float(v.spoil),
-                "total": float(v.box + v.bucket + v.spoil + bed)}
+                "hauled": self.hauled_m3, "total": float(v.box + v.bucket + v.spoil + bed + self.hauled_m3)}

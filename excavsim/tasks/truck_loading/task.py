@@ -15,8 +15,11 @@ Each cycle of the platform's :class:`~excavsim.loop.episode.Episode` is one **pa
   told: the soil preset's).
 * decide: where to dig next from the pit's map (:func:`~excavsim.planning.truck_loading.choose_dig`),
   where to dump from the bed's (:func:`~excavsim.planning.truck_loading.choose_dump`), and the tuned
-  parameters: the computed ones plus noise for the first ``initial_passes``, then LWR + the simplex on
-  the passes so far (:func:`~excavsim.learning.lwr_tuning.select_action`, §6.2), unless ``tune`` is off.
+  parameters (:data:`~excavsim.execution.truck_loading.TUNED`): the computed ones plus noise for the first
+  ``initial_passes``, then LWR + the simplex on the passes so far
+  (:func:`~excavsim.learning.lwr_tuning.select_action`, §6.2), unless ``tune`` is off. The cost is §6.2's:
+  its time is the script's (from the end of the dig until the swing is back, as §6.2 measured), its
+  placement the deposit's centre against the aim, plus the graded failure.
 * dig: to the dig's start, AutoDig (§4.4), the loading script (Fig. 4 with Fig. 3's clearance angle), the
   soil settles, the bed is scanned again: the pass's deposit centre is measured on the two bed maps.
 
@@ -100,6 +103,22 @@ class Pass:
         return math.sqrt((self.aim_r - self.r) ** 2 + self.aim_r ** 2 * (self.aim_theta - self.theta) ** 2)
 
 
+@dataclasses.dataclass(frozen=True)
+class TruckTotals:
+    """One truck of an episode: its number, the index of its last pass, its passes, its loading time [s]
+    (the passes' cycles), the soil in it when it left [m^3] (truth), the spillage [m^3] and the load's centre
+    in the bed (along, across) [m] (truth)."""
+
+    number: int
+    last_pass: int
+    passes: int
+    time_s: float
+    bed_m3: float
+    spill_m3: float
+    offset_u_m: float
+    offset_v_m: float
+
+
 @dataclasses.dataclass
 class TruckLoad:
     """A truck's loading: its passes, how it ended, and the truck's totals (see :func:`summary`)."""
@@ -120,6 +139,7 @@ class TruckLoad:
     volume_drift_m3: float
     sim_s: float
     wall_s: float
+    trucks: list[TruckTotals] = dataclasses.field(default_factory=list)  # the trucks that filled
     task: str = "truck_loading"
 
     @property
@@ -148,9 +168,9 @@ def autodig_config(f: TruckLoadingFile, relief_pa: float) -> tl.AutoDigConfig:
 
 
 def _units(x: np.ndarray) -> np.ndarray:
-    """Tuned parameters from the file's units (deg, m, deg, -) to the script's (rad, m, rad, -)."""
+    """Tuned parameters from the file's units (rad/s^2, m, deg, -) to the script's (rad/s^2, m, rad, -)."""
     x = np.asarray(x, float).copy()
-    x[0], x[2] = math.radians(x[0]), math.radians(x[2])
+    x[2] = math.radians(x[2])
     return x
 
 
@@ -196,10 +216,14 @@ class TruckLoadingTask:
         self.profile = tl.SwingProfile(cfg.script.swing_accel_rad_s2, cfg.script.swing_speed_rad_s)
         self.dig_cfg = autodig_config(cfg, w.spec.relief_pa)
         self.rng = np.random.default_rng((seed, 34))
-        self.memory = Memory(len(tl.TUNED))
+        # the learner's inputs: the tuned parameters and the pass's context, the swing's travel from the dig to
+        # the aim [rad] (not chosen: held at this pass's value in the search; §6.2 kept the start the same, here
+        # the dig moves from pass to pass and the swing's time with it)
+        self.memory = Memory(len(tl.TUNED) + 1)
         self.objective = Objective(_REF_R, _REF_THETA, cfg.tuning.w1_per_s, cfg.tuning.w2_per_m2,
                                    failure_cost=cfg.tuning.failure_cost, trust_radius=0.25, uncertainty=False)
         self.passes: list[Pass] = []
+        self.trucks: list[TruckTotals] = []
         self.v0 = w.volume_account()["total"]
         self.bed_depth: np.ndarray | None = None  # the bed's map after the last pass (None: scan it)
         self.pit: ElevationMap | None = None
@@ -224,9 +248,26 @@ class TruckLoadingTask:
         full_t = self.cfg.truck.full_fraction * self.cfg.truck.payload_t
         say(f"pass {index}: the scans show {scanned_m3:.2f} m^3 in the truck ({load_t:.1f} t of {full_t:.1f} t)")
         if load_t >= full_t:
-            return scanned, ("done", f"truck full by the scans: {load_t:.1f} t of the {self.cfg.truck.payload_t:g} t "
-                                     f"payload after {index - 1} passes")
+            self._truck_done(index)
+            n = len(self.trucks)
+            if n >= self.cfg.tuning.trucks:
+                return scanned, ("done", f"truck full by the scans: {load_t:.1f} t of the "
+                                         f"{self.cfg.truck.payload_t:g} t payload after {index - 1} passes"
+                                 + (f" ({n} trucks)" if n > 1 else ""))
+            say(f"truck {n} full ({load_t:.1f} t by the scans): it leaves, an empty one parks in its place")
+            self.world.haul()  # the loaded truck leaves; the learner's memory stays (§5: every pass is an experiment)
+            self.bed_depth = plan.bed_map(self.world.bed_scanner.scan(), self.bed)
         return scanned, None
+
+    def _truck_done(self, index: int) -> None:
+        """Record the truck that just filled: its passes, time, load (truth), spillage and load's centre."""
+        w = self.world
+        first = self.trucks[-1].last_pass if self.trucks else 0
+        ps = self.passes[first:]
+        u, v = w.bed.centroid_offset()
+        self.trucks.append(TruckTotals(len(self.trucks) + 1, len(self.passes), len(ps),
+                                       float(sum(p.cycle_s for p in ps)), w.bed.volume(),
+                                       float(sum(p.spill_m3 for p in ps)), u, v))
 
     def choose(self, emap) -> Choice:
         cfg, w = self.cfg, self.world
@@ -238,14 +279,19 @@ class TruckLoadingTask:
         aim_r, aim_theta = math.hypot(ax, ay), math.atan2(ay, ax)
         k = len(self.passes)
         pred = math.nan
-        base = np.array([0.0, 0.0, 0.0, 0.8])
+        base = np.array([cfg.script.swing_accel_rad_s2, 0.0, 0.0, 0.8])
+        travel = abs(aim_theta - dig.swing)
         if cfg.tuning.tune and k >= cfg.tuning.initial_passes and len(self.memory) >= 2:
-            sel = select_action(self.memory, self.objective, lower=self.lower, upper=self.upper)
-            x, pred, source = sel.x, sel.predicted_cost, "learned"
+            seen = self.memory.x[:, -1]  # the search stays where the memory has data: the travel clipped to it
+            held = float(np.clip(travel, seen.min(), seen.max()))
+            sel = select_action(self.memory, self.objective, lower=np.r_[self.lower, held],
+                                upper=np.r_[self.upper, held])
+            x, pred, source = np.clip(sel.x[:len(tl.TUNED)], self.lower, self.upper), sel.predicted_cost, "learned"
         else:
             x = np.clip(base + self.rng.normal(0.0, 1.0, 4) * self.noise, self.lower, self.upper)
             source = "computed + noise"
-        return Choice(dig={"dig": dig, "aim": (aim_r, aim_theta), "x": x, "source": source, "predicted": pred},
+        return Choice(dig={"dig": dig, "aim": (aim_r, aim_theta), "x": x, "source": source, "predicted": pred,
+                           "travel": travel},
                       note=f"  dig at {math.degrees(dig.swing):.0f} deg, r {dig.start_r:.1f} m "
                            f"({dig.soil_m3:.2f} m^3 on the map); dump at r {aim_r:.2f} m, "
                            f"{math.degrees(aim_theta):.1f} deg ({source})")
@@ -274,11 +320,12 @@ class TruckLoadingTask:
         loaded = w.volume_account()
         aim_r, aim_theta = c["aim"]
         boom_speed = float(w.spec.joint_speed_limits(run.q_end)[1])
+        swing = tl.SwingProfile(float(x[0]), cfg.script.swing_speed_rad_s)
         params = tl.compute_params(arm, self.site, run.q_end, dig.swing, aim_r + x[1], aim_theta + x[2], q_start,
-                                   boom_speed=boom_speed, swing=self.profile, trigger_lead=x[0],
+                                   boom_speed=boom_speed, swing=swing,
                                    return_fraction=x[3], pour_pitch_deg=cfg.script.pour_pitch_deg,
                                    open_pitch_deg=cfg.script.open_pitch_deg, safety=cfg.script.safety)
-        sr = tl.run_script(w, tl.loading_script(params), self.profile)
+        sr = tl.run_script(w, tl.loading_script(params), swing)
         w.soil.settle_all()
         after = w.volume_account()
         before_depth = self.bed_depth
@@ -294,8 +341,9 @@ class TruckLoadingTask:
                  predicted_cost=c["predicted"])
         failed = self._failed(p)
         r_rel, th_rel = _REF_R + (p.r - p.aim_r), _REF_THETA + (p.theta - p.aim_theta)
-        p.cost = float(self.objective.cost(p.cycle_s, r_rel, th_rel, failed))
-        self.memory.add(p.x, p.cycle_s, r_rel, th_rel, failed)
+        # §6.2's time: from the end of the dig until the swing is back (the part the tuned parameters act on)
+        p.cost = float(self.objective.cost(p.script_s, r_rel, th_rel, failed))
+        self.memory.add(np.r_[p.x, c["travel"]], p.script_s, r_rel, th_rel, failed)
         self.passes.append(p)
         return (p,), None
 
@@ -325,7 +373,8 @@ class TruckLoadingTask:
                          scanned_m3=plan.map_volume(self.bed_depth, self.bed) if self.bed_depth is not None else 0.0,
                          payload_t=self.cfg.truck.payload_t, density_kg_m3=self.soil.density_kg_m3,
                          spill_m3=float(sum(p.spill_m3 for p in self.passes)), offset_u_m=u, offset_v_m=v,
-                         volume_drift_m3=acc["total"] - self.v0, sim_s=w.time, wall_s=wall_s)
+                         volume_drift_m3=acc["total"] - self.v0, sim_s=w.time, wall_s=wall_s,
+                         trucks=list(self.trucks))
 
 
 # -- the platform's views of a result ------------------------------------------------------------------------
@@ -344,7 +393,7 @@ def summary(res: TruckLoad) -> dict[str, Any]:
     def mean(key):
         return float(np.mean([getattr(p, key) for p in ps])) if ps else math.nan
     k = min(3, n)
-    return {
+    out = {
         "task": res.task, "machine": res.machine, "soil": res.soil, "tuned": int(res.tuned), "end": res.end,
         "reason": res.reason, "digs": n, "bucket_l_per_pass": 1000 * mean("bucket_m3"), "truck_l": 1000 * res.bed_m3,
         "truck_t": res.load_t, "scanned_l": 1000 * res.scanned_m3, "spill_l": 1000 * res.spill_m3,
@@ -355,7 +404,19 @@ def summary(res: TruckLoad) -> dict[str, Any]:
         "first_cost": float(np.mean([p.cost for p in ps[:k]])) if ps else math.nan,
         "last_cost": float(np.mean([p.cost for p in ps[-k:]])) if ps else math.nan,
         "volume_change_m3": res.volume_drift_m3, "sim_s": res.sim_s, "wall_s": res.wall_s,
+        "trucks": len(res.trucks),
     }
+    if len(res.trucks) > 1:  # several trucks: the per-truck numbers are means over the trucks that filled
+        t = res.trucks
+        out.update(truck_s=float(np.mean([x.time_s for x in t])),
+                   truck_t=float(np.mean([x.bed_m3 for x in t])) * res.density_kg_m3 / 1000.0,
+                   truck_l=1000 * float(np.mean([x.bed_m3 for x in t])),
+                   spill_l=1000 * float(np.mean([x.spill_m3 for x in t])),
+                   passes_per_truck=float(np.mean([x.passes for x in t])),
+                   offset_u_cm=100 * float(np.mean([abs(x.offset_u_m) for x in t])),
+                   offset_v_cm=100 * float(np.mean([abs(x.offset_v_m) for x in t])),
+                   last_truck_s=t[-1].time_s, first_truck_s=t[0].time_s)
+    return out
 
 
 def dig_rows(res: TruckLoad) -> list[dict[str, Any]]:
@@ -368,7 +429,7 @@ def dig_rows(res: TruckLoad) -> list[dict[str, Any]]:
                      "drag_m": p.drag_m, "peak_stick_mpa": p.peak_mpa[1], "bucket_l": 1000 * p.bucket_m3,
                      "truck_l": 1000 * p.bed_m3, "spill_l": 1000 * p.spill_m3, "r_m": p.r,
                      "theta_deg": math.degrees(p.theta), "placement_error_cm": 100 * p.placement_error_m,
-                     "cost": p.cost, "trigger_lead_deg": math.degrees(p.x[0]), "aim_dr_m": p.x[1],
+                     "cost": p.cost, "swing_accel_rad_s2": p.x[0], "aim_dr_m": p.x[1],
                      "aim_dtheta_deg": math.degrees(p.x[2]), "return_fraction": p.x[3],
                      "boom_trigger_deg": math.degrees(p.boom_trigger), "boom_clear_deg": math.degrees(p.boom_clear),
                      "boom_at_swing_deg": math.degrees(p.boom_at_swing), "outcome": p.outcome})
@@ -386,15 +447,19 @@ def format_run(res: TruckLoad) -> str:
                      f"{p.bucket_m3:.2f} | {p.bed_m3:.2f} | {p.spill_m3:.3f} | {100 * p.placement_error_m:.0f} | "
                      f"{p.cost:.1f} |")
     s = summary(res)
-    lines.append(f"\n{s['digs']} passes, {s['cycle_s']:.1f} s per bucket, {s['truck_s']:.0f} s per truck; "
+    lines.append(f"\n{s['digs']} passes, {s['cycle_s']:.1f} s per bucket, {s['truck_s']:.0f} s per truck "
+                 f"({max(len(res.trucks), 1)} truck(s)); "
                  f"{res.bed_m3:.2f} m^3 ({res.load_t:.1f} t) in the truck of a {res.payload_t:g} t payload, "
                  f"spilled {res.spill_m3:.3f} m^3 ({100 * s['spill_fraction']:.1f} %); the load's centre "
                  f"{100 * res.offset_u_m:+.0f} cm along, {100 * res.offset_v_m:+.0f} cm across the bed; "
                  f"volume account drift {res.volume_drift_m3:.1e} m^3")
+    for t in res.trucks if len(res.trucks) > 1 else ():
+        lines.append(f"truck {t.number}: {t.passes} passes, {t.time_s:.0f} s, {t.bed_m3:.2f} m^3, spilled "
+                     f"{t.spill_m3:.3f} m^3, centre {100 * t.offset_u_m:+.0f} / {100 * t.offset_v_m:+.0f} cm")
     if s["digs"]:
         shift_s = 8 * 3600.0
         trucks = shift_s / s["truck_s"]
-        faster = shift_s / (s["truck_s"] - 2.0 * s["digs"])
+        faster = shift_s / (s["truck_s"] - 2.0 * s.get("passes_per_truck", s["digs"]))
         lines.append(f"Rowe 1997: 15-20 s per bucket; 2 s less a bucket = 26 more trucks a shift. Here "
                      f"{s['cycle_s']:.1f} s a bucket and {s['truck_s']:.0f} s a truck: {trucks:.0f} trucks in "
                      f"an 8 h shift without hauling waits; 2 s less a bucket gives {faster - trucks:.0f} more")
