@@ -11,8 +11,8 @@ Each cycle of the platform's :class:`~excavsim.loop.episode.Episode` is one **pa
 
 * look: the pit's scanner maps the pit (:mod:`excavsim.sensing.elevation`) and the bed scanner the truck
   (:func:`~excavsim.planning.truck_loading.bed_map`); the truck is full (``done``) when the scanned load
-  reaches ``full_fraction`` of the rated payload (volume x the soil's density, the density the mind is
-  told: the soil preset's).
+  (volume x the soil's density, the density the mind is told: the soil preset's) reaches ``full_fraction``
+  of the rated payload, or when one more heaped bucket would overload it by more than half a bucket.
 * decide: where to dig next from the pit's map (:func:`~excavsim.planning.truck_loading.choose_dig`),
   where to dump from the bed's (:func:`~excavsim.planning.truck_loading.choose_dump`), and the tuned
   parameters (:data:`~excavsim.execution.truck_loading.TUNED`): the computed ones plus noise for the first
@@ -243,9 +243,13 @@ class TruckLoadingTask:
         return self.pit, self.bed_depth
 
     def assess(self, index, scanned, say):
-        scanned_m3 = plan.map_volume(self.bed_depth, self.bed)
+        self.scanned_m3 = scanned_m3 = plan.map_volume(self.bed_depth, self.bed)
         load_t = scanned_m3 * self.soil.density_kg_m3 / 1000.0
-        full_t = self.cfg.truck.full_fraction * self.cfg.truck.payload_t
+        # full: at full_fraction of the payload, or when another bucket would overload the truck by more than
+        # half a heaped bucket (a shallower last cut still fills most of the bucket as it curls: measured)
+        heaped_t = 1.25 * self.world.spec.bucket.struck_capacity_m3() * self.soil.density_kg_m3 / 1000.0
+        full_t = min(self.cfg.truck.full_fraction, 1.0) * self.cfg.truck.payload_t
+        full_t = min(full_t, self.cfg.truck.payload_t - 0.5 * heaped_t)
         say(f"pass {index}: the scans show {scanned_m3:.2f} m^3 in the truck ({load_t:.1f} t of {full_t:.1f} t)")
         if load_t >= full_t:
             self._truck_done(index)
@@ -316,7 +320,16 @@ class TruckLoadingTask:
         if not ok:
             raise GoalError(f"the dig's start {start.round(2).tolist()} is out of reach")
         approach_s = tl.approach(w, np.r_[dig.swing, q_start], self.profile)
-        run = tl.autodig(w, arm, dig.swing, dig.start_r, surface, self.dig_cfg)
+        # the last load of a truck: a shallower, shorter cut, so that the truck is not overloaded (Rowe 1997 §1:
+        # "digging a desired amount of soil to avoid overloading the trucks"): depth and drag scaled by the
+        # share of a heaped bucket that fits the payload by the scans, at least a quarter (assumed)
+        heaped = 1.25 * w.spec.bucket.struck_capacity_m3()
+        room = 1000.0 * cfg.truck.payload_t / self.soil.density_kg_m3 - self.scanned_m3
+        dig_cfg = self.dig_cfg
+        if room < heaped:
+            share = max(0.25, room / heaped)
+            dig_cfg = dataclasses.replace(dig_cfg, drag_m=dig_cfg.drag_m * share, depth_m=dig_cfg.depth_m * share)
+        run = tl.autodig(w, arm, dig.swing, dig.start_r, surface, dig_cfg)
         loaded = w.volume_account()
         aim_r, aim_theta = c["aim"]
         boom_speed = float(w.spec.joint_speed_limits(run.q_end)[1])
