@@ -398,7 +398,9 @@ def summary(res: TruckLoad) -> dict[str, Any]:
     dumped), ``cycle_s`` (mean time per bucket), ``truck_s`` (time for the truck), ``dig_s``, ``script_s``
     (means), ``offset_u_cm``/``offset_v_cm`` (the load's centre in the bed, truth), ``placement_error_cm``
     (mean), ``cost`` (mean, §6.2), ``first_cost``/``last_cost`` (means of the first and last three passes),
-    ``volume_change_m3`` (the account's drift), ``sim_s``, ``wall_s``."""
+    ``volume_change_m3`` (the account's drift), ``sim_s``, ``wall_s``, ``trucks`` (how many filled). When
+    a truck filled, ``truck_s``, ``truck_t``, ``truck_l``, ``spill_l``, ``passes_per_truck`` and the load's
+    centre (its magnitude) are means over the trucks that filled."""
     ps = res.passes
     n = len(ps)
     dumped = sum(p.dumped_m3 for p in ps)
@@ -417,9 +419,9 @@ def summary(res: TruckLoad) -> dict[str, Any]:
         "first_cost": float(np.mean([p.cost for p in ps[:k]])) if ps else math.nan,
         "last_cost": float(np.mean([p.cost for p in ps[-k:]])) if ps else math.nan,
         "volume_change_m3": res.volume_drift_m3, "sim_s": res.sim_s, "wall_s": res.wall_s,
-        "trucks": len(res.trucks),
+        "trucks": len(res.trucks), "passes_per_truck": float(n),
     }
-    if len(res.trucks) > 1:  # several trucks: the per-truck numbers are means over the trucks that filled
+    if res.trucks:  # the per-truck numbers are means over the trucks that filled (not a part-loaded last one)
         t = res.trucks
         out.update(truck_s=float(np.mean([x.time_s for x in t])),
                    truck_t=float(np.mean([x.bed_m3 for x in t])) * res.density_kg_m3 / 1000.0,
@@ -466,7 +468,7 @@ def format_run(res: TruckLoad) -> str:
                  f"spilled {res.spill_m3:.3f} m^3 ({100 * s['spill_fraction']:.1f} %); the load's centre "
                  f"{100 * res.offset_u_m:+.0f} cm along, {100 * res.offset_v_m:+.0f} cm across the bed; "
                  f"volume account drift {res.volume_drift_m3:.1e} m^3")
-    for t in res.trucks if len(res.trucks) > 1 else ():
+    for t in res.trucks:
         lines.append(f"truck {t.number}: {t.passes} passes, {t.time_s:.0f} s, {t.bed_m3:.2f} m^3, spilled "
                      f"{t.spill_m3:.3f} m^3, centre {100 * t.offset_u_m:+.0f} / {100 * t.offset_v_m:+.0f} cm")
     if s["digs"]:
