@@ -71,12 +71,13 @@ def _cmd_playback(args: argparse.Namespace) -> int:
         seeds = playback.seed_range(args.seeds)
     seed = args.seed if args.seed is not None else 0
     if args.machine == "tb035":
-        if args.seeds is not None or args.from_rrd or args.record or args.live is not None:
-            raise UsageError("playback --machine tb035: --seeds, --from-rrd, --record and --live are the T3's; give "
-                             "--seed, --demo FILE.json or --teleop [--keys SEQUENCE] with it")
+        if args.seeds is not None or args.from_rrd or args.live is not None:
+            raise UsageError("playback --machine tb035: --seeds, --from-rrd and --live are the T3's; give --seed, "
+                             "--demo FILE.json or --teleop [--keys SEQUENCE] [--record FILE.rrd] with it")
         from excavsim.apps.playback import excavator
 
-        excavator.command(args.out, seed=seed, demo_path=args.demo, teleop=args.teleop, keys=args.keys)
+        excavator.command(args.out, seed=seed, demo_path=args.demo, teleop=args.teleop, keys=args.keys,
+                          record=args.record)
         return 0
     if args.teleop:
         from excavsim.apps.playback.teleop import teleop_session

@@ -88,6 +88,7 @@ class ExcavatorServos:
         lim = np.abs(m.actuator_forcerange[world.drive.act]).max(axis=1)
         self.torque_limit = np.r_[lim, 0.0, 0.0]
         self._dof = np.array([m.jnt_dofadr[m.joint(j).id] for j in EXCAVATOR_JOINTS])
+        self.step_hooks: list[Callable[[ExcavatorWorld], None]] = []
 
     @property
     def time(self) -> float:
@@ -102,11 +103,14 @@ class ExcavatorServos:
                            np.r_[forces, z], np.zeros(3), np.zeros(3))
 
     def track(self, target: np.ndarray) -> Observation:
-        """One control step towards the joint targets ``target[:4]`` (swing, boom, stick, bucket) [rad]. The
+        """One control step towards the joint targets ``target[:4]`` (swing, boom, stick, bucket) [rad], then
+        each of :attr:`step_hooks` with the world (a recorder's ``stepped``). The
         drive follows a moving target ``v / gain`` behind (5 cm at 0.2 m/s): the demonstration and its
         playback both have that lag (a velocity feed-forward was tried and made the playbacks worse: it
         differentiates the admittance's response to the force noise)."""
         self.world.step(np.asarray(target, dtype=float)[:4])
+        for hook in self.step_hooks:
+            hook(self.world)
         return self.observe()
 
 
@@ -260,7 +264,8 @@ def run_tb035(out: Path | None = None, *, seed: int = 0, demo: Demonstration | N
 
 
 def teleoperate_tb035(keys, *, seed: int = 0, soil: str = "testbed_sand", options=None,
-                      on_key: Callable[[str, np.ndarray, np.ndarray], None] | None = None) -> Demonstration:
+                      on_key: Callable[[str, np.ndarray, np.ndarray], None] | None = None,
+                      observer=None) -> Demonstration:
     """Drive the TB035 by keys and record the demonstration (``excavsim playback --teleop --machine tb035``).
 
     The keys of :mod:`excavsim.execution.teleop` move the commanded tip in the arm plane (a/d radial, w/s up
@@ -270,6 +275,10 @@ def teleoperate_tb035(keys, *, seed: int = 0, soil: str = "testbed_sand", option
     estimated soil force is a sample. A pose out of reach is refused (the command stays). The session starts
     10 cm above the scripted demonstration's entry. The demonstration's arm plane is the median swing of the
     session (a playback replays the planar path at one swing angle).
+
+    Args:
+        observer: sees the session (``started(world)``, ``stepped(world)`` after every control step,
+            ``finished(world)``), e.g. an :class:`~excavsim.record.excavator.ExcavatorRecorder`.
 
     Raises:
         ExcavsimError: an unknown key, or no key moved the machine.
@@ -291,6 +300,22 @@ def teleoperate_tb035(keys, *, seed: int = 0, soil: str = "testbed_sand", option
         for key in keys_of(keys.split(FINISH)[0]):
             check(key)
     rig = TB035Rig(soil, seed)
+    if observer is not None:
+        observer.started(rig.world)
+        rig.servos.step_hooks.append(observer.stepped)
+    try:
+        return _drive_tb035(keys, rig, options, check, on_key, soil)
+    finally:
+        if observer is not None:
+            observer.finished(rig.world)
+
+
+def _drive_tb035(keys, rig: TB035Rig, options, check, on_key, soil: str) -> Demonstration:
+    """The key loop of :func:`teleoperate_tb035`."""
+    from excavsim.errors import UsageError
+    from excavsim.execution.teleop import FINISH, HELP, SWING_HELP, apply_key, apply_swing_key
+
+    allowed = f"{HELP}; {SWING_HELP}"
     pose = demonstration_path()[0] + np.array([0.0, 0.10, 0.0])
     swing = 0.0
     target = rig.joints_of(pose, swing)
@@ -333,10 +358,10 @@ def teleoperate_tb035(keys, *, seed: int = 0, soil: str = "testbed_sand", option
 
 
 def command(out: str | Path, *, seed: int = 0, demo_path: str | None = None, teleop: bool = False, keys=None,
-            say: Callable[[str], None] = print) -> Path | None:
+            record: str | None = None, say: Callable[[str], None] = print) -> Path | None:
     """``excavsim playback --machine tb035``: the experiment on the TB035 (:func:`run_tb035`), with the
     demonstration of ``demo_path`` when given; with ``teleop`` a teleoperated demonstration instead, written to
-    ``out/teleop_demonstration.json`` (returned)."""
+    ``out/teleop_demonstration.json`` (returned), the session recorded to ``record`` (an ``.rrd``) when given."""
     out = Path(out)
     if teleop:
         from excavsim.apps.playback.teleop import tty_keys
@@ -344,9 +369,17 @@ def command(out: str | Path, *, seed: int = 0, demo_path: str | None = None, tel
 
         say(f"excavsim playback --teleop --machine tb035: drive the TB035's bucket from 10 cm above the "
             f"demonstration cut; {HELP}; {SWING_HELP}")
-        demo = teleoperate_tb035(keys if keys is not None else tty_keys(), seed=seed, on_key=lambda k, p, f: say(
+        observer = None
+        if record:
+            from excavsim.record.excavator import ExcavatorRecorder
+
+            observer = ExcavatorRecorder(record, seed=seed)
+        demo = teleoperate_tb035(keys if keys is not None else tty_keys(), seed=seed, observer=observer,
+                                 on_key=lambda k, p, f: say(
             f"{k}: tip r {p[0]:.2f} m z {p[1]:.2f} m pitch {math.degrees(p[2]):.0f} deg | F radial {f[0]:7.0f} N "
             f"vertical {f[1]:7.0f} N"))
+        if record:
+            say(f"recorded the session to {record}; replay it with: excavsim replay {record}")
         out.mkdir(parents=True, exist_ok=True)
         path = demo.save(out / "teleop_demonstration.json")
         say(f"wrote {path} ({len(demo.times)} samples, {demo.times[-1]:.2f} s); play it back with: "
