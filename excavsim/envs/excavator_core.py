@@ -95,15 +95,14 @@ class ExcavatorJointCore:
         flim = np.abs(w.model.actuator_forcerange[w.drive.act])
         self._relief = np.maximum(flim[:, 0], flim[:, 1])
         self._force_lo, self._force_hi = -flim[:, 0], flim[:, 1]
-        spec = w.spec
-        lo, hi = np.asarray(spec.arm.lower), np.asarray(spec.arm.upper)
+        self._force_max = float(flim.max())  # the largest relief force (or swing torque) [N, N m]
         self.fields = {
-            "q": Field((4,), "float32", lo.astype(np.float32), hi.astype(np.float32),
-                       doc="swing, boom, stick, bucket angles [rad]"),
+            "q": Field((4,), "float32", -math.pi, math.pi,
+                       doc="swing, boom, stick, bucket angles [rad] (within Table 4.2's limits on the TB035)"),
             "qdot": Field((4,), "float32", -QDOT_MAX, QDOT_MAX, doc="their speeds [rad/s] (clipped)"),
-            "cylinder_force": Field((4,), "float32", self._force_lo.astype(np.float32),
-                                    self._force_hi.astype(np.float32),
-                                    doc="swing torque [N m], boom, stick, bucket cylinder forces [N] (+ pushes)"),
+            "cylinder_force": Field((4,), "float32", -self._force_max, self._force_max,
+                                    doc="swing torque [N m], boom, stick, bucket cylinder forces [N] (+ pushes; "
+                                        "each within its relief limits)"),
             "tip": Field((3,), "float32", -20.0, 20.0, doc="bucket tip radius, height [m], blade angle [rad]"),
             "bucket_soil": Field((1,), "float32", 0.0, 10.0, doc="soil in the bucket [m^3] (truth)"),
             "region_soil": Field((1,), "float32", 0.0, 100.0, doc="soil left in the goal region [m^3] (truth)"),
@@ -199,9 +198,8 @@ class ExcavatorJointCore:
         w = self.world
         q = w.joint_angles()
         dof = w.model.jnt_dofadr[[w.model.joint(j).id for j in EXCAVATOR_JOINTS]]
-        lo, hi = self.fields["q"].low, self.fields["q"].high
         return {
-            "q": np.clip(q, lo, hi).astype(np.float32),
+            "q": np.clip(q, -math.pi, math.pi).astype(np.float32),
             "qdot": np.clip(w.data.qvel[dof], -QDOT_MAX, QDOT_MAX).astype(np.float32),
             "cylinder_force": np.clip(w.cylinder_forces(), self._force_lo, self._force_hi).astype(np.float32),
             "tip": np.clip(self.arm.forward(q[1:4]), -20.0, 20.0).astype(np.float32),
