@@ -109,7 +109,7 @@ class ExcavatorServos:
         playback both have that lag. A velocity feed-forward on the targets was tried (seed 0): unfiltered it
         differentiates the admittance's response to the force noise and made every playback worse; low-passed
         (0.1 s, 0.3 s) it cut the same soil's position error (5.4 -> 3.5-4.2 cm) but raised the stiffer soil's
-        force error (7.3 -> 8.2-8.7 kN for position control), so it is not used."""
+        force error (6.8 -> 8.2-8.7 kN for position control, seed 0), so it is not used."""
         self.world.step(np.asarray(target, dtype=float)[:4])
         for hook in self.step_hooks:
             hook(self.world)
