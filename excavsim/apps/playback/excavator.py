@@ -42,7 +42,7 @@ from pathlib import Path
 import numpy as np
 
 from excavsim.config import SoilParams, get_soil, load_scene_config
-from excavsim.errors import ExcavsimError, GoalError
+from excavsim.errors import ConfigError, ExcavsimError, GoalError
 from excavsim.execution.demonstration import Demonstration, plane_state
 from excavsim.execution.playback import DepthDual, FixedImpedance, ImpedancePlayback, PlaybackRun, VariableImpedance
 from excavsim.handoff.observation import Observation
@@ -241,7 +241,7 @@ def run_tb035(out: Path | None = None, *, seed: int = 0, demo: Demonstration | N
         progress(f"TB035 demonstration: {len(demo.times)} samples ({demo.times[-1]:.2f} s) in {demo.soil}; "
                  f"{demo.source}; force peak {np.linalg.norm(demo.force, axis=1).max():.0f} N")
     elif abs(demo.dt - 0.02) > 1e-9:
-        raise ExcavsimError(f"playback --machine tb035: the demonstration's dt {demo.dt} s is not the TB035's "
+        raise ConfigError(f"playback --machine tb035: the demonstration's dt {demo.dt} s is not the TB035's "
                             "control period 0.02 s (a T3 demonstration is at 0.01 s); record one on the TB035")
     table = {}
     progress(f"{'soil':12s} {'controller':20s} {'pos RMS/max [cm]':>17s} | {'force RMS/peak [N]':>19s} | "

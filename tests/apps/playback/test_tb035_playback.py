@@ -9,7 +9,7 @@ import pytest
 
 from excavsim.apps.playback import excavator as ex
 from excavsim.cli import main
-from excavsim.execution.demonstration import load_demonstration
+from excavsim.execution.demonstration import Demonstration, load_demonstration
 from excavsim.execution.playback import FixedImpedance, VariableImpedance
 from excavsim.execution.teleop import FINISH, SWING_KEYS, TeleopOptions, apply_swing_key
 from excavsim.readouts import element_id
@@ -107,6 +107,8 @@ def test_the_playback_command_on_the_tb035(tmp_path):
     assert main(["playback", "--machine", "tb035", "--teleop", "--keys", "zzdds" + FINISH, "--out", str(out)]) == 0
     demo = load_demonstration(out / "teleop_demonstration.json")
     assert demo.dt == pytest.approx(0.02) and len(demo.times) == 5 * TeleopOptions().ticks_per_key
+    t3_rate = Demonstration(np.arange(3) * 0.01, np.zeros((3, 3)), np.zeros((3, 2)), 0.01, 0.0, "T3", "sand")
+    assert main(["playback", "--machine", "tb035", "--demo", str(t3_rate.save(tmp_path / "t3.json"))]) == 2
     assert main(["playback", "--machine", "tb035", "--seeds", "0-1"]) == 2
     assert main(["playback", "--machine", "tb035", "--teleop", "--keys", "zzk"]) == 2
     assert main(["playback", "--machine", "excavator_25t"]) == 2
