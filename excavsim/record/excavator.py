@@ -120,7 +120,7 @@ class ExcavatorRecorder:
         terrain every ``soil_period_s``."""
         if self.rec is None:
             raise UsageError("ExcavatorRecorder.stepped before started")
-        d, t = world.data, float(world.data.time)
+        t = float(world.data.time)
         if t + 1e-9 >= self._next_t:
             self._next_t += 1.0 / self.rate_hz * max(1, int((t - self._next_t) * self.rate_hz) + 1)
             self._sample(world, t)
@@ -129,7 +129,7 @@ class ExcavatorRecorder:
             self._terrain(world, t)
 
     def _sample(self, world, t: float) -> None:
-        rec, d, m = self.rec, world.data, world.model
+        rec, d = self.rec, world.data
         rec.set_time("sim_time", duration=t)
         for b in self._moving:
             rec.log(self._root(b), rr.Transform3D(translation=d.xpos[b], quaternion=quat_xyzw(d.xquat[b])))

@@ -6,7 +6,6 @@ from __future__ import annotations
 import subprocess
 
 import numpy as np
-import pyarrow as pa
 import pytest
 from rerun.chunk import RrdReader
 
