@@ -294,9 +294,10 @@ class TruckWorld(ExcavatorWorld):
         self.step_hooks: list = []
         self.hauled_m3 = 0.0  # soil in the trucks that have left [m^3]
 
-    def step(self, target: np.ndarray) -> np.ndarray:
-        """One control step (:meth:`ExcavatorWorld.step`), then the step hooks."""
-        q = super().step(target)
+    def step_rates(self, rates: np.ndarray) -> np.ndarray:
+        """One control step (:meth:`ExcavatorWorld.step_rates`, which :meth:`ExcavatorWorld.step` calls too),
+        then the step hooks."""
+        q = super().step_rates(rates)
         for hook in self.step_hooks:
             hook(self)
         return q
