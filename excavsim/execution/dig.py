@@ -115,9 +115,12 @@ def dig_script(plan: DigPlan, arm: PlanarArm, cfg: ExecutorConfig, park: np.ndar
                        f"no contact within {100 * cfg.touch_search_m:.0f} cm below the map")
     empty = Watch("empty", all_of(path_done("dump"), settled(ARM, tol),
                                   held(force_below(cfg.empty_force_n), seconds=cfg.empty_hold_s)))
+    above_settled = settled((WAIST,) + ARM, tol)
+    if cfg.touch_quiet_s > 0:  # wait for the arm's ringing to die down (§7.1.3); held first, so it counts every tick
+        above_settled = all_of(held(force_below(cfg.touch_quiet_n), seconds=cfg.touch_quiet_s), above_settled)
     arm_steps = (
         Step("above entry", always(), Command(tuple(q_above)), wait),
-        Step("touch-down", any_of(settled((WAIST,) + ARM, tol), late), follow("touchdown", cfg.touch_speed_m_s), wait,
+        Step("touch-down", any_of(above_settled, late), follow("touchdown", cfg.touch_speed_m_s), wait,
              watches=(contact,), abort=no_contact),
         Step("dig", event("contact"), follow("dig", cfg.path_speed_m_s), wait),
         Step("lift out", any_of(path_done("dig"), late), follow("lift", cfg.path_speed_m_s), wait),
@@ -247,7 +250,7 @@ class DigExecutor:
                 engine._sync()
                 for tr in engine.transitions[len(engine.transitions) - int(out[1]):]:
                     cmd = script.subscripts[tr.subscript].steps[tr.step].command
-                    paths[tr.subscript] = self._lay_out(cmd, q, plan, rec) if cmd.path else None
+                    paths[tr.subscript] = self._lay_out(cmd, q, plan, rec, obs.actuator_force) if cmd.path else None
                     if tr.subscript == ARM_SUB:
                         p = paths[ARM_SUB]
                         path_arrays = (p._path, p.cum) if p is not None else no_path
@@ -323,7 +326,7 @@ class DigExecutor:
             commands = engine.tick(sense)
             for tr in engine.transitions[seen:]:
                 cmd = script.subscripts[tr.subscript].steps[tr.step].command
-                paths[tr.subscript] = self._lay_out(cmd, obs.q, plan, rec) if cmd.path else None
+                paths[tr.subscript] = self._lay_out(cmd, obs.q, plan, rec, obs.actuator_force) if cmd.path else None
                 if tr.subscript == ARM_SUB:
                     announce(tr.name, rec)
             if engine.stop is not None:  # an abort
@@ -350,8 +353,10 @@ class DigExecutor:
             steps += 1
         return engine, obs
 
-    def _lay_out(self, cmd: Command, q: np.ndarray, plan: DigPlan, rec: ExecutionRecord) -> PathFollower:
-        """The path a path command names, laid out as its step starts with the joints at ``q`` (6,)."""
+    def _lay_out(self, cmd: Command, q: np.ndarray, plan: DigPlan, rec: ExecutionRecord,
+                 torque: np.ndarray | None = None) -> PathFollower:
+        """The path a path command names, laid out as its step starts with the joints at ``q`` (6,) and
+        their actuators at ``torque`` (6,) [N m]."""
         cfg = self.cfg
         tip = self.arm.forward(q[self._arm_idx])
         cut_from = math.inf
@@ -360,7 +365,11 @@ class DigExecutor:
             path = np.array([[entry[0], entry[1] + cfg.approach_height_m, tp],
                              [entry[0], entry[1] - cfg.touch_search_m, tp]])
         elif cmd.path == "dig":
-            path, cut_from = self._dig_path(plan, tip, rec)
+            found = tip
+            if torque is not None and any(cfg.touch_give_rad_per_nm):  # the give the encoders miss (calibrated)
+                found = self.arm.forward(q[self._arm_idx] - np.asarray(cfg.touch_give_rad_per_nm)
+                                         * np.asarray(torque)[self._arm_idx])
+            path, cut_from = self._dig_path(plan, tip, rec, found)
         elif cmd.path == "lift":
             path = np.array([tip, [tip[0], max(cfg.lift_height_m, tip[1]), tip[2]]])
         elif cmd.path == "dump":  # pour: turn the bucket at a fixed tip
@@ -370,12 +379,14 @@ class DigExecutor:
                               f"lift and dump")
         return PathFollower(path, cmd.speed, cfg.pitch_radius_m, cut_from)
 
-    def _dig_path(self, plan: DigPlan, tip: np.ndarray, rec: ExecutionRecord) -> tuple[np.ndarray, float]:
-        """At contact (the bucket tip at ``tip``): record the touch-down (§7.1.3), shift the planned path
-        by its offset, and lead in to it. Returns the path and the length of its lead-in [m]."""
+    def _dig_path(self, plan: DigPlan, tip: np.ndarray, rec: ExecutionRecord,
+                  found: np.ndarray | None = None) -> tuple[np.ndarray, float]:
+        """At contact (the bucket tip at ``tip`` by the encoders, at ``found`` with the give they miss
+        taken off; ``tip`` when None): record the touch-down (§7.1.3), shift the planned path by its
+        offset, and lead in to it. Returns the path and the length of its lead-in [m]."""
         cfg = self.cfg
-        rec.touch_found_z = float(tip[1])
-        rec.touch_offset_m = float(tip[1] + cfg.touch_sink_m - rec.touch_expected_z)
+        rec.touch_found_z = float((tip if found is None else found)[1])
+        rec.touch_offset_m = rec.touch_found_z + cfg.touch_sink_m - rec.touch_expected_z
         if abs(rec.touch_offset_m) > cfg.touch_warn_m:
             kind = "below" if rec.touch_offset_m < 0 else "above"
             rec.warnings.append(

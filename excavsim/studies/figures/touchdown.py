@@ -171,6 +171,40 @@ def failure_table(label: str, seeds: Sequence[int], soils: Sequence[str], entrie
     return FailureTable(label, trials)
 
 
+def calibrate_give(scene: SceneConfig, *, entries: Sequence[float] = ENTRIES_M, loads_kg: Sequence[float] = (0.0, 50.0, 100.0),
+                   seed: int = 0) -> np.ndarray:
+    """The planar joints' give that their encoders miss, per N m of actuator torque (3,) [rad/(N m)], as a
+    testbed would calibrate it: the arm held still above each entry with known loads in the bucket, the
+    tip's pose surveyed (here: the world's truth, as a total station would give it), the difference
+    from the encoders' forward kinematics turned into joint angles through the Jacobian, and each
+    joint's angle regressed on its actuator torque through the origin (least squares). The result is
+    the executor's ``touch_give_rad_per_nm``."""
+    sim0 = Simulation(scene=scene, seed=seed)
+    arm = arm_from_model(sim0.model)
+    planar = sim0.index.planar_qpos
+    act = sim0.index.actuator[[constants.JOINTS.index(j) for j in constants.PLANAR_JOINTS]]
+    dq, tau = [], []
+    for x in entries:
+        pose = np.array([x, SURFACE_Z_M + 0.12, math.radians(10.0)])
+        q_target, ok = arm.inverse(pose)
+        if not ok:
+            continue
+        for load in loads_kg:
+            sim = Simulation(scene=scene, seed=seed)
+            sim.soil_enabled = False
+            sim.model.body_mass[sim.index.bucket_body] += load
+            target = sim.index.home.copy()
+            target[planar] = q_target
+            for _ in range(600):
+                sim.track(target)
+            enc = sim.joint_angles()[planar]
+            surveyed = arm.forward(sim.data.qpos[planar])
+            dq.append(np.linalg.solve(arm.jacobian(enc), surveyed - arm.forward(enc)))
+            tau.append(sim.data.actuator_force[act].copy())
+    dq, tau = np.asarray(dq), np.asarray(tau)
+    return -np.sum(dq * tau, axis=0) / np.sum(tau * tau, axis=0)
+
+
 def testbed_scene() -> SceneConfig:
     """``configs/scene_testbed.yaml``: the default scene with the arm's compliance on."""
     return load_config(SCENE_TESTBED_YAML, SceneConfig)
