@@ -53,7 +53,7 @@ class TouchTrial:
         penetration_m: the bucket's deepest point below the surface when contact was declared [m].
         t, tip_z, ft, soil_n: per control step: time [s], the true tip height [m], the F/T force's
             magnitude the mind read [N], the soil's force on the bucket (truth) [N].
-        t_contact: when contact was declared [s] (NaN: never).
+        t_contact: when contact was declared [s] (NaN: never); t_descent: when the descent started [s].
     """
 
     seed: int
@@ -63,6 +63,7 @@ class TouchTrial:
     error_m: float = math.nan
     penetration_m: float = math.nan
     t_contact: float = math.nan
+    t_descent: float = math.nan
     t: list = dataclasses.field(default_factory=list)
     tip_z: list = dataclasses.field(default_factory=list)
     ft: list = dataclasses.field(default_factory=list)
@@ -75,6 +76,7 @@ class _Watched:
     def __init__(self, sim: Simulation, trial: TouchTrial, arm, ft: ForceSensor):
         self._sim, self._trial, self._arm, self._ft = sim, trial, arm, ft
         self._planar = sim.index.planar_qpos
+        self.stop_at = math.inf  # simulated time at which to end the trial (set at contact)
 
     def __getattr__(self, name):
         return getattr(self._sim, name)
@@ -87,6 +89,8 @@ class _Watched:
         tr.ft.append(float(np.linalg.norm(self._ft.reading(obs).force_tip)))
         c = sim.contact
         tr.soil_n.append(float(np.linalg.norm(c.force)) if c is not None else 0.0)
+        if obs.time >= self.stop_at:
+            raise _Reached
         return obs
 
 
@@ -97,8 +101,9 @@ def entry_plan(x: float, z: float = SURFACE_Z_M, pitch: float = ENTRY_PITCH_RAD)
 
 
 def touch_down(seed: int, soil: str, entry_m: float, *, scene: SceneConfig | None = None,
-               executor: ExecutorConfig | None = None) -> TouchTrial:
-    """One touch-down in a fresh world (flat soil, the map exact) and its verdict (see :class:`TouchTrial`)."""
+               executor: ExecutorConfig | None = None, after_s: float = 0.0) -> TouchTrial:
+    """One touch-down in a fresh world (flat soil, the map exact) and its verdict (see :class:`TouchTrial`);
+    the trace goes on ``after_s`` past the contact (into the dig's lead-in)."""
     sim = Simulation(scene=scene, soil=soil, seed=seed)
     cfg = executor or load_executor_config()
     arm = arm_from_model(sim.model)
@@ -108,13 +113,18 @@ def touch_down(seed: int, soil: str, entry_m: float, *, scene: SceneConfig | Non
     contact: dict = {}
 
     def hook(phase, rec):
+        if phase == "touch-down":
+            trial.t_descent = sim.time
         if phase == "dig":  # contact declared: the truth now
             contact["offset"] = rec.touch_offset_m
             contact["pen"] = float(sim.contact.max_penetration_m) if sim.contact is not None else -1.0
             contact["t"] = sim.time
-            raise _Reached
+            watched.stop_at = sim.time + after_s
+            if after_s <= 0.0:
+                raise _Reached
 
-    ex = DigExecutor(_Watched(sim, trial, arm, ft), arm, cfg, ft, sim.index.park)
+    watched = _Watched(sim, trial, arm, ft)
+    ex = DigExecutor(watched, arm, cfg, ft, sim.index.park)
     try:
         rec = ex.run(plan, on_phase=hook)
     except _Reached:
@@ -127,7 +137,8 @@ def touch_down(seed: int, soil: str, entry_m: float, *, scene: SceneConfig | Non
     trial.error_m = contact["offset"]
     trial.t_contact = contact["t"]
     trial.penetration_m = contact["pen"]
-    if max(trial.soil_n[-AIR_TICKS:]) < AIR_N:
+    k = int(np.searchsorted(trial.t, trial.t_contact, side="right"))  # the ticks up to the contact
+    if max(trial.soil_n[max(0, k - AIR_TICKS):k]) < AIR_N:
         trial.outcome = "in air"
     elif abs(trial.error_m) > DEPTH_TOL_M:
         trial.outcome = "depth"
@@ -210,29 +221,47 @@ def testbed_scene() -> SceneConfig:
     return load_config(SCENE_TESTBED_YAML, SceneConfig)
 
 
+COPING = {"touch_quiet_s": 0.3, "touch_give_rad_per_nm": [9.8e-7, 3.4e-6, 2.0e-5]}  # calibrate_give on the testbed arm
+
+
+def coping_executor(give: Sequence[float] | None = None) -> ExecutorConfig:
+    """executor.yaml with the touch-down's coping on: the quiet wait, and the give compensation (the
+    testbed arm's calibration unless ``give`` is given)."""
+    update = dict(COPING)
+    if give is not None:
+        update["touch_give_rad_per_nm"] = list(give)
+    return load_executor_config().model_copy(update=update)
+
+
 def fig104(ctx, path: pathlib.Path) -> str:
-    """Fig. 104: a touch-down on the testbed arm: the F/T reading and the tip height against time."""
+    """Fig. 104: touch-downs on flat sand: the F/T reading the executor saw and the tip's true height
+    against time from the start of the descent, on the nominal arm, on the testbed arm with the
+    executor before it coped, and after."""
     scene = testbed_scene()
-    trials = {"nominal arm (scene.yaml)": touch_down(ctx.seed, "testbed_sand", 2.1, scene=load_scene_config()),
-              "testbed arm (scene_testbed.yaml)": touch_down(ctx.seed, "testbed_sand", 2.1, scene=scene)}
-    fig = _figure((8.0, 6.0))
+    runs = {"nominal arm, executor before": touch_down(ctx.seed, "testbed_sand", 2.1, scene=load_scene_config(),
+                                                       after_s=0.5),
+            "testbed arm, executor before": touch_down(ctx.seed, "testbed_sand", 2.1, scene=scene, after_s=0.5),
+            "testbed arm, executor after": touch_down(ctx.seed, "testbed_sand", 2.1, scene=scene,
+                                                      executor=coping_executor(), after_s=0.5)}
+    fig = _figure((8.0, 6.5))
     ax_f, ax_z = fig.add_subplot(2, 1, 1), fig.add_subplot(2, 1, 2)
     lines = []
-    for k, (name, tr) in enumerate(trials.items()):
-        t = np.asarray(tr.t)
-        t0 = (tr.t_contact if math.isfinite(tr.t_contact) else t[-1]) - 3.0
-        sel = t >= t0
-        ax_f.plot(t[sel] - t0, np.asarray(tr.ft)[sel], f"C{k}-", lw=1, label=f"{name}: F/T |F| read")
-        ax_f.plot(t[sel] - t0, np.asarray(tr.soil_n)[sel], f"C{k}:", lw=1, label=f"{name}: soil force (truth)")
-        ax_z.plot(t[sel] - t0, 100 * (np.asarray(tr.tip_z)[sel] - SURFACE_Z_M), f"C{k}-", lw=1, label=name)
+    for k, (name, tr) in enumerate(runs.items()):
+        t = np.asarray(tr.t) - tr.t_descent
+        sel = t >= -1.5
+        ax_f.plot(t[sel], np.asarray(tr.ft)[sel], f"C{k}-", lw=1, label=f"{name}: F/T |F| read")
+        ax_f.plot(t[sel], np.asarray(tr.soil_n)[sel], f"C{k}:", lw=1, label=f"{name}: soil force (truth)")
+        ax_z.plot(t[sel], 100 * (np.asarray(tr.tip_z)[sel] - SURFACE_Z_M), f"C{k}-", lw=1, label=name)
         if math.isfinite(tr.t_contact):
             for ax in (ax_f, ax_z):
-                ax.axvline(tr.t_contact - t0, color=f"C{k}", lw=0.6, ls="--")
-        lines.append(f"{name}: {tr.outcome}, error {100 * tr.error_m:+.1f} cm")
+                ax.axvline(tr.t_contact - tr.t_descent, color=f"C{k}", lw=0.6, ls="--")
+        lines.append(f"{name}: {tr.outcome}, error {100 * tr.error_m:+.1f} cm, F/T peak "
+                     f"{max(tr.ft[int(np.searchsorted(tr.t, tr.t_descent - 1.5)):]):.0f} N")
     ax_f.set_ylabel("|F| [N]")
-    ax_f.legend(fontsize=7)
-    ax_z.set_ylabel("tip above the surface [cm]")
-    ax_z.set_xlabel("time [s] (dashed: contact declared)")
+    ax_f.legend(fontsize=6)
+    ax_z.axhline(0.0, color="k", lw=0.6)
+    ax_z.set_ylabel("true tip height above the surface [cm]")
+    ax_z.set_xlabel("time from the start of the descent [s] (dashed: contact declared)")
     ax_z.legend(fontsize=7)
     ax_f.set_title(f"Fig. 104: touch-down on flat sand (seed {ctx.seed}, entry 2.1 m)", fontsize=10)
     _save(fig, path)
