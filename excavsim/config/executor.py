@@ -33,12 +33,13 @@ class ExecutorConfig(StrictModel):
         default=0.0, ge=0, le=10,
         description="the descent starts once the F/T force has stayed under touch_quiet_n this long: the arm's "
                     "ringing after the move above the entry has died down (Singh 1995 §7.1.3, Fig. 104); 0: at once [s]")
-    touch_give_rad_per_nm: list[float] = Field(
+    joint_give_rad_per_nm: list[float] = Field(
         default=[0.0, 0.0, 0.0], min_length=3, max_length=3,
         description="give of the shoulder, elbow and wrist pitch under load that their encoders miss, per N m of "
-                    "actuator torque: at contact the tip is taken at the encoders' angles less this times the torques "
-                    "(calibrated against surveyed tip poses under known loads, "
-                    "excavsim.studies.figures.touchdown.calibrate_give); zeros: the encoders are the links' [rad/(N m)]")
+                    "actuator torque: the executor takes the links' angles as the encoders' less this times the "
+                    "torques, and commands the encoders ahead by as much (calibrated against surveyed tip poses "
+                    "under known loads, excavsim.studies.figures.touchdown.calibrate_give); zeros: the encoders "
+                    "are the links' [rad/(N m)]")
     touch_sink_m: float = Field(
         default=0.03, ge=0, le=0.5,
         description="how far the edge sinks into the soil before the force registers (calibrated, flat sand) [m]",
@@ -83,8 +84,8 @@ class ExecutorConfig(StrictModel):
 
     @model_validator(mode="after")
     def _give(self) -> ExecutorConfig:
-        if not all(0.0 <= g <= 1e-3 for g in self.touch_give_rad_per_nm):
-            raise ValueError(f"touch_give_rad_per_nm={self.touch_give_rad_per_nm}; allowed: three numbers in "
+        if not all(0.0 <= g <= 1e-3 for g in self.joint_give_rad_per_nm):
+            raise ValueError(f"joint_give_rad_per_nm={self.joint_give_rad_per_nm}; allowed: three numbers in "
                              "[0, 1e-3] rad/(N m)")
         return self
 

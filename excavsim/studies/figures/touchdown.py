@@ -189,7 +189,7 @@ def calibrate_give(scene: SceneConfig, *, entries: Sequence[float] = ENTRIES_M, 
     tip's pose surveyed (here: the world's truth, as a total station would give it), the difference
     from the encoders' forward kinematics turned into joint angles through the Jacobian, and each
     joint's angle regressed on its actuator torque through the origin (least squares). The result is
-    the executor's ``touch_give_rad_per_nm``."""
+    the executor's ``joint_give_rad_per_nm``."""
     sim0 = Simulation(scene=scene, seed=seed)
     arm = arm_from_model(sim0.model)
     planar = sim0.index.planar_qpos
@@ -221,7 +221,7 @@ def testbed_scene() -> SceneConfig:
     return load_config(SCENE_TESTBED_YAML, SceneConfig)
 
 
-COPING = {"touch_quiet_s": 0.3, "touch_give_rad_per_nm": [9.8e-7, 3.4e-6, 2.0e-5]}  # calibrate_give on the testbed arm
+COPING = {"touch_quiet_s": 0.3, "joint_give_rad_per_nm": [9.8e-7, 3.4e-6, 2.0e-5]}  # calibrate_give on the testbed arm
 
 
 def coping_executor(give: Sequence[float] | None = None) -> ExecutorConfig:
@@ -229,7 +229,7 @@ def coping_executor(give: Sequence[float] | None = None) -> ExecutorConfig:
     testbed arm's calibration unless ``give`` is given)."""
     update = dict(COPING)
     if give is not None:
-        update["touch_give_rad_per_nm"] = list(give)
+        update["joint_give_rad_per_nm"] = list(give)
     return load_executor_config().model_copy(update=update)
 
 
