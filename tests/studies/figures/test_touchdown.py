@@ -64,3 +64,14 @@ def test_the_figures_draw_and_report(tmp_path):
     text = td.fig104(Ctx, tmp_path / "fig104.png")
     assert "testbed arm, executor before: in air" in text and "testbed arm, executor after: ok" in text
     assert (tmp_path / "fig104.png").stat().st_size > 10_000
+
+
+def test_the_coping_numbers_are_refused_by_name_when_bad():
+    from pydantic import ValidationError
+
+    from excavsim.config import ExecutorConfig
+
+    for field, bad in (("joint_give_rad_per_nm", [0.0, -1e-6, 0.0]), ("joint_give_rad_per_nm", [0.0, 0.0]),
+                       ("touch_quiet_s", -0.1), ("touch_quiet_n", 0.0)):
+        with pytest.raises(ValidationError, match=field):
+            ExecutorConfig.model_validate({field: bad})
