@@ -5,7 +5,10 @@ contact) on flat soil in a fresh world and stops it where the dig would start; t
 (the links' angles, the soil's contact) judges it. :func:`failure_table` runs it over seeds, soils
 and entries and counts the failures: contact declared with the bucket in the air, contact missed
 (the descent ended without it), and contact found at a depth off the truth by more than
-``DEPTH_TOL_M``. :func:`fig104` draws one touch-down's F/T reading and tip height against time.
+``DEPTH_TOL_M``. :func:`calibrate_give` measures the joints' unseen give as a testbed would (known
+loads, surveyed tip poses), :func:`coping_executor` is executor.yaml with the touch-down's coping on
+(the quiet wait and that give), and :func:`fig104` draws touch-downs' F/T readings and tip heights
+against time. The numbers: docs/notes/2026-12-02-touch-down.md.
 
 Privileged truth, for figures and the notes: the loop wires world and mind; nothing of the robot's
 mind reads these records.
