@@ -259,9 +259,9 @@ def _is_truck(res) -> bool:
 
 def run_with_outputs(spec: EpisodeSpec, *, robot_path: str | None = None, scene_path: str | None = None,
                      record: str | None = None, live: str | None = None, save_maps: str | None = None,
-                     timing: bool = False, say: Callable[[str], None] = print):
-    """``excavsim trench``: check every file of ``spec``, then run it with its outputs, saying the
-    episode, its summary and where the outputs went.
+                     timing: bool = False, say: Callable[[str], None] = print, command: str = "trench"):
+    """``excavsim trench`` and ``excavsim run``: check every file of ``spec``, then run it with its
+    outputs, saying the episode, its summary and where the outputs went.
 
     Args:
         spec: the episode.
@@ -273,6 +273,7 @@ def run_with_outputs(spec: EpisodeSpec, *, robot_path: str | None = None, scene_
         timing: also say Table 7 (Singh 1995 §7.3): the mean per-cycle perception, feasible-set,
             selection, set-up and execution times beside the thesis' Sparc 10 numbers.
         say: where the lines go.
+        command: the command that runs it (``trench`` or ``run``), for the first line.
 
     Returns:
         The episode's result.
@@ -290,7 +291,8 @@ def run_with_outputs(spec: EpisodeSpec, *, robot_path: str | None = None, scene_
             raise UsageError(f"--record, --live, --save-maps and --timing follow trenching episodes; task "
                              f"{spec.task} takes {can}")
         cycles = "one trial" if spec.task == "truck" else f"{spec.dig_budget} digs at most"
-        say(f"excavsim trench --spec: task {spec.task}, machine {spec.machine_name}, {cycles}, seed {spec.seed}")
+        label = "excavsim trench --spec" if command == "trench" else f"excavsim {command}"
+        say(f"{label}: task {spec.task}, machine {spec.machine_name}, {cycles}, seed {spec.seed}")
         result = run_spec(spec, progress=say, observer=recorder(record) if record else None)
         say(module.format_run(result))
         if record:
@@ -316,7 +318,7 @@ def run_with_outputs(spec: EpisodeSpec, *, robot_path: str | None = None, scene_
         timer = task_module("trench").episode_timer()
         observer = ObserverGroup(observer, timer)
     goal = spec.goal if isinstance(spec.goal, str) else (spec.goal.name or "inline goal")
-    say(f"excavsim trench: {goal} trench, {spec.dig_budget} digs at most, soil {spec.soil or 'of the scene'}, "
+    say(f"excavsim {command}: {goal} trench, {spec.dig_budget} digs at most, soil {spec.soil or 'of the scene'}, "
         f"seed {spec.seed}")
     result = run_spec(spec, progress=say, observer=observer, robot_path=robot_path, scene_path=scene_path)
     say(format_episode(result))
