@@ -6,7 +6,8 @@ parameters computed for the site (§4.2; the self-tuning over trials is ``excavs
 scan again. The spec's ``truck:`` overrides ``configs/truck.yaml`` (validated by
 :class:`~excavsim.config.truck.TruckFile`); ``soil`` and ``seed`` choose the world. This module is what
 the platform's catalog (:mod:`excavsim.loop.catalog`) names: the task class, the campaign row
-(:func:`summary`), the per-cycle rows (:func:`dig_rows`) and the printed table (:func:`format_run`).
+(:func:`summary`), the per-cycle rows (:func:`dig_rows`), the printed table (:func:`format_run`) and
+the Rerun recorder of a trial (:func:`episode_recorder`, ``excavsim run SPEC --record FILE.rrd``).
 """
 
 from __future__ import annotations
@@ -16,7 +17,7 @@ from typing import Any
 
 from excavsim.config.truck import TruckFile
 from excavsim.errors import ConfigError
-from excavsim.tasks.truck.trial import Trial, TruckTask, truck_config
+from excavsim.tasks.truck.trial import Trial, TruckTask, placement_error2, trial_cost, truck_config
 
 
 class TruckTrial(TruckTask):
@@ -33,7 +34,51 @@ class TruckTrial(TruckTask):
         if machine != "t3":
             raise ConfigError(f"machine {machine!r} does not do task truck; allowed: t3")
         self.file = cfg
-        super().__init__(None, truck_config(cfg), source="computed", soil=soil)
+        # the trial keeps its trace (the servos' joints, the tip, the script's steps): what a recording
+        # shows; it only reads the servos, so the trial is the same with it or without it
+        super().__init__(None, truck_config(cfg), source="computed", soil=soil, trace=True)
+
+
+class TrialRecorder:
+    """A truck trial's episode hooks, recorded to Rerun by
+    :class:`~excavsim.record.truck.TruckRecorder` (the recording of ``excavsim tune --record``, here
+    of one trial): the configuration and the computed parameters, the script's phases, the joints
+    and the tip, the scanned map after the dump, the pile measured and true, the cost.
+
+    Args:
+        path: the ``.rrd`` file to write.
+    """
+
+    def __init__(self, path: str):
+        from excavsim.record.truck import TruckRecorder
+
+        self.path = path
+        self._recorder_class = TruckRecorder
+        self.recorder = None
+        self.cfg = None
+
+    def started(self, sim, cfg) -> None:
+        self.cfg, self.seed = cfg, int(getattr(sim, "seed", 0))
+
+    def scanned(self, *args) -> None: ...
+    def planned(self, *args) -> None: ...
+    def stepped(self, *args) -> None: ...
+
+    def dug(self, index: int, trial: Trial) -> None:
+        # the recording starts with the trial's parameters, known once the fixed dig has loaded the bucket
+        self.recorder = self._recorder_class(self.path, seed=self.seed)
+        self.recorder.started(self.cfg, trial.params)
+        self.recorder.trial(trial, self.cfg, cost=trial_cost(trial, self.cfg),
+                            sq_error=placement_error2(trial, self.cfg))
+
+    def finished(self, trial: Trial | None) -> None:
+        if self.recorder is not None:
+            self.recorder.finished([trial] if trial is not None else [], self.cfg)
+
+
+def episode_recorder(path: str) -> TrialRecorder:
+    """The Rerun recorder of a truck trial, the platform's hook for ``excavsim run SPEC --record FILE.rrd``."""
+    return TrialRecorder(path)
 
 
 def trial_end(trial: Trial) -> tuple[str, str]:
