@@ -211,11 +211,10 @@ def spec_episode(spec: EpisodeSpec, resolved: ResolvedSpec | None = None, *,
 
         return Episode(task_class("load")(spec.machine_name, cfg=r.loading), dig_budget=spec.dig_budget, progress=progress,
                        observer=observer)
-    if spec.task == "truck":  # one trial: one cycle
-        from excavsim.loop.catalog import task_class
+    if spec.task == "truck":  # one trial (one cycle), or a tuning run of its trials
+        from excavsim.loop.catalog import task_module
 
-        return Episode(task_class("truck")(spec.machine_name, cfg=r.truck, soil=spec.soil), dig_budget=1,
-                       progress=progress, observer=observer)
+        return task_module("truck").spec_episode(spec, r, progress=progress, observer=observer)
     from excavsim.loop.catalog import task_module
 
     return task_module("trench").spec_episode(spec, r, progress=progress, observer=observer)
@@ -253,8 +252,8 @@ def _is_loading(res) -> bool:
 
 
 def _is_truck(res) -> bool:
-    """Whether ``res`` is a truck-loading trial's result (a Trial) rather than a trench's."""
-    return hasattr(res, "pile") and hasattr(res, "dumped_m3")
+    """Whether ``res`` is a truck-loading result (a Trial, or a tuning run's) rather than a trench's."""
+    return (hasattr(res, "pile") and hasattr(res, "dumped_m3")) or hasattr(res, "tuning_trials")
 
 
 def run_with_outputs(spec: EpisodeSpec, *, robot_path: str | None = None, scene_path: str | None = None,
@@ -280,7 +279,7 @@ def run_with_outputs(spec: EpisodeSpec, *, robot_path: str | None = None, scene_
     """
     from excavsim.handoff.episode import ObserverGroup, format_episode
 
-    ResolvedSpec(spec, robot_path=robot_path, scene_path=scene_path)  # every file checked first
+    resolved = ResolvedSpec(spec, robot_path=robot_path, scene_path=scene_path)  # every file checked first
     if spec.task != "trench":  # another task of the one episode: run it, say its table, record it if it can
         from excavsim.loop.catalog import task_module
 
@@ -290,7 +289,11 @@ def run_with_outputs(spec: EpisodeSpec, *, robot_path: str | None = None, scene_
             can = "only --record" if recorder is not None else "none of them"
             raise UsageError(f"--record, --live, --save-maps and --timing follow trenching episodes; task "
                              f"{spec.task} takes {can}")
-        cycles = "one trial" if spec.task == "truck" else f"{spec.dig_budget} digs at most"
+        cycles = f"{spec.dig_budget} digs at most"
+        if spec.task == "truck":
+            tuning = resolved.truck.tuning
+            cycles = "one trial" if tuning is None else (f"a {'tuned' if tuning.learn else 'untuned'} run of "
+                                                         f"{tuning.trials} trials")
         label = "excavsim trench --spec" if command == "trench" else f"excavsim {command}"
         say(f"{label}: task {spec.task}, machine {spec.machine_name}, {cycles}, seed {spec.seed}")
         result = run_spec(spec, progress=say, observer=recorder(record) if record else None)

@@ -311,16 +311,26 @@ class TruckTask:
         if digs is not None:
             raise UsageError("a truck-loading trial runs its mass-excavation script; no dig source can be given "
                              "(digs must be None)")
+        q = self.new_world(seed, world)
+        if self.params is None:
+            self.params = self.computed(q)
+        self.trial: Trial | None = None
+        return self.sim, self.cfg
+
+    def new_world(self, seed: int, world: Simulation | None = None) -> np.ndarray:
+        """A trial's world (a fresh one of ``seed`` unless given), scanner and fixed dig; the joint angles at
+        the dig's end. Every trial starts from such a world (§6.2)."""
         self.sim = sim = world if world is not None else Simulation(soil=self.soil, seed=seed)
         self.arm = arm_from_model(sim.model)
         self.scanner = Scanner(sim, seed)
         q = dig(sim, self.cfg, self.arm)
-        if self.params is None:
-            self.params = compute_params(self.arm, self.cfg.site, timing_model(sim, self.cfg), q[1:4],
-                                         self.cfg.dig_swing, open_pitch=self.cfg.open_pitch)
         self.loaded = sim.truth.volumes.bucket
-        self.trial: Trial | None = None
-        return sim, self.cfg
+        return q
+
+    def computed(self, q: np.ndarray) -> MassParams:
+        """The parameters computed for the site (§4.2) from this world's dig, ended at joint angles ``q``."""
+        return compute_params(self.arm, self.cfg.site, timing_model(self.sim, self.cfg), q[1:4], self.cfg.dig_swing,
+                              open_pitch=self.cfg.open_pitch)
 
     def budget_reason(self, budget: int) -> str:
         return "the trial's script ran"
