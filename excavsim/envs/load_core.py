@@ -34,10 +34,11 @@ from excavsim.envs.core import Field, check_seed, check_vector, check_weights
 from excavsim.errors import ConfigError, EnvError
 from excavsim.loop.digs import Choice
 from excavsim.loop.episode import Episode
-from excavsim.loop.scenario import EpisodeSpec, ResolvedSpec, load_spec, loading_summary
+from excavsim.loop.scenario import EpisodeSpec, ResolvedSpec, load_spec
 from excavsim.planning import loading as lp
 from excavsim.tasks.load import planar as ld
 from excavsim.tasks.load.in_mujoco import SECTIONS, LoadTask, map_sections
+from excavsim.tasks.load.in_mujoco import summary as loading_summary
 
 LANE_LENGTH_M = 8.5  # models/pile_box: the lane runs from x = 0 to 8.5 m
 PROFILE_STEP_M = 0.05
