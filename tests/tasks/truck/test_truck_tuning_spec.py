@@ -8,6 +8,7 @@ from excavsim import constants
 from excavsim.errors import ConfigError
 from excavsim.loop.scenario import EpisodeSpec, ResolvedSpec, dig_rows, episode_summary, run_spec
 from excavsim.tasks.truck import trial as truck
+from excavsim.tasks.truck import tuning
 
 # one computed trial, then the tuner: the learned path within three trials
 SMALL = {"learning": {"initial_trials": 1}, "tuning": {"trials": 3}}
@@ -21,7 +22,7 @@ def test_a_specs_tuning_run_is_tunes_trial_by_trial_and_records_every_trial(tmp_
     spec = EpisodeSpec(task="truck", seed=2, truck=SMALL)
     rrd = tmp_path / "run.rrd"
     run = run_spec(spec, observer=episode_recorder(str(rrd)))
-    alone = truck.tune(3, truck.truck_config(ResolvedSpec(spec).truck), seed=2)
+    alone = tuning.tune(3, truck.truck_config(ResolvedSpec(spec).truck), seed=2)
     assert [t.source for t in run.tuning_trials] == ["computed + noise"] * 2 + ["learned"]
     for a, b in zip(run.tuning_trials, alone, strict=True):
         assert a.params == b.params and a.time_s == b.time_s and a.pile == b.pile
