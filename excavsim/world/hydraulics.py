@@ -153,8 +153,19 @@ class ExcavatorWorld:
             ExcavsimError: ``target`` is not 4 finite angles within the limits.
             Diverged: MuJoCo warned, or the state is not finite.
         """
+        return self.step_rates(self.drive.rates(target, self.drive.setpoints(self.data)))
+
+    def step_rates(self, rates: np.ndarray) -> np.ndarray:
+        """One control step with the four servos' set-point rates ``rates`` (4,) [rad/s, m/s] given directly
+        (a valve command, as a joint-level agent gives it; :meth:`step` computes them from joint targets); the
+        caller keeps them within the flow limits (``drive.ctrl_lo``/``ctrl_hi``; MuJoCo clamps to ``ctrlrange``).
+        The joint encoders after it.
+
+        Raises:
+            Diverged: MuJoCo warned, or the state is not finite.
+        """
         d = self.data
-        d.ctrl[self.drive.act] = self.drive.rates(target, self.drive.setpoints(d))
+        d.ctrl[self.drive.act] = rates
         self.contact = self.soil.step(d, self.control_dt)
         d.xfrc_applied[self._bucket] = self.contact.wrench
         mujoco.mj_step(self.model, d, self.substeps)
