@@ -20,7 +20,7 @@ from excavsim.tasks.truck_loading.task import TruckLoadingTask, truck_spec
 from excavsim.world.hydraulics import EXCAVATOR_JOINTS
 from excavsim.world.truck import TruckBed, TruckSpec, TruckWorld
 
-SPEC = "configs/excavator_truck.yaml"
+SPEC = "configs/specs/excavator_truck.yaml"
 
 
 @pytest.fixture(scope="module")
