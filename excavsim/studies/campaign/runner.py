@@ -26,6 +26,14 @@ process group), since the main process ends its workers itself when it stops (on
 or on an error). A worker that dies during an episode (killed, out of memory, a crash in native
 code) is replaced and its episode run once more; if that attempt dies too, the episode is recorded
 with status ``failed`` and the error, and the campaign goes on. Ray retries a task once itself.
+
+One campaign is one version of the code, the models and the configurations: the campaign takes a
+digest of them when it starts (:mod:`excavsim.studies.campaign.inputs`; a worker imports the package
+once but reads the models and configurations again for every episode), every worker checks it before
+and after each episode, and a change stops the campaign with an error naming the files (a merge in the
+working tree mid-campaign once made heavy clay's tuned and untuned runs differ from their first pass).
+Each result records the digest (``inputs``); on resume a result made with other inputs is moved to
+``episodes/stale/`` and its episode runs again.
 """
 
 from __future__ import annotations
@@ -50,8 +58,9 @@ from typing import Any
 
 import yaml
 
-from excavsim.errors import ConfigError, DependencyError, UsageError
+from excavsim.errors import ConfigError, DependencyError, ExcavsimError, UsageError
 from excavsim.handoff.episode import EpisodeObserver
+from excavsim.studies.campaign import inputs
 from excavsim.studies.campaign.grid import (OVERRIDE_SECTIONS, CampaignSpec, Episode, check_campaign, episode_id,
                                          expand_grid, load_campaign, parse_campaign)
 from excavsim.studies.campaign.report import (format_table, group_table, plot_campaign, summary_rows, write_atomic,
@@ -100,10 +109,15 @@ def _json_safe(obj: Any) -> Any:
     return str(obj)
 
 
-def _task(ep: Episode, out_dir: pathlib.Path, recorder: Recorder | None) -> dict[str, Any]:
+def _task(ep: Episode, out_dir: pathlib.Path, recorder: Recorder | None,
+          files: dict[str, str] | None = None) -> dict[str, Any]:
     return {"id": ep.id, "name": ep.name, "params": ep.params, "spec": ep.spec.model_dump(mode="json"),
             "out_dir": str(out_dir.resolve()), "recording": f"recordings/{ep.id}.rrd" if recorder else None,
-            "recorder": recorder}
+            "recorder": recorder, "inputs": files}
+
+
+class InputsChanged(ExcavsimError):
+    """The files a campaign's episodes read changed while it ran (:mod:`excavsim.studies.campaign.inputs`)."""
 
 
 def run_episode_task(task: dict[str, Any]) -> dict[str, Any]:
@@ -111,20 +125,29 @@ def run_episode_task(task: dict[str, Any]) -> dict[str, Any]:
 
     Args:
         task: ``id``, ``name``, ``params``, ``spec`` (an EpisodeSpec as JSON), ``out_dir``,
-            ``recording`` (a path under ``out_dir``, or None) and ``recorder`` (the observer factory
-            that records to that path, or None).
+            ``recording`` (a path under ``out_dir``, or None), ``recorder`` (the observer factory
+            that records to that path, or None) and ``inputs`` (the campaign's
+            :func:`~excavsim.studies.campaign.inputs.digest` when it started, or None: not checked).
 
     Returns:
         A JSON-ready record: the task's fields, ``status`` (``ok`` or ``error``), ``summary`` (see
         :func:`~excavsim.loop.scenario.episode_summary`), ``digs`` (one row per dig,
         :func:`~excavsim.loop.scenario.dig_rows`), ``error`` and ``traceback`` when the
-        episode raised, the episode's ``log`` lines, ``wall_s``, ``host`` and ``pid``.
+        episode raised, the episode's ``log`` lines, ``wall_s``, ``host``, ``pid``, ``inputs`` (the
+        inputs' :func:`~excavsim.studies.campaign.inputs.combined` digest when checked) and, when the
+        inputs differ from ``task["inputs"]`` before or after the episode, ``inputs_changed`` (the files;
+        status ``error``; the episode does not run when they differ before it).
     """
     log: list[str] = []
     rec = {k: task[k] for k in ("id", "name", "params", "spec", "recording")}
     rec.update(status="ok", summary=None, error=None, traceback=None, log=log, host=socket.gethostname(),
                pid=os.getpid())
     t0 = time.perf_counter()
+    expected = task.get("inputs")
+    if expected is not None:
+        rec["inputs"] = inputs.combined(expected)
+        if moved := inputs.changed(expected, inputs.digest()):
+            return _json_safe(_inputs_changed(rec, moved, "before", t0))
     try:
         spec = EpisodeSpec.model_validate(task["spec"])
         observer = None
@@ -136,8 +159,18 @@ def run_episode_task(task: dict[str, Any]) -> dict[str, Any]:
         rec["summary"], rec["digs"] = episode_summary(result), dig_rows(result)
     except Exception as exc:  # noqa: BLE001 - a failing episode is a result, not the campaign's end
         rec.update(status="error", error=f"{type(exc).__name__}: {exc}", traceback=traceback.format_exc())
+    if expected is not None and (moved := inputs.changed(expected, inputs.digest())):
+        return _json_safe(_inputs_changed(rec, moved, "during", t0))
     rec["wall_s"] = time.perf_counter() - t0
     return _json_safe(rec)
+
+
+def _inputs_changed(rec: dict[str, Any], files: list[str], when: str, t0: float) -> dict[str, Any]:
+    rec.update(status="error", summary=None, inputs_changed=files, inputs_changed_when=when,
+               wall_s=time.perf_counter() - t0,
+               error=f"InputsChanged: {len(files)} file(s) the episodes read changed since the campaign started "
+                     f"({inputs.describe(files)}), {when} this episode")
+    return rec
 
 
 def _failed_record(task: dict[str, Any], error: str) -> dict[str, Any]:
@@ -426,6 +459,32 @@ def _progress_line(count: int, total: int, rec: dict, eta_s: float) -> str:
 
 
 # -- the campaign --------------------------------------------------------------------------------------
+def _set_aside_stale(ep_dir: pathlib.Path, ids: set[str], current: str, say: Callable[[str], None],
+                     done: set[str]) -> None:
+    """Move the results among ``ids`` made with other inputs than ``current`` (their ``inputs`` digest) to
+    ``episodes/stale/`` and drop them from ``done``, so that their episodes run again; results without a
+    digest (made before campaigns recorded one) stay, with a note."""
+    stale, unknown = [], 0
+    for ep_id in sorted(ids):
+        path = ep_dir / f"{ep_id}.json"
+        try:
+            made_with = json.loads(path.read_text(encoding="utf-8")).get("inputs")
+        except (OSError, ValueError):
+            continue  # result_problem has moved an unreadable one aside already
+        if made_with is None:
+            unknown += 1
+        elif made_with != current:
+            _move_aside(path, ep_dir / "stale")
+            done.discard(ep_id)
+            stale.append(ep_id)
+    if stale:
+        say(f"note: {len(stale)} result(s) were made with other code, models or configurations than these "
+            f"(inputs {current}); moved to {ep_dir / 'stale'}, their episodes run again")
+    if unknown:
+        say(f"note: {unknown} result(s) carry no inputs digest (made before campaigns recorded one): kept, but "
+            "nothing shows they were made with this code, these models and configurations")
+
+
 def run_campaign(spec: CampaignSpec, out_dir: str | pathlib.Path, *, workers: int | None = None,
                  resume: bool = False, ray_address: str | None = None, recorder: Recorder | None = None,
                  progress: Callable[[str], None] | None = print) -> CampaignReport:
@@ -479,6 +538,8 @@ def run_campaign(spec: CampaignSpec, out_dir: str | pathlib.Path, *, workers: in
                 moved = _move_aside(path, ep_dir / "corrupt")
                 say(f"note: {path} is not a valid result ({problem}); moved to {moved}, its episode runs again")
                 done.discard(ep_id)
+        files = inputs.digest()
+        _set_aside_stale(ep_dir, done & ids, inputs.combined(files), say, done)
         todo = [e for e in episodes if e.id not in done]
         if spec.record and todo and recorder is None:
             raise UsageError(f"campaign {spec.name} has record: true but no recorder was given: pass "
@@ -489,12 +550,19 @@ def run_campaign(spec: CampaignSpec, out_dir: str | pathlib.Path, *, workers: in
         where = f"Ray ({ray_address})" if ray_address else f"{n} local process{'es' if n > 1 else ''}"
         say(f"campaign {spec.name}: {len(episodes)} episodes, {len(episodes) - len(todo)} already done, "
             f"{len(todo)} to run on {where}; results in {out}")
-        tasks = [_task(e, out, recorder if spec.record else None) for e in todo]
+        tasks = [_task(e, out, recorder if spec.record else None, files) for e in todo]
         results = _ray_results(tasks, ray_address, workers) if ray_address else _local_results(tasks, n, say)
         count, ran, t0 = len(episodes) - len(todo), 0, time.perf_counter()
         try:
             with _sigterm_interrupts():
                 for rec in results if tasks else ():
+                    if files_changed := rec.get("inputs_changed"):
+                        raise InputsChanged(
+                            f"campaign {spec.name} stopped: {len(files_changed)} file(s) its episodes read changed "
+                            f"while it ran ({inputs.describe(files_changed)}; seen {rec['inputs_changed_when']} "
+                            f"episode {rec['id']}); the {count} result(s) in {ep_dir} were made with the files as "
+                            "they were when it started. Once the change is done, run it again with --resume: "
+                            "results made with other inputs are moved to episodes/stale/ and run again")
                     write_atomic(ep_dir / f"{rec['id']}.json", json.dumps(rec, indent=1, allow_nan=False) + "\n")
                     count, ran = count + 1, ran + 1
                     eta = (time.perf_counter() - t0) / ran * (len(todo) - ran)
