@@ -11,6 +11,7 @@ import shutil
 import pytest
 
 from excavsim import constants
+from excavsim.loop.scenario import merge
 from excavsim.studies.campaign import inputs
 from excavsim.studies.campaign import runner as cmp
 
@@ -118,3 +119,25 @@ def test_the_digest_names_added_removed_and_changed_files(tmp_path):
     assert inputs.changed(before, after) == [f"{name}/a.yaml", f"{name}/b.yaml", f"{name}/c.yaml"]
     assert inputs.changed(before, before) == [] and inputs.combined(before) != inputs.combined(after)
     assert inputs.describe([str(i) for i in range(7)], limit=2) == "0, 1 and 5 more"
+
+
+@pytest.mark.parametrize("base, other", [
+    ({"task": "truck_loading", "machine": "excavator_25t", "soil": "heavy_clay", "dig_budget": 1,
+      "truck_loading": {"tuning": {"tune": False}}},
+     {"soil": "lean_clay", "seed": 3, "truck_loading": {"tuning": {"tune": True}}}),
+    ({"task": "load", "dig_budget": 1}, {"seed": 3}),
+], ids=["truck_loading", "load"])
+def test_an_episode_after_another_in_one_worker_is_the_same_as_before_it(base, other):
+    """A worker's second episode does not inherit the first's state: episode B, a different episode A, B
+    again, in one process, give B's passes (or digs) and summary twice to the bit (wall times aside)."""
+    def run(spec):
+        spec = dict(spec)
+        grid = {"seed": [spec.pop("seed", 0)]}
+        (ep,) = cmp.expand_grid(cmp.parse_campaign({"name": "order", "base": spec, "grid": grid}))
+        rec = cmp.run_episode_task(cmp._task(ep, constants.REPO_ROOT, None, None))
+        assert rec["status"] == "ok", rec["error"]
+        return ({k: v for k, v in rec["summary"].items() if not k.endswith("wall_s")}, _pass_rows(rec))
+
+    b = run(base)
+    run(merge(base, other))
+    assert run(base) == b
