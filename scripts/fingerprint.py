@@ -46,8 +46,10 @@ RUNS = {  # output file -> arguments of the excavsim command
     "demo.txt": ["demo"],
     "campaign_tiny.txt": ["campaign", "configs/campaigns/tiny.yaml", "--out", "{dir}/campaign_tiny", "--workers", "1"],
 }
-# keys of JSON results that differ run to run (wall-clock times, versions, dates, paths)
-VOLATILE_KEYS = re.compile(r"wall|planning_s|seconds|version|time_utc|date|started|finished_at|host|pid|path|elapsed")
+# keys of JSON results that differ run to run (wall-clock times, versions, dates, paths) or checkout to checkout
+# (a campaign result's inputs: the digest of the code, models and configurations it ran with)
+VOLATILE_KEYS = re.compile(r"wall|planning_s|seconds|version|time_utc|date|started|finished_at|host|pid|path|elapsed"
+                           r"|^inputs$")
 # wall-clock times, and the lines that name the checkout or the output directory
 TIMING = re.compile(r"\d+\.\d+ s\b|\d+\.\d+ s wall|\(\d+ s\)|ETA \d+ min \d+ s")
 VOLATILE = ("maps saved in", "baseline written", "golden scenarios of", "recorded to")
