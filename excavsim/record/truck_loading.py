@@ -17,9 +17,13 @@ Timelines ``sim_time`` (duration) and ``pass`` (sequence, 1-based). Entity tree:
       soil/truth                   Mesh3D of the pit's true heightfield: at the start, after each pass, at the end
       truck/truck_<part>           the truck's collision body (chassis, floor, sides, tailgate, headboard,
                                    cab) as boxes, static
-      truck/fill                   Mesh3D of the bed's fill (truth): one vertex per fill cell at the fill's
-                                   surface; at the start, after each pass, after a full truck left, at the end
-      truck/scan                   Points3D: the bed scanner's map (the mind's), at each look
+      truck                        Transform3D: the truck's frame (the bed's centre on the ground, x along the
+                                   truck, y across), static
+      truck/fill                   Mesh3D of the bed's fill (truth) in the truck's frame: one vertex per fill
+                                   cell at the fill's surface; at the start, after each pass, after a full
+                                   truck left, at the end
+      truck/scan                   Points3D: the bed scanner's map (the mind's), in the truck's frame, at
+                                   each look
     joint_deg/<function>, cylinder_kn/<function>, soil/bucket_l, soil/force_n   ExcavatorRecorder's, at rate_hz
     soil/truck_l                   soil in the truck's bed [l] (truth), at rate_hz
     pass/bucket_l                  soil in the bucket after the dig [l], per pass
@@ -28,6 +32,7 @@ Timelines ``sim_time`` (duration) and ``pass`` (sequence, 1-based). Entity tree:
     pass/cycle_s                   the bucket loading cycle [s] (to the dig + dig + swing-dump-return), per pass
     pass/script_s                  the swing-dump-return script [s] (§6.2's time), per pass
     pass/cost                      §6.2's cost of the pass, per pass
+                                   (the pass/ series on the pass timeline and at the pass's end on sim_time)
     log                            TextLog: each pass's line, each truck leaving, the episode's end
 """
 
@@ -54,15 +59,24 @@ PASS_SERIES = {  # entity: (series name with its unit, colour)
 }
 
 
-def truck_loading_blueprint(machine: str) -> rrb.Blueprint:
-    """The layout a truck-loading recording opens with: the site in 3D, the per-pass metrics, the signals."""
+def truck_loading_blueprint(machine: str, truck_xy: tuple[float, float] = (0.0, 7.6),
+                            dig_xy: tuple[float, float] = (8.0, 2.0)) -> rrb.Blueprint:
+    """The layout a truck-loading recording opens with: the site in 3D (the camera on the machine, the dig
+    and the truck, whose centres in the world are ``truck_xy`` and ``dig_xy`` [m], rather than on the whole
+    ground), the per-pass metrics, the signals."""
+    target = np.array([(truck_xy[0] + dig_xy[0]) / 3.0, (truck_xy[1] + dig_xy[1]) / 3.0, 1.0])
+    away = np.array([-0.9, -1.0, 0.0]) * 2.0 * max(math.hypot(*truck_xy), math.hypot(*dig_xy))
+    eye = rrb.EyeControls3D(kind=rrb.Eye3DKind.Orbital, position=target + away + [0.0, 0.0, 13.0],
+                            look_target=target, eye_up=(0, 0, 1))
+
     def series(name: str, contents: list[str]) -> rrb.TimeSeriesView:
         return rrb.TimeSeriesView(name=name, origin="/", contents=contents,
                                   plot_legend=rrb.PlotLegend(rrb.Corner2D.RightTop, visible=True))
 
     return rrb.Blueprint(
         rrb.Horizontal(
-            rrb.Vertical(rrb.Spatial3DView(name=f"{machine} loading the truck", origin="/world"),
+            rrb.Vertical(rrb.Spatial3DView(name=f"{machine} loading the truck", origin="/world",
+                                               eye_controls=eye),
                          rrb.TextLogView(name="log", origin="/log"), row_shares=[4, 1]),
             rrb.Vertical(rrb.Tabs(series("soil per pass [l]", ["+ /pass/bucket_l", "+ /pass/truck_l",
                                                                "+ /pass/spill_l"]),
@@ -101,9 +115,9 @@ class TruckLoadingRecorder(ExcavatorRecorder):
         self.cfg, self.world = cfg, world
         super().started(world)
         rec = self.rec
-        for f, (name, colour) in PASS_SERIES.items():
-            rec.log(f, rr.SeriesLines(names=name, colors=colour), static=True)
-        rec.log("soil/truck_l", rr.SeriesLines(names="soil in the truck [l]", colors=(205, 150, 80)), static=True)
+        for f, (name, colour) in PASS_SERIES.items():  # points: one value a pass, at the pass's end on sim_time
+            rec.log(f, rr.SeriesPoints(names=name, colors=colour, marker_sizes=4.0), static=True)
+        rec.log("soil/truck_l", rr.SeriesLines(names="soil in the truck [l]", colors=(150, 100, 210)), static=True)
         self._fill(world, float(world.data.time))
 
     def scanned(self, index, emap, bed_depth=None) -> None:
@@ -117,9 +131,8 @@ class TruckLoadingRecorder(ExcavatorRecorder):
         u = -0.5 * t.length_m + (np.arange(ncols) + 0.5) * cell_u
         v = -0.5 * t.width_m + (np.arange(nrows) + 0.5) * cell_v
         uu, vv = np.meshgrid(u, v)
-        ok = np.isfinite(depth)
-        x, y = t.to_world(uu[ok], vv[ok])
-        pts = np.stack([x, y, t.floor_m + depth[ok]], axis=1).astype(np.float32)
+        ok = np.isfinite(depth)  # in the truck's frame, as the fill
+        pts = np.stack([uu[ok], vv[ok], t.floor_m + depth[ok]], axis=1).astype(np.float32)
         self._at(float(self.world.data.time))
         self.rec.log("world/truck/scan", rr.Points3D(pts, radii=0.03, colors=MAP_RGB.astype(np.uint8)))
 
@@ -139,8 +152,7 @@ class TruckLoadingRecorder(ExcavatorRecorder):
         self._terrain(w, t)
         self._fill(w, t)
         truck_l = 1000.0 * w.bed.volume()
-        rec.reset_time()
-        rec.set_time("pass", sequence=int(index))
+        rec.set_time("pass", sequence=int(index))  # the pass and its end on sim_time
         values = {"pass/bucket_l": 1000.0 * p.bucket_m3, "pass/truck_l": truck_l, "pass/spill_l": 1000.0 * p.spill_m3,
                   "pass/cycle_s": p.cycle_s, "pass/script_s": p.script_s, "pass/cost": p.cost}
         for entity, value in values.items():
@@ -175,7 +187,14 @@ class TruckLoadingRecorder(ExcavatorRecorder):
         return f"machine: {world.spec.name}\ntask: truck_loading\ntruck: {world.truck!r}\nconfig: {cfg}\n"
 
     def _open(self, rec: rr.RecordingStream) -> None:
-        rec.save(str(self.path), default_blueprint=truck_loading_blueprint(self.machine))
+        t = self.world.truck
+        cfg = getattr(self.cfg, "dig", None)  # the candidate digs' middle, for the camera
+        if cfg is not None:
+            r, a = float(np.mean(cfg.radii_m)), math.radians(float(np.mean(cfg.swings_deg)))
+            dig = (r * math.cos(a), r * math.sin(a))
+        else:
+            dig = (8.0, 2.0)
+        rec.save(str(self.path), default_blueprint=truck_loading_blueprint(self.machine, (t.x_m, t.y_m), dig))
 
     def _root(self, b: int) -> str:
         if self._names[b] == "truck":
@@ -192,19 +211,16 @@ class TruckLoadingRecorder(ExcavatorRecorder):
         self.rec.set_time("sim_time", duration=t)
 
     def _fill(self, world, t: float) -> None:
-        """The bed's fill (truth) as a mesh: a vertex at each fill cell's centre, at the fill's surface."""
-        bed, truck = world.bed, world.truck
+        """The bed's fill (truth) as a mesh in the truck's frame (``world/truck``'s: the bed's centre on the
+        ground, x along the truck, y across): a vertex at each fill cell's centre, at the fill's surface."""
+        bed = world.bed
         u, v = bed.centres_local()
         uu, vv = np.meshgrid(u, v)  # (nrows, ncols): rows across the truck, columns along it
-        x, y = truck.to_world(uu, vv)
-        verts = np.stack([x, y, bed.surface_z()], axis=-1).reshape(-1, 3).astype(np.float32)
-        n = grid_normals(bed.fill, bed.cell)  # in the bed's frame: turned by the truck's heading
-        c, s = math.cos(truck.heading), math.sin(truck.heading)
-        normals = np.stack([c * n[:, 0] - s * n[:, 1], s * n[:, 0] + c * n[:, 1], n[:, 2]], axis=1)
+        verts = np.stack([uu, vv, bed.surface_z()], axis=-1).reshape(-1, 3).astype(np.float32)
         self._at(t)
         self.rec.log("world/truck/fill", rr.Mesh3D(vertex_positions=verts,
                                                    triangle_indices=grid_triangles(bed.nrows, bed.ncols),
-                                                   vertex_normals=normals.astype(np.float32),
+                                                   vertex_normals=grid_normals(bed.fill, bed.cell),
                                                    albedo_factor=FILL_RGB))
         self._bed_m3 = bed.volume()
 

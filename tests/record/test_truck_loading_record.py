@@ -132,9 +132,24 @@ def test_the_logged_fill_and_metrics_are_the_worlds(recording):
     assert truck_l[0] == pytest.approx(1000.0 * w.bed.volume(), rel=1e-9)
     assert bucket_l[0] == pytest.approx(1000.0 * p.bucket_m3, rel=1e-9)
     assert cycle_s[0] == pytest.approx(p.cycle_s, rel=1e-9)
-    # the fill's vertices sit over the bed's inside, in the world frame
-    xyz = np.asarray(fills[-1][1], float)
-    assert w.bed.inside(xyz[:, 0], xyz[:, 1]).all()
+    # the fill's vertices, put through the truck's logged frame, sit over the bed's inside in the world
+    xyz = truck_frame(path) @ np.c_[np.asarray(fills[-1][1], float), np.ones(len(fills[-1][1]))].T
+    assert w.bed.inside(xyz[0], xyz[1]).all()
+    assert xyz[2] == pytest.approx(w.bed.surface_z().ravel(), abs=1e-5)
+
+
+def truck_frame(path) -> np.ndarray:
+    """The (3, 4) transform of the logged ``/world/truck`` frame (static) to the world."""
+    for chunk in RrdReader(path).stream().to_chunks():
+        if chunk.entity_path == "/world/truck" and chunk.is_static:
+            table = chunk.to_record_batch()
+            get = {c.split(":")[-1]: table.column(c).to_pylist()[0] for c in table.schema.names if ":" in c}
+            (x, y, z, qw), t = (get["quaternion"][0] if "quaternion" in get else (0, 0, 0, 1)), get["translation"][0]
+            rot = np.array([[1 - 2 * (y * y + z * z), 2 * (x * y - z * qw), 2 * (x * z + y * qw)],
+                            [2 * (x * y + z * qw), 1 - 2 * (x * x + z * z), 2 * (y * z - x * qw)],
+                            [2 * (x * z - y * qw), 2 * (y * z + x * qw), 1 - 2 * (x * x + y * y)]])
+            return np.c_[rot, t]
+    raise AssertionError("no static /world/truck transform in the recording")
 
 
 def test_the_bucket_is_logged_where_the_world_has_it(recording):
