@@ -141,8 +141,10 @@ class TruckLoadingRecorder(ExcavatorRecorder):
 
     def stepped(self, world) -> None:
         """After a control step: the machine and the signals at ``rate_hz``; the fill when a truck left."""
-        if self._bed_m3 is not None and world.bed.volume() < self._bed_m3 - 1e-9:
+        bed_m3 = world.bed.volume()  # it only grows (the bed catches, settling keeps it) until a truck leaves
+        if self._bed_m3 is not None and bed_m3 < self._bed_m3 - 1e-9:
             self._fill(world, float(world.data.time))  # the full truck left, an empty one is in its place
+        self._bed_m3 = bed_m3
         super().stepped(world)
 
     def dug(self, index: int, p) -> None:

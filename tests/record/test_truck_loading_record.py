@@ -180,3 +180,31 @@ def test_a_bad_file_is_refused(tmp_path):
         TruckLoadingRecorder(tmp_path / "x.txt")
     with pytest.raises(ExcavsimError, match="rate_hz"):
         TruckLoadingRecorder(tmp_path / "x.rrd", rate_hz=0.0)
+
+
+def test_a_truck_that_leaves_takes_its_fill_off_the_recording(tmp_path):
+    """When a full truck leaves (``TruckWorld.haul``) the fill is logged again, empty, at the next step."""
+    from excavsim.world.truck import TruckWorld
+
+    w = TruckWorld("excavator_25t", "dry_sand", seed=0)
+    path = tmp_path / "haul.rrd"
+    rec = TruckLoadingRecorder(path)
+    rec.started(w, None)
+    _, caught = w.bed.catch(np.array([w.truck.x_m]), np.array([w.truck.y_m]), np.array([0.5]), 0.6)
+    assert caught == pytest.approx(0.5)
+    q = w.joint_angles()
+    while w.data.time < 0.3:
+        w.step(q)
+        rec.stepped(w)
+    w.haul()
+    hauled_at = float(w.data.time)
+    while w.data.time < 0.6:
+        w.step(q)
+        rec.stepped(w)
+    rec.finished(None)
+    fills = logged(path, "/world/truck/fill", "Mesh3D:vertex_positions")
+    assert len(fills) == 3  # the empty bed at the start, the new truck's at the first step after the haul, the end
+    assert fills[1][0] == pytest.approx(hauled_at, abs=0.05)
+    assert all(_fill_m3(f, w.truck.floor_m, w.bed.cell) == pytest.approx(0.0, abs=1e-9) for _, f in fills)
+    truck_l = np.array([v[0] for _, v in logged(path, "/soil/truck_l", "Scalars:scalars")])
+    assert truck_l.max() == pytest.approx(500.0, rel=1e-9) and truck_l[-1] == 0.0
