@@ -51,7 +51,7 @@ from excavsim.record.geometry import MAP_RGB, grid_normals, grid_triangles
 FILL_RGB = np.array([205, 150, 80], np.uint8)  # the bed's fill, a warmer sand than the pit's
 PASS_SERIES = {  # entity: (series name with its unit, colour)
     "pass/bucket_l": ("soil in the bucket [l]", (245, 160, 40)),
-    "pass/truck_l": ("soil in the truck [l]", (205, 150, 80)),
+    "pass/truck_l": ("soil in the truck [l]", (150, 100, 210)),
     "pass/spill_l": ("spillage [l]", (220, 40, 30)),
     "pass/cycle_s": ("time per bucket [s]", (80, 140, 250)),
     "pass/script_s": ("swing-dump-return [s]", (44, 160, 44)),
@@ -69,8 +69,11 @@ def truck_loading_blueprint(machine: str, truck_xy: tuple[float, float] = (0.0, 
     eye = rrb.EyeControls3D(kind=rrb.Eye3DKind.Orbital, position=target + away + [0.0, 0.0, 13.0],
                             look_target=target, eye_up=(0, 0, 1))
 
-    def series(name: str, contents: list[str]) -> rrb.TimeSeriesView:
+    whole = rrb.TimeRange(start=rrb.TimeRangeBoundary.infinite(), end=rrb.TimeRangeBoundary.infinite())
+
+    def series(name: str, contents: list[str], every_pass: bool = False) -> rrb.TimeSeriesView:
         return rrb.TimeSeriesView(name=name, origin="/", contents=contents,
+                                  axis_x=rrb.TimeAxis(view_range=whole) if every_pass else None,
                                   plot_legend=rrb.PlotLegend(rrb.Corner2D.RightTop, visible=True))
 
     return rrb.Blueprint(
@@ -79,9 +82,9 @@ def truck_loading_blueprint(machine: str, truck_xy: tuple[float, float] = (0.0, 
                                                eye_controls=eye),
                          rrb.TextLogView(name="log", origin="/log"), row_shares=[4, 1]),
             rrb.Vertical(rrb.Tabs(series("soil per pass [l]", ["+ /pass/bucket_l", "+ /pass/truck_l",
-                                                               "+ /pass/spill_l"]),
-                                  series("time per pass [s]", ["+ /pass/cycle_s", "+ /pass/script_s"]),
-                                  series("cost per pass", ["+ /pass/cost"])),
+                                                               "+ /pass/spill_l"], every_pass=True),
+                                  series("time per pass [s]", ["+ /pass/cycle_s", "+ /pass/script_s"], every_pass=True),
+                                  series("cost per pass", ["+ /pass/cost"], every_pass=True)),
                          series("soil [l]", ["+ /soil/bucket_l", "+ /soil/truck_l"]),
                          rrb.Tabs(series("joints [deg]", ["+ /joint_deg/**"]),
                                   series("cylinders [kN]", ["+ /cylinder_kn/**"]))),
