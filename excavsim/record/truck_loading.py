@@ -111,9 +111,10 @@ class TruckLoadingRecorder(ExcavatorRecorder):
         super().__init__(path, rate_hz=rate_hz, soil_period_s=1e12)
         self.cfg = None
         self.world = None
+        self._bed_m3: float | None = None  # the bed's volume at the last step [m^3] (a drop: a truck left)
 
     # -- the episode's hooks ------------------------------------------------------------------------------------
-    def started(self, world, cfg=None) -> None:  # noqa: D401 - the observer's hook
+    def started(self, world, cfg=None) -> None:
         """Open the file, log the machine, the pit, the truck and the empty bed."""
         self.cfg, self.world = cfg, world
         super().started(world)
@@ -185,8 +186,6 @@ class TruckLoadingRecorder(ExcavatorRecorder):
         super().finished(w)
 
     # -- ExcavatorRecorder's parts --------------------------------------------------------------------------------
-    _bed_m3: float | None = None
-
     def _config_text(self, world) -> str:
         cfg = self.cfg.model_dump_json() if hasattr(self.cfg, "model_dump_json") else repr(self.cfg)
         return f"machine: {world.spec.name}\ntask: truck_loading\ntruck: {world.truck!r}\nconfig: {cfg}\n"
