@@ -45,6 +45,7 @@ import numpy as np
 import rerun as rr
 import rerun.blueprint as rrb
 
+from excavsim.errors import UsageError
 from excavsim.record.excavator import ExcavatorRecorder
 from excavsim.record.geometry import MAP_RGB, grid_normals, grid_triangles
 
@@ -145,6 +146,8 @@ class TruckLoadingRecorder(ExcavatorRecorder):
 
     def stepped(self, world) -> None:
         """After a control step: the machine and the signals at ``rate_hz``; the fill when a truck left."""
+        if self.rec is None:
+            raise UsageError("TruckLoadingRecorder.stepped before started")
         bed_m3 = world.bed.volume()  # it only grows (the bed catches, settling keeps it) until a truck leaves
         if self._bed_m3 is not None and bed_m3 < self._bed_m3 - 1e-9:
             self._fill(world, float(world.data.time))  # the full truck left, an empty one is in its place
@@ -153,6 +156,8 @@ class TruckLoadingRecorder(ExcavatorRecorder):
 
     def dug(self, index: int, p) -> None:
         """After a pass: the pit's terrain, the bed's fill, the pass's metrics and its line of the log."""
+        if self.rec is None:
+            raise UsageError("TruckLoadingRecorder.dug before started")
         w, rec = self.world, self.rec
         t = float(w.data.time)
         self._terrain(w, t)

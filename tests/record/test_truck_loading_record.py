@@ -180,6 +180,11 @@ def test_a_bad_file_is_refused(tmp_path):
         TruckLoadingRecorder(tmp_path / "x.txt")
     with pytest.raises(ExcavsimError, match="rate_hz"):
         TruckLoadingRecorder(tmp_path / "x.rrd", rate_hz=0.0)
+    rec = TruckLoadingRecorder(tmp_path / "y.rrd")
+    with pytest.raises(ExcavsimError, match="before started"):
+        rec.stepped(None)
+    with pytest.raises(ExcavsimError, match="before started"):
+        rec.dug(1, None)
 
 
 def test_a_truck_that_leaves_takes_its_fill_off_the_recording(tmp_path):
