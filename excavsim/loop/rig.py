@@ -22,6 +22,7 @@ from excavsim.config import (ExecutorConfig, PlannerConfig, SensingConfig, SoilP
 from excavsim.execution.dig import DigExecutor
 from excavsim.handoff.dig import ExecutionRecord
 from excavsim.handoff.maps import ElevationMap
+from excavsim.planning.constraints import PoseTorqueLimits
 from excavsim.planning.predictor import WedgePredictor
 from excavsim.planning.search import TrenchPlanner
 from excavsim.robot.extract import arm_from_model
@@ -102,14 +103,17 @@ def make_rig(sim: Simulation, *, seed: int = 0, goal: TrenchGoal | None = None,
                home, park_q, machine)
 
 
-def planner_limits(sim: Simulation, machine: Machine = T3) -> np.ndarray:
+def planner_limits(sim: Simulation, machine: Machine = T3) -> np.ndarray | PoseTorqueLimits:
     """The planar joints' torque limits the planner's force constraint holds the predicted torques to
     (Singh 1995 §5.3.3): the T3's relief torques, constants of its model's actuators; for a machine with
-    cylinders the relief pressure x area x moment arm, which varies with the pose
-    (:meth:`~excavsim.robot.machine.Machine.torque_limits`)."""
+    cylinders, Singh's joint-torque limits become the relief pressure x the piston (pushing) or annulus
+    (pulling) area x the moment arm ``dL/dq``, which varies with the pose
+    (:meth:`~excavsim.robot.machine.Machine.torque_limits`): a
+    :class:`~excavsim.planning.constraints.PoseTorqueLimits` that the force constraint evaluates at each
+    sample's joint angles, in the direction of each predicted torque."""
     if machine.hydraulics is None:
         return sim.torque_limit[1:4]
-    return machine.hydraulics.planner_torque_limits()
+    return PoseTorqueLimits(machine.torque_limits, machine.hydraulics.planner_torque_limits())
 
 
 def make_planner(arm: PlanarArm, torque_limits: np.ndarray, width: float, capacity: float, goal: TrenchGoal,
