@@ -35,6 +35,12 @@ MODULES: dict[str, str] = {
     "excavsim.loop.loading_mujoco": "excavsim.tasks.load.in_mujoco",
     "excavsim.loop.truck": "excavsim.tasks.truck.trial",
     "excavsim.loop.truck_campaign": "excavsim.tasks.truck.campaign",
+    # trenching, out of the platform (loop.episode's and loop.digs' trenching names moved by name:
+    # see NAMES below)
+    "excavsim.loop.demo": "excavsim.tasks.trench.demo",
+    "excavsim.loop.online": "excavsim.tasks.trench.online",
+    "excavsim.loop.plan_dig": "excavsim.tasks.trench.plan_dig",
+    "excavsim.loop.timing": "excavsim.tasks.trench.timing",
     # applications
     "excavsim.loop.playback": "excavsim.apps.playback.play",
     "excavsim.loop.teleop": "excavsim.apps.playback.teleop",
@@ -70,7 +76,8 @@ TESTS: dict[str, str] = {
     "test_learning": "learning",
     **dict.fromkeys(["test_record", "test_viewer"], "record"),
     "test_config": "config",
-    **dict.fromkeys(["test_cycle", "test_demo", "test_episode"], "loop"),
+    **dict.fromkeys(["test_cycle", "test_episode"], "loop"),
+    **dict.fromkeys(["test_demo", "test_table7"], "tasks/trench"),
     "test_envs": "envs",
     "test_cli_errors": "cli",
     **dict.fromkeys(["test_loading", "test_loading_mujoco"], "tasks/load"),
@@ -84,6 +91,19 @@ TESTS: dict[str, str] = {
     "test_figures": "studies/figures",
 }
 MODULES.update({f"tests.{name}": f"tests.{folder.replace('/', '.')}.{name}" for name, folder in TESTS.items()})
+
+# Old name -> new name, for the modules that were split rather than moved: trenching's names left the
+# platform's loop.episode and loop.digs for excavsim.tasks.trench (Episode, Task, MapWriter, Choice and
+# DigSource stayed; the trench's privileged measures went to loop.measures, the demo's action to handoff).
+NAMES: dict[str, str] = {
+    **{f"excavsim.loop.episode.{n}": f"excavsim.tasks.trench.task.{n}"
+       for n in ("TrenchTask", "run_episode", "map_done", "dig_metrics", "MIN_USEFUL_M3")},
+    **{f"excavsim.loop.episode.{n}": f"excavsim.loop.measures.{n}" for n in ("trench_footprint", "episode_result")},
+    **{f"excavsim.loop.digs.{n}": f"excavsim.tasks.trench.digs.{n}"
+       for n in ("PlannedDigs", "RandomFeasibleDigs", "ScriptedDigs", "predicted_peaks", "relaxed_margins",
+                 "OVER_LIMIT_MARGINS")},
+    "excavsim.loop.demo.DEMO_ACTION": "excavsim.handoff.dig.DEMO_ACTION",
+}
 
 # Literal strings that are neither module names nor module paths (git pathspecs in tests).
 LITERALS: dict[str, str] = {
@@ -110,6 +130,8 @@ _NAME = r"[A-Za-z_][\w.]*"
 # longest first, so that excavsim.loop.campaign_grid is not read as excavsim.loop.campaign + "_grid"
 _DOTTED = re.compile(r"(?<![\w.])(" + "|".join(re.escape(k) for k in sorted(MODULES, key=len, reverse=True))
                      + r")(?![\w])")
+_NAMES = re.compile(r"(?<![\w.])(" + "|".join(re.escape(k) for k in sorted(NAMES, key=len, reverse=True))
+                    + r")(?![\w])")
 _PATHS = re.compile(r"(?<![\w/.])(" + "|".join(re.escape(k) for k in sorted(PATHS, key=len, reverse=True)) + r")")
 _FROM = re.compile(r"^(?P<indent>[ \t]*)from[ \t]+(?P<pkg>" + _NAME + r")[ \t]+import[ \t]+"
                    r"(?P<names>\([^)]*\)|[^\n#;]*?)(?P<tail>[ \t]*(#[^\n]*)?)$", re.MULTILINE)
@@ -137,8 +159,12 @@ def _rewrite_from(match: re.Match[str]) -> str:
     body = names[1:-1] if parens else names
     items = [i.strip() for i in body.replace("\\\n", " ").split(",") if i.strip()]
     kept, moved = [], []
+    homes: dict[str, list[str]] = {}  # a split module's names, by their new module
     for item in items:
         name, _, alias = (p.strip() for p in item.partition(" as "))
+        if f"{pkg}.{name}" in NAMES:
+            homes.setdefault(NAMES[f"{pkg}.{name}"].rsplit(".", 1)[0], []).append(item)
+            continue
         new = MODULES.get(f"{pkg}.{name}")
         if new is None:
             kept.append(item)
@@ -146,6 +172,7 @@ def _rewrite_from(match: re.Match[str]) -> str:
         parent, base = new.rsplit(".", 1)
         local = alias or name
         moved.append(f"{indent}from {parent} import {base}" + (f" as {local}" if local != base else ""))
+    moved += [f"{indent}from {home} import {', '.join(names)}" for home, names in homes.items()]
     if not moved:
         return match.group(0)
     lines = []
@@ -162,6 +189,7 @@ def rewrite(text: str) -> str:
     """The text with every old module name, import and path replaced by the new one."""
     text = _FROM.sub(_rewrite_from, text)
     text = _BARE_TEST.sub(_rewrite_bare_test, text)
+    text = _NAMES.sub(lambda m: NAMES[m.group(1)], text)
     text = _DOTTED.sub(lambda m: MODULES[m.group(1)], text)
     text = _PATHS.sub(lambda m: PATHS[m.group(1)], text)
     for old, new in LITERALS.items():

@@ -55,7 +55,7 @@ def run_scripted(env, seed: int) -> dict:
     terms every control step (a step hook): the figures at the horizon and at the end of the dig."""
     from excavsim.handoff.goal import goal_profile
     from excavsim.handoff.dig import DigPlan
-    from excavsim.loop.digs import PlannedDigs
+    from excavsim.tasks.trench.digs import PlannedDigs
 
     env.reset(seed=seed)
     core = env.unwrapped.core

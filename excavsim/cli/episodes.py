@@ -14,7 +14,7 @@ from excavsim.errors import ConfigError, UsageError, shorten
 
 def _cmd_demo(args: argparse.Namespace) -> int:
     from excavsim.handoff.episode import format_episode
-    from excavsim.loop.demo import demo_from_configs
+    from excavsim.tasks.trench.demo import demo_from_configs
 
     print(format_episode(demo_from_configs(args.robot_config, args.scene_config, seed=args.seed, progress=print)))
     return 0

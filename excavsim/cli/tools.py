@@ -26,7 +26,7 @@ def _cmd_validate(args: argparse.Namespace) -> int:
 
 
 def _cmd_plan(args: argparse.Namespace) -> int:
-    from excavsim.loop.plan_dig import plan_on_map
+    from excavsim.tasks.trench.plan_dig import plan_on_map
 
     plan_on_map(goal=args.goal, map_path=args.map, planner_config=args.planner_config, robot_config=args.robot_config,
                 soil=args.soil, wrist_limit=args.wrist_limit, volume_constraint=not args.no_volume_constraint,

@@ -5,7 +5,7 @@ Two cores, each wrapped by a Gymnasium face (:mod:`~excavsim.envs.dig_env`,
 
 * :class:`DigCore`, one step per dig. The episode is the loop's own
   (:class:`~excavsim.loop.episode.Episode`, what ``excavsim trench`` runs), stepped phase by phase
-  in the caller's thread with the planner's dig source (:class:`~excavsim.loop.digs.PlannedDigs`),
+  in the caller's thread with the planner's dig source (:class:`~excavsim.tasks.trench.digs.PlannedDigs`),
   the agent's trenching action in place of the planner's choice. The episode's wall clock stops
   while the agent thinks. The planner's choice on the same map is computed each cycle
   anyway (it gives the feasible set, each cell's drag d2 and its curl), and when the agent's action
@@ -35,10 +35,11 @@ from excavsim.handoff.dig import Dig, TrenchAction
 from excavsim.handoff.episode import EpisodeObserver, EpisodeResult
 from excavsim.handoff.goal import goal_profile
 from excavsim.handoff.maps import ElevationMap
-from excavsim.loop.digs import Choice, PlannedDigs
-from excavsim.loop.episode import map_done
+from excavsim.loop.digs import Choice
 from excavsim.loop.scenario import EpisodeSpec, ResolvedSpec, dig_rows, episode_summary, load_spec, spec_episode
 from excavsim.planning.experience import DigExperience
+from excavsim.tasks.trench.digs import PlannedDigs
+from excavsim.tasks.trench.task import map_done
 from excavsim.world.simulation import Simulation
 
 MAX_SEED = 2**32 - 1  # EpisodeSpec.seed's bound
@@ -148,7 +149,7 @@ class GoalWindow:
 
     Rows run along the lateral axis (towards +y at waist 0), columns radially away from the robot.
     World points use the loop's convention for the trench's footprint
-    (:func:`~excavsim.loop.episode.trench_footprint`): the arm plane through the waist axis.
+    (:func:`~excavsim.loop.measures.trench_footprint`): the arm plane through the waist axis.
     """
 
     def __init__(self, goal: TrenchGoal, spacing_m: float, margin_m: float, half_width_m: float):

@@ -21,12 +21,13 @@ from excavsim.envs.core import EnvError, Field, TrueTrench, as_spec, check_seed,
 from excavsim.errors import ExcavsimError
 from excavsim.handoff.goal import goal_profile
 from excavsim.handoff.observation import Diverged, OutOfTime
-from excavsim.loop.episode import map_done, trench_footprint
+from excavsim.loop.measures import trench_footprint
 from excavsim.loop.rig import go_home, make_rig, scan
 from excavsim.loop.scenario import ResolvedSpec
 from excavsim.robot.fast import arm_params, forward_pose
 from excavsim.robot.servo import setpoint_rates
 from excavsim.sensing.ft import ForceSensor
+from excavsim.tasks.trench.task import map_done
 from excavsim.world.simulation import Simulation
 
 

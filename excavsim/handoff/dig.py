@@ -33,6 +33,12 @@ class TrenchAction(NamedTuple):
     d2: float
 
 
+# k [m], alpha [rad], d1 [m], d2 [m]: about a bucketful from the flat 0.5 m fill, 13 cm deep. The
+# hand-picked dig of ``excavsim demo`` (:mod:`excavsim.tasks.trench.demo`) and the cut whose record is
+# the playback's demonstration (:mod:`excavsim.apps.playback.play`): shared by a task and an application.
+DEMO_ACTION = TrenchAction(2.2, math.radians(40.0), 0.2, 0.4)
+
+
 @dataclasses.dataclass(frozen=True)
 class DigPlan:
     """What the executor needs from a plan: the tip path in the arm plane and where it is.

@@ -10,7 +10,7 @@
 
 This package is numpy, scipy and scikit-learn on arrays (no simulator, no recorder). What drives
 the simulator lives in :mod:`excavsim.loop`: :mod:`~excavsim.loop.samples` (force samples from an
-episode's digs), :mod:`~excavsim.studies.learning.collect` (digging for data), :mod:`~excavsim.loop.online`
+episode's digs), :mod:`~excavsim.studies.learning.collect` (digging for data), :mod:`~excavsim.tasks.trench.online`
 (the episode observer that learns while digging) and :mod:`~excavsim.studies.learning.compare` (the
 ``excavsim learn`` study).
 """

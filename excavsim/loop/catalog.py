@@ -1,7 +1,7 @@
 """The tasks the platform composes, by name.
 
-Trenching is the platform's own task (:class:`~excavsim.loop.episode.TrenchTask`); every other task
-lives in its home under ``excavsim.tasks`` and is named here by its entry point, ``module:Class``.
+Every task lives in its home under ``excavsim.tasks`` and is named here by its entry point,
+``module:Class``.
 The platform imports a task's module only when an episode of it is made, so ``loop`` stays below the
 tasks it runs (the layer contract of ``pyproject.toml``), as Gymnasium's registry names environments
 by entry point. A new task adds one line here and a ``task:`` value of the episode specification.
@@ -14,6 +14,7 @@ import importlib
 from excavsim.errors import ConfigError
 
 TASKS: dict[str, str] = {
+    "trench": "excavsim.tasks.trench.task:TrenchTask",  # a trench goal dug by the T3 (Singh 1995 §7.2, Fig. 107)
     "load": "excavsim.tasks.load.in_mujoco:LoadTask",  # loading from a pile in MuJoCo (Singh 1995 §7.2.1)
     "truck": "excavsim.tasks.truck.episode:TruckTrial",  # one truck-loading trial on the T3 (Rowe 1997 §6.2)
 }
@@ -21,7 +22,8 @@ TASKS: dict[str, str] = {
 
 def task_module(name: str):
     """The module of the task registered as ``name`` (it also defines ``format_run``, the task's table, and
-    may define ``summary`` and ``dig_rows``, its campaign row and per-dig rows).
+    may define ``summary`` and ``dig_rows``, its campaign row and per-dig rows, ``episode_recorder``, its
+    Rerun recorder, and ``DIG_SOURCES``, its dig sources by name: :func:`dig_source`).
 
     Raises:
         ConfigError: ``name`` is not a registered task (the message lists them).
@@ -33,8 +35,7 @@ def _entry(name: str) -> tuple[str, str]:
     try:
         entry = TASKS[name]
     except KeyError:
-        raise ConfigError(f"unknown task {name!r}; registered here: {', '.join(TASKS)} (trench is the "
-                          "platform's own)") from None
+        raise ConfigError(f"unknown task {name!r}; registered here: {', '.join(TASKS)}") from None
     module, _, attr = entry.partition(":")
     return module, attr
 
@@ -47,3 +48,17 @@ def task_class(name: str) -> type:
     """
     module, attr = _entry(name)
     return getattr(importlib.import_module(module), attr)
+
+
+def dig_source(task: str, kind: str, *args, **kwargs):
+    """A dig source of task ``task`` by name (its module's ``DIG_SOURCES``), made with ``args`` and
+    ``kwargs``: for trenching ``planner``, ``random`` and ``scripted``. Lets a caller that stands
+    beside the tasks (an application: the calibration's digs) choose the digs of an episode.
+
+    Raises:
+        ConfigError: ``task`` is not registered, or has no dig source ``kind`` (the message lists them).
+    """
+    sources = getattr(task_module(task), "DIG_SOURCES", {})
+    if kind not in sources:
+        raise ConfigError(f"task {task} has no dig source {kind!r}; allowed: {', '.join(sources) or 'none'}")
+    return sources[kind](*args, **kwargs)

@@ -62,7 +62,7 @@ class Rig:
     home: np.ndarray
     park: np.ndarray
     machine: Machine = T3
-    # Table 7's timing hooks (read by excavsim.loop.timing.Table7Timer; nothing else reads them): the
+    # Table 7's timing hooks (read by excavsim.tasks.trench.timing.Table7Timer; nothing else reads them): the
     # last scan's wall seconds of range acquisition and of map building, the last moves' simulated
     # and wall seconds (the dig tool's set-up).
     timings: dict[str, float] = dataclasses.field(default_factory=dict)

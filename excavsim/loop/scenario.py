@@ -203,7 +203,6 @@ def spec_episode(spec: EpisodeSpec, resolved: ResolvedSpec | None = None, *,
     Args:
         resolved: ``spec``'s configurations (default: resolved here from ``configs/``).
     """
-    from excavsim.handoff.episode import ObserverGroup
     from excavsim.loop.episode import Episode
 
     r = resolved or ResolvedSpec(spec)
@@ -217,14 +216,9 @@ def spec_episode(spec: EpisodeSpec, resolved: ResolvedSpec | None = None, *,
 
         return Episode(task_class("truck")(spec.machine_name, cfg=r.truck, soil=spec.soil), dig_budget=1,
                        progress=progress, observer=observer)
-    if spec.predictor != "wedge":  # learned online, from scratch, from this episode's digs (§5.2)
-        from excavsim.loop.online import OnlineLearning
+    from excavsim.loop.catalog import task_module
 
-        observer = ObserverGroup(OnlineLearning(spec.predictor, progress=progress), observer)
-    return Episode(goal=r.goal, dig_budget=spec.dig_budget, done_fraction=spec.done_fraction,
-                   tolerance_m=spec.tolerance_m, planner_cfg=r.planner, executor_cfg=r.executor,
-                   sensing_cfg=r.sensing, robot_cfg=r.robot, scene_cfg=r.scene, progress=progress,
-                   observer=observer)
+    return task_module("trench").spec_episode(spec, r, progress=progress, observer=observer)
 
 
 def spec_digs(spec: EpisodeSpec):
@@ -232,10 +226,9 @@ def spec_digs(spec: EpisodeSpec):
     ``spec.memory``; None (the task's own) otherwise."""
     if spec.task != "trench":
         return None
-    from excavsim.loop.digs import PlannedDigs
-    from excavsim.planning.experience import DigExperience
+    from excavsim.loop.catalog import task_module
 
-    return PlannedDigs(DigExperience() if spec.memory else None)
+    return task_module("trench").spec_digs(spec)
 
 
 def run_spec(spec: EpisodeSpec, *, progress: Callable[[str], None] | None = None, observer=None,
@@ -318,9 +311,9 @@ def run_with_outputs(spec: EpisodeSpec, *, robot_path: str | None = None, scene_
         observer = ObserverGroup(observer, MapWriter(save_maps))
     timer = None
     if timing:
-        from excavsim.loop.timing import Table7Timer
+        from excavsim.loop.catalog import task_module
 
-        timer = Table7Timer()
+        timer = task_module("trench").episode_timer()
         observer = ObserverGroup(observer, timer)
     goal = spec.goal if isinstance(spec.goal, str) else (spec.goal.name or "inline goal")
     say(f"excavsim trench: {goal} trench, {spec.dig_budget} digs at most, soil {spec.soil or 'of the scene'}, "
@@ -353,15 +346,9 @@ def dig_rows(res) -> list[dict[str, Any]]:
                  "delivered_l": 1000 * d.delivered_m3, "spilled_l": 1000 * d.spilled_m3,
                  "lane_l": 1000 * d.lane_m3, "peak_force_kn": d.peak_force_n / 1000}
                 for i, d in enumerate(res.digs, start=1)]
-    rows = []
-    for d in res.digs:
-        k, a, d1, d2 = d.action if d.action is not None else (math.nan,) * 4
-        rows.append({"dig": d.index, "kind": d.kind, "k_m": k, "alpha_deg": math.degrees(a), "d1_m": d1, "d2_m": d2,
-                     "planned_l": 1000 * d.predicted_m3, "dug_l": 1000 * d.bucket_m3, "outcome": d.outcome,
-                     "failure": d.failure or "", "stall_joint": d.stall_joint or "",
-                     "wrist_predicted_nm": float(d.predicted_peak_nm[2]),
-                     "wrist_measured_nm": float(d.peak_torque_nm[3])})
-    return rows
+    from excavsim.loop.catalog import task_module
+
+    return task_module("trench").dig_rows(res)
 
 
 def episode_summary(res) -> dict[str, Any]:
@@ -379,32 +366,9 @@ def episode_summary(res) -> dict[str, Any]:
         return task_module("truck").summary(res)
     if _is_loading(res):
         return loading_summary(res)
-    digs = res.digs
-    n = len(digs)
-    peaks = [d.peak_torque_nm for d in digs]
-    joints = ("waist", "shoulder", "elbow", "wrist_pitch", "wrist_yaw", "wrist_roll")
-    out: dict[str, Any] = {
-        "end": res.end, "reason": res.reason, "digs": n, "fallback_digs": sum(d.kind != "planned" for d in digs),
-        "stalls": sum(d.stall_joint is not None for d in digs),
-        "failed_digs": sum(d.failed for d in digs), "failed_fraction": sum(d.failed for d in digs) / n if n else 0.0,
-        "no_contact_digs": sum(d.outcome == "no contact" for d in digs),
-        "diverged_digs": sum(d.outcome == "diverged" for d in digs),
-        "little_soil_digs": sum(d.outcome != "no contact" and d.stall_joint is None and not d.bucket_m3 >= 0.001
-                                for d in digs),
-        "goal_l": 1000 * res.goal_m3, "removed_l": 1000 * res.removed_m3, "removed_fraction": res.removed_fraction,
-        "dug_l_per_dig": 1000 * sum(d.bucket_m3 for d in digs) / n if n else 0.0,
-        "planned_l_per_dig": 1000 * sum(d.predicted_m3 for d in digs) / n if n else 0.0,
-        "efficiency": sum(d.efficiency for d in digs) / n if n else 0.0,
-        "overdig_max_cm": 100 * res.overdig_max_m, "overdig_rms_cm": 100 * res.overdig_rms_m,
-        "underdig_max_cm": 100 * res.underdig_max_m, "underdig_rms_cm": 100 * res.underdig_rms_m,
-        "planning_s": sum(d.planning_s for d in digs), "sim_s": res.sim_time_s, "wall_s": res.wall_time_s,
-        "cumulative_torque_knm_s": sum(d.cumulative_torque_nm_s for d in digs) / 1000,
-        "volume_change_m3": res.volume_change_m3,
-    }
-    for j, name in enumerate(joints[1:4], start=1):
-        out[f"peak_{name}_nm"] = max((float(p[j]) for p in peaks), default=0.0)
-    out["dug_l"] = [round(1000 * d.bucket_m3, 3) for d in digs]
-    return out
+    from excavsim.loop.catalog import task_module
+
+    return task_module("trench").summary(res)
 
 
 def loading_summary(run) -> dict[str, Any]:

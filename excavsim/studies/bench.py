@@ -169,7 +169,7 @@ def bench_soil_coupling() -> list[Row]:
     ``Simulation.step`` is timed; the first run also compiles the numba kernels, so a warm-up demo
     runs first.
     """
-    from excavsim.loop.demo import run_demo
+    from excavsim.tasks.trench.demo import run_demo
     from excavsim.world.simulation import Simulation
 
     class Recorder(Simulation):
@@ -473,7 +473,7 @@ def bench_episode(*, dig_budget: int = 20, seed: int = 0) -> list[Row]:
     import mujoco
 
     from excavsim.handoff.episode import EpisodeObserver
-    from excavsim.loop.episode import run_episode
+    from excavsim.tasks.trench.task import run_episode
     from excavsim.loop.scenario import EpisodeSpec, ResolvedSpec, run_spec
     from excavsim.world.simulation import Simulation
 

@@ -242,7 +242,7 @@ def test_a_learned_predictor_plans_with_the_soil_force_in_the_arm_plane(arm, rea
 
 
 def test_the_online_observer_updates_the_predictor_after_every_dig():
-    from excavsim.loop.online import OnlineLearning
+    from excavsim.tasks.trench.online import OnlineLearning
     from excavsim.loop.scenario import EpisodeSpec, run_spec
 
     spec = EpisodeSpec(goal="straight", seed=0, dig_budget=2,
@@ -288,7 +288,7 @@ class _Scaled(GlobalRegression):
 
 def test_a_learned_model_that_forbids_every_dig_within_the_limits_plans_the_one_least_over_them():
     from excavsim.learning.predictors import WedgeModel
-    from excavsim.loop.digs import OVER_LIMIT_MARGINS, PlannedDigs
+    from excavsim.tasks.trench.digs import OVER_LIMIT_MARGINS, PlannedDigs
     from excavsim.loop.rig import make_rig
     from excavsim.world.simulation import Simulation
 
@@ -342,7 +342,7 @@ def test_the_peak_margin_counts_a_stalled_digs_ratio_as_a_lower_bound():
 
 
 def test_a_learned_model_that_forbids_every_dig_hands_the_choice_to_the_nominal_model():
-    from excavsim.loop.digs import PlannedDigs
+    from excavsim.tasks.trench.digs import PlannedDigs
     from excavsim.loop.rig import make_rig
     from excavsim.world.simulation import Simulation
 

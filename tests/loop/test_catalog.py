@@ -18,3 +18,13 @@ def test_every_registered_task_imports_and_has_the_task_hooks():
 def test_an_unknown_task_is_refused_naming_the_registered_ones():
     with pytest.raises(ConfigError, match="unknown task 'dig'.*load"):
         task_class("dig")
+
+
+def test_a_dig_source_is_made_by_its_tasks_name_and_an_unknown_one_is_refused():
+    from excavsim.loop.catalog import dig_source
+    from excavsim.loop.digs import DigSource
+
+    scripted = dig_source("trench", "scripted", [(2.2, 0.7, 0.2, 0.4)])
+    assert isinstance(scripted, DigSource) and len(scripted.actions) == 1
+    with pytest.raises(ConfigError, match="no dig source 'tuner'.*planner, random, scripted"):
+        dig_source("trench", "tuner")

@@ -239,7 +239,7 @@ def test_a_torque_margin_that_leaves_no_dig_is_relaxed_not_the_end_of_the_episod
     here); the planner then plans within the largest of the relaxed margins that leaves a dig."""
     from types import SimpleNamespace
 
-    from excavsim.loop.digs import PlannedDigs, relaxed_margins
+    from excavsim.tasks.trench.digs import PlannedDigs, relaxed_margins
 
     assert relaxed_margins(1.0) == [1.0]
     assert relaxed_margins(2.0) == [2.0, 1.5, 1.25, 1.0]

@@ -30,6 +30,8 @@ from excavsim.handoff.episode import EpisodeObserver, ObserverGroup
 from excavsim.handoff.maps import ElevationMap
 from excavsim.learning.dataset import ForceDataset, path_progress
 from excavsim.learning.encoding import Terrain, encode
+from excavsim.loop.catalog import dig_source, task_class
+from excavsim.loop.episode import Episode
 from excavsim.loop.samples import DigSamples
 
 # The band around a dig's path where the scans count the soil it removed: the settlement after the
@@ -110,8 +112,6 @@ def record_digs(path, *, truth: str = "wedge", soil: str | None = None, digs: in
     Raises:
         ExcavsimError: ``digs`` below 1, or no feasible dig in the fresh box.
     """
-    from excavsim.loop.digs import RandomFeasibleDigs
-    from excavsim.loop.episode import run_episode
     from excavsim.loop.scenario import EpisodeSpec, ResolvedSpec
     from excavsim.world.simulation import Simulation
 
@@ -121,15 +121,25 @@ def record_digs(path, *, truth: str = "wedge", soil: str | None = None, digs: in
     cfg = ResolvedSpec(EpisodeSpec(name="calibrate", goal="straight", soil=soil, seed=seed, scene={"truth": t}))
     sim = Simulation(cfg.robot, cfg.scene, seed=seed)
     rec = _DigRecorder(say or (lambda _s: None))
-    run_episode(sim, seed=seed, goal=cfg.goal, dig_budget=digs, done_fraction=None, planner_cfg=cfg.planner,
-                executor_cfg=cfg.executor, sensing_cfg=cfg.sensing,
-                digs=RandomFeasibleDigs(np.random.default_rng((seed, 8)), 0.3), observer=ObserverGroup(rec, observer))
+    _dig(sim, cfg, seed, digs, dig_source("trench", "random", np.random.default_rng((seed, 8)), 0.3),
+         ObserverGroup(rec, observer))
     if not any(len(p) for p in rec.parts):
         raise ExcavsimError(f"no dig of {sim.scene.soil} gave force samples (seed {seed})")
     data = ForceDataset.concat(rec.parts, meta=_meta(truth, sim.scene.soil, seed, quiet, rec.rig.width, rec.actions,
                                                      rec.volumes))
     data.save(path)
     return data
+
+
+def _dig(sim, cfg, seed: int, budget: int, digs, observer: EpisodeObserver) -> None:
+    """An episode of the trenching task (through the platform's catalog: an application imports no
+    task) in ``sim`` with the configurations ``cfg`` (a :class:`~excavsim.loop.scenario.ResolvedSpec`),
+    ``budget`` digs from the dig source ``digs`` and no early stop (digging for data)."""
+    task = task_class("trench")(goal=cfg.goal, done_fraction=None, planner_cfg=cfg.planner, executor_cfg=cfg.executor,
+                                sensing_cfg=cfg.sensing)
+    episode = Episode(task, dig_budget=budget, observer=observer)
+    episode.reset(seed, sim=sim, digs=digs)
+    episode.run()
 
 
 def _meta(truth: str, soil: str, seed: int, quiet: bool, width: float, actions: dict, volumes: dict) -> dict[str, str]:
@@ -165,8 +175,6 @@ def rerun_digs(data: ForceDataset, soil_params, *, truth: str, quiet: bool, seed
     """Dig the record's actions again, in order, in a fresh box of ``soil_params`` (a
     :class:`~excavsim.config.SoilParams`) on the ``truth`` model with the episode seed ``seed``;
     the re-run's force record (its digs numbered as the record's)."""
-    from excavsim.loop.digs import ScriptedDigs
-    from excavsim.loop.episode import run_episode
     from excavsim.loop.scenario import EpisodeSpec, ResolvedSpec
     from excavsim.world.simulation import Simulation
 
@@ -175,8 +183,7 @@ def rerun_digs(data: ForceDataset, soil_params, *, truth: str, quiet: bool, seed
     cfg = ResolvedSpec(EpisodeSpec(name="calibrate-rerun", goal="straight", seed=seed, scene={"truth": t}))
     sim = Simulation(cfg.robot, cfg.scene, soil=soil_params, seed=seed)
     rec = _DigRecorder(say or (lambda _s: None))
-    run_episode(sim, seed=seed, goal=cfg.goal, dig_budget=len(actions), done_fraction=None, planner_cfg=cfg.planner,
-                executor_cfg=cfg.executor, sensing_cfg=cfg.sensing, digs=ScriptedDigs(actions), observer=rec)
+    _dig(sim, cfg, seed, len(actions), dig_source("trench", "scripted", actions), rec)
     return ForceDataset.concat(rec.parts, meta={"source": "excavsim.apps.calibrate.digs.rerun_digs"})
 
 

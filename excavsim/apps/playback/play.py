@@ -1,7 +1,7 @@
 """The chapter-6 experiment (DiMaio 1998 §6.1-6.3, Figs. 6.42-6.48): demonstrate a dig
 in one soil, play it back in a stiffer and a softer one with each impedance controller.
 
-The demonstration is the cut of :data:`~excavsim.loop.demo.DEMO_ACTION` recorded by the dig executor
+The demonstration is the cut of :data:`~excavsim.handoff.dig.DEMO_ACTION` recorded by the dig executor
 in the demonstration soil (world model ``dimaio``); a 10 cm free-motion descent onto the entry is
 prepended (:meth:`~excavsim.execution.playback.Demonstration.with_approach`) so that the variable
 impedance shows its switch from the air to the soil. Each playback runs in a fresh world with the
@@ -39,7 +39,7 @@ from excavsim.execution.playback import (DepthDual, Demonstration, FixedImpedanc
                                          VariableImpedance, demonstration_from_joints, demonstration_from_record)
 from excavsim.handoff.dig import DigPlan
 from excavsim.handoff.maps import ElevationMap
-from excavsim.loop.demo import DEMO_ACTION
+from excavsim.handoff.dig import DEMO_ACTION
 from excavsim.loop.rig import go_home, go_to, make_rig
 from excavsim.world.simulation import Simulation
 

@@ -6,7 +6,7 @@
 keys, so a test gives it a string. :func:`tty_keys` is the thin terminal layer: single key presses from
 a terminal in cbreak mode, refused with a clear error when standard input is not a terminal.
 
-The arm starts 10 cm above the entry of the chapter-6 demonstration dig (:data:`~excavsim.loop.demo.DEMO_ACTION`)
+The arm starts 10 cm above the entry of the chapter-6 demonstration dig (:data:`~excavsim.handoff.dig.DEMO_ACTION`)
 in the demonstration soil under DiMaio's model, the same world :func:`~excavsim.apps.playback.play.run_playback`
 plays back in.
 """
@@ -25,7 +25,7 @@ from excavsim.errors import GoalError, UsageError
 from excavsim.execution.demonstration import Demonstration, plane_state
 from excavsim.execution.teleop import FINISH, HELP, TeleopOptions, apply_key, keys_of
 from excavsim.handoff.episode import EpisodeObserver
-from excavsim.loop.episode import episode_result, trench_footprint
+from excavsim.loop.measures import episode_result, trench_footprint
 from excavsim.apps.playback.play import DEMO_SOIL, demo_plan, make_world
 from excavsim.loop.rig import go_home, go_to, make_rig
 

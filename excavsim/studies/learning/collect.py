@@ -1,12 +1,12 @@
 """Collecting force data by digging in the simulator (Singh 1995 §5.2.4: ~4000 samples of 30 digs).
 
-This module and :mod:`excavsim.loop.online` are where learning meets the world: they run episodes
-(:func:`~excavsim.loop.episode.run_episode`) with an observer that turns every dig into force
+This module and :mod:`excavsim.tasks.trench.online` are where learning meets the world: they run episodes
+(:func:`~excavsim.tasks.trench.task.run_episode`) with an observer that turns every dig into force
 samples. The rest of :mod:`excavsim.learning` is numpy, scipy and scikit-learn on arrays.
 
 :func:`collect_dataset` digs trenches in a fresh soil box ("bed") per ``digs_per_bed`` digs: one
 episode per bed whose digs are **random feasible actions** (seeded,
-:class:`~excavsim.loop.digs.RandomFeasibleDigs`) among those sweeping at least
+:class:`~excavsim.tasks.trench.digs.RandomFeasibleDigs`) among those sweeping at least
 ``min_volume_fraction`` of the bucket, instead of the planner's choice, so that the data cover the
 action space and the terrain as the trench deepens; :class:`~excavsim.loop.samples.DigSamples`
 takes the rows of every dig from its execution record.
@@ -66,8 +66,8 @@ def collect_dataset(*, soil: str | None = None, digs: int = 30, seed: int = 0, g
     Raises:
         ExcavsimError: ``digs`` or ``digs_per_bed`` below 1, or no feasible dig in a fresh bed.
     """
-    from excavsim.loop.digs import RandomFeasibleDigs
-    from excavsim.loop.episode import run_episode
+    from excavsim.tasks.trench.digs import RandomFeasibleDigs
+    from excavsim.tasks.trench.task import run_episode
     from excavsim.loop.scenario import EpisodeSpec, ResolvedSpec
     from excavsim.world.simulation import Simulation
 

@@ -6,7 +6,7 @@ from __future__ import annotations
 import numpy as np
 
 from excavsim.loop.scenario import EpisodeSpec, run_spec
-from excavsim.loop.timing import THESIS_TABLE7, Table7Timer
+from excavsim.tasks.trench.timing import THESIS_TABLE7, Table7Timer
 
 TINY = dict(name="tiny", goal="small", dig_budget=1, seed=0,
             sensing={"map": {"n_scans": 2}, "scanner": {"n_azimuth": 60, "n_elevation": 60}},

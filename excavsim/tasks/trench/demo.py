@@ -14,15 +14,14 @@ from __future__ import annotations
 import math
 from collections.abc import Callable
 
-from excavsim.handoff.dig import TrenchAction
+from excavsim.handoff.dig import DEMO_ACTION, TrenchAction
 from excavsim.handoff.episode import EpisodeObserver, EpisodeResult
-from excavsim.loop.digs import ScriptedDigs
-from excavsim.loop.episode import run_episode
 from excavsim.loop.scenario import resolve_goal
+from excavsim.tasks.trench.digs import ScriptedDigs
+from excavsim.tasks.trench.task import run_episode
 from excavsim.world.simulation import Simulation
 
-# k [m], alpha [rad], d1 [m], d2 [m]: about a bucketful from the flat 0.5 m fill, 13 cm deep.
-DEMO_ACTION = TrenchAction(2.2, math.radians(40.0), 0.2, 0.4)
+__all__ = ["DEMO_ACTION", "demo_from_configs", "run_demo"]
 
 
 def run_demo(sim: Simulation, *, seed: int = 0, action: TrenchAction = DEMO_ACTION, goal: str = "sand",

@@ -11,7 +11,8 @@ from excavsim.cli import main
 from excavsim.errors import ExcavsimError
 from excavsim.handoff.dig import TrenchAction
 from excavsim.handoff.episode import EpisodeObserver
-from excavsim.loop.demo import DEMO_ACTION, run_demo
+from excavsim.tasks.trench.demo import run_demo
+from excavsim.handoff.dig import DEMO_ACTION
 from excavsim.world.simulation import Simulation
 
 
