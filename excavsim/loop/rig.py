@@ -20,6 +20,7 @@ from excavsim import constants
 from excavsim.config import (ExecutorConfig, PlannerConfig, SensingConfig, SoilParams, TrenchGoal, get_soil,
                              load_executor_config, load_planner_config, load_sensing_config, load_trench_goal)
 from excavsim.execution.dig import DigExecutor
+from excavsim.execution.droop import DroopCompensation
 from excavsim.handoff.dig import ExecutionRecord
 from excavsim.handoff.maps import ElevationMap
 from excavsim.planning.constraints import PoseTorqueLimits
@@ -98,7 +99,9 @@ def make_rig(sim: Simulation, *, seed: int = 0, goal: TrenchGoal | None = None,
     ft = (CylinderForceReading(arm, machine, rate_hz=sensing_cfg.force_sensor.rate_hz)
           if machine.force_reading == "cylinders"
           else ForceSensor.from_config(sim.model, sensing_cfg.force_sensor, joints=machine.joints))
-    executor = DigExecutor(sim, arm, executor_cfg, ft, park_q, machine=machine)
+    # an excavator's cylinders droop under the arm's weight: its servos get the droop fed forward
+    servos = DroopCompensation(sim, arm, machine) if machine.hydraulics is not None else sim
+    executor = DigExecutor(servos, arm, executor_cfg, ft, park_q, machine=machine)
     return Rig(goal, planner_cfg, executor_cfg, sensing_cfg, arm, scanner, planner, executor, width, capacity,
                home, park_q, machine)
 
@@ -148,7 +151,7 @@ def go_to(sim: Simulation, q: np.ndarray, cfg: ExecutorConfig) -> None:
 def _timed_move(sim: Simulation, rig: Rig, q: np.ndarray, name: str) -> None:
     """:func:`go_to` ``q``, its simulated and wall seconds kept in ``rig.timings[name + "_sim_s"/"_wall_s"]``."""
     t_sim, t_wall = sim.time, time.perf_counter()
-    go_to(sim, q, rig.executor_cfg)
+    go_to(rig.executor.sim, q, rig.executor_cfg)  # the executor's servos: the world's, or fed forward
     rig.timings[name + "_sim_s"] = float(sim.time - t_sim)
     rig.timings[name + "_wall_s"] = time.perf_counter() - t_wall
 

@@ -104,8 +104,8 @@ _TABLES = {
 
 # Trenching's home poses: the bucket raised over the pit, ready to swing and reach an entry (the models'
 # ``home`` keyframes rest the bucket on the ground). The TB035's: the tip 0.7 m above the ground 2.6 m out,
-# the blade 17 deg up (its IK); the 25 t machine's: twice that out and up. Park is the keyframe.
-_HOMES = {"tb035": (0.0, 0.743459, -1.755837, -0.918266), "excavator_25t": None}
+# the blade 17 deg up (its IK); the 25 t machine's: 1.8 m up 6.5 m out, the same blade angle. Park is the keyframe.
+_HOMES = {"tb035": (0.0, 0.743459, -1.755837, -0.918266), "excavator_25t": (0.0, 0.680546, -1.503837, -1.101589)}
 
 MACHINES: dict[str, Machine] = {"t3": T3, **{
     name: Machine(name, CHAIN_JOINTS, CHAIN_JOINTS[0], CHAIN_JOINTS[1:], table=_TABLES[name], hydraulics=spec,
