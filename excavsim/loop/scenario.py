@@ -55,7 +55,8 @@ class EpisodeSpec(StrictModel):
     """One episode: its task and machine, soil, seed, stopping rules and configuration overrides."""
 
     name: str = Field(default="episode", description="label for logs and result files")
-    task: str = Field(default="trench", description="the task: trench (dig a trench goal with the T3), load "
+    task: str = Field(default="trench", description="the task: trench (dig a trench goal with the T3 or a "
+                                                    "hydraulic excavator), load "
                                                     "(load from a pile in MuJoCo: excavsim.tasks.load.in_mujoco) or "
                                                     "truck (one truck-loading trial of the mass-excavation script "
                                                     "on the T3, Rowe 1997 §6.2: excavsim.tasks.truck)")
