@@ -21,7 +21,8 @@ Layout of ``<name>.xml`` (the machine only):
   ``-p A_annulus .. p A_piston``). The swing's actuator is the same law on the swing joint with the
   swing motor's torque and speed.
 * Sensors: ``ft_force``/``ft_torque`` at ``ft_mount`` (on the bucket pin: the wrench between stick and
-  bucket, including the linkage's), and ``*_cylinder_force`` (each cylinder's force, what a pressure
+  bucket; not the link's load path, which enters the bucket at the link pin, so it is not the soil's wrench:
+  measured holding still in the air, 36 kN on a 0.8 kN bucket), and ``*_cylinder_force`` (each cylinder's force, what a pressure
   transducer pair reads).
 
 Usage: python scripts/make_excavators.py [--check]
@@ -37,6 +38,11 @@ import sys
 import numpy as np
 
 ROOT = pathlib.Path(__file__).resolve().parents[1]
+# The rocker's and link's armature at the TB035's scale [kg m^2] (assumed): it stands in for the bucket
+# cylinder's rod and oil column, which move with the rocker and are not bodies of the model. At 0.5 the
+# bucket servo (stiff, on a 6 kg rocker) limit-cycled between its relief forces with the arm held still in
+# the air (bucket up to 4 rad/s on the TB035, 1.4 rad/s on the 25 t); at 5 both settle (< 0.01 rad/s).
+LINKAGE_ARMATURE = 5.0
 sys.path.insert(0, str(ROOT))
 
 from excavsim.robot.excavators import MACHINES, ExcavatorSpec  # noqa: E402
@@ -226,16 +232,14 @@ def machine_xml(s: ExcavatorSpec) -> str:
             <body name="rocker" pos="{xz(np.array([l2, 0.0]) + k)}" quat="{quat_y(rho)}">
               <inertial pos="{f(lk.rocker_m / 2, 0, 0)}" mass="{f(m['rocker'])}"
                         diaginertia="{box_inertia(m['rocker'], (lk.rocker_m, 0.1 * scale, 0.05 * scale))}"/>
-              <!-- armature as the other joints': at 0.5 the light rocker and the bucket cylinder's stiff servo vibrated
-                   at the 2 ms step (the bucket 0.13 rad peak to peak at rest with no command) -->
-              <joint name="rocker_joint" ref="{f(rho)}" damping="{f(5 * scale ** 4)}" armature="{f(5 * scale ** 4)}"/>
+              <joint name="rocker_joint" ref="{f(rho)}" damping="{f(5 * scale ** 4)}" armature="{f(LINKAGE_ARMATURE * scale ** 4)}"/>
               <geom name="rocker_shell" class="visual" type="box" size="{f(lk.rocker_m / 2, 0.06 * scale, 0.03 * scale)}"
                     pos="{f(lk.rocker_m / 2, 0, 0)}" material="{s.name}_steel"/>
               <site name="bucket_cylinder_rod" class="pin" pos="{f(lk.rocker_m, 0, 0)}"/>
               <body name="link" pos="{f(lk.rocker_m, 0, 0)}" quat="{quat_y(lam - rho)}">
                 <inertial pos="{f(lk.link_m / 2, 0, 0)}" mass="{f(m['link'])}"
                           diaginertia="{box_inertia(m['link'], (lk.link_m, 0.1 * scale, 0.05 * scale))}"/>
-                <joint name="link_joint" ref="{f(lam - rho)}" damping="{f(5 * scale ** 4)}" armature="{f(5 * scale ** 4)}"/>
+                <joint name="link_joint" ref="{f(lam - rho)}" damping="{f(5 * scale ** 4)}" armature="{f(LINKAGE_ARMATURE * scale ** 4)}"/>
                 <geom name="link_shell" class="visual" type="box" size="{f(lk.link_m / 2, 0.05 * scale, 0.03 * scale)}"
                       pos="{f(lk.link_m / 2, 0, 0)}" material="{s.name}_steel"/>
               </body>
@@ -280,7 +284,8 @@ def machine_xml(s: ExcavatorSpec) -> str:
   </actuator>
 
   <sensor>
-    <!-- The wrench between stick (and linkage) and bucket, at the bucket pin, in the bucket's frame. -->
+    <!-- The wrench between stick and bucket at the bucket pin, in the bucket's frame (the link's load enters
+         the bucket at the link pin, so this is not the soil's wrench; the cylinder forces give that). -->
     <force name="ft_force" site="ft_mount"/>
     <torque name="ft_torque" site="ft_mount"/>
     <!-- Each cylinder's force (what the pressure transducers on its two chambers give) [N]. -->

@@ -70,6 +70,15 @@ def _cmd_playback(args: argparse.Namespace) -> int:
                              "combined with --seed, --teleop or --from-rrd (give --seeds alone, or with --demo)")
         seeds = playback.seed_range(args.seeds)
     seed = args.seed if args.seed is not None else 0
+    if args.machine == "tb035":
+        if args.seeds is not None or args.from_rrd or args.live is not None:
+            raise UsageError("playback --machine tb035: --seeds, --from-rrd and --live are the T3's; give --seed, "
+                             "--demo FILE.json or --teleop [--keys SEQUENCE] [--record FILE.rrd] with it")
+        from excavsim.apps.playback import excavator
+
+        excavator.command(args.out, seed=seed, demo_path=args.demo, teleop=args.teleop, keys=args.keys,
+                          record=args.record)
+        return 0
     if args.teleop:
         from excavsim.apps.playback.teleop import teleop_session
 
@@ -144,6 +153,9 @@ def register(sub: argparse._SubParsersAction) -> None:
                     "(excavsim trench --record); writes DIR/rrd_demonstration.json")
     pb.add_argument("--dig", type=int_in(1, 100_000), metavar="N", help="with --from-rrd: which dig (default 1)")
     pb.add_argument("--demo", metavar="FILE.json", help="play back this demonstration file instead of recording one")
+    pb.add_argument("--machine", choices=["t3", "tb035"], default="t3",
+                    help="the machine: the T3 (default; Table 6.5's impedance) or DiMaio's TB035 mini-excavator "
+                    "(Table 4.1's impedance; with --teleop the keys z/c also swing the cab)")
     pb.add_argument("--out", metavar="DIR", default="runs/playback", type=out_dir,
                     help="output directory (default runs/playback)")
     pb.set_defaults(func=_cmd_playback)

@@ -195,13 +195,14 @@ class FixedImpedance:
     stiffness: float
     zeta: float = 1.0
     depth: DepthDual | None = None
+    damping: float | None = None  # a fixed B [N s/m] (DiMaio 1998 Table 4.1's 5000) instead of the damping factor
 
     def reset(self, n: int, dt: float) -> None:
         self.n = n
 
     def gains(self, f: np.ndarray, v: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         k = np.full(self.n, self.stiffness)
-        return k, critical_damping(k, self.mass, self.zeta)
+        return k, _damping(k, self.mass, self.zeta, self.damping)
 
 
 @dataclasses.dataclass
@@ -219,6 +220,7 @@ class VariableImpedance:
     zeta: float = 1.0
     lambda_tau_s: float = 0.05
     depth: DepthDual | None = None
+    damping: float | None = None  # a fixed B [N s/m] (DiMaio 1998 Table 4.1's 5000) instead of the damping factor
 
     def reset(self, n: int, dt: float) -> None:
         self.lam = np.ones(n)  # start stiff: in the air
@@ -229,7 +231,13 @@ class VariableImpedance:
             target = lambda_from_ratio(abs(f[k]), self.g * abs(v[k]), self.f_min, self.lam[k])
             self.lam[k] += self.alpha * (target - self.lam[k])
         k = self.k_min + self.lam * (self.k_max - self.k_min)
-        return k, critical_damping(k, self.mass, self.zeta)
+        return k, _damping(k, self.mass, self.zeta, self.damping)
+
+
+def _damping(k: np.ndarray, mass: float, zeta: float, fixed: float | None) -> np.ndarray:
+    """The machine damping: ``fixed`` when given (Table 4.1 gives one B for its K range), else by the damping
+    factor (Table 6.5)."""
+    return critical_damping(k, mass, zeta) if fixed is None else np.full(np.shape(k), float(fixed))
 
 
 class Admittance:

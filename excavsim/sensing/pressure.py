@@ -1,24 +1,31 @@
-"""The soil's wrench on an excavator's bucket from its cylinders' forces: the cylinder-pressure reading.
+"""The soil's force on an excavator's bucket from its cylinder pressures (a static balance of the arm).
 
-An excavator has no wrist F/T sensor between the bucket and the soil. The models' ``ft_mount`` sits on the
-bucket pin and reads the wrench between stick and bucket, which carries the bucket linkage's push
-(tens of kN on the TB035, whatever the soil does), so the T3's reading (:class:`~excavsim.sensing.ft.ForceSensor`:
-the sensor's wrench minus the bucket's weight) does not tell the soil's force there. What a hydraulic
-excavator measures is its cylinders' pressures, i.e. each function's force and, through the moment
-arms, the torque it applies to its joint (the observation's ``actuator_force``). The static balance of
-the planar chain (Singh 1995 eq. 28, :func:`~excavsim.robot.statics.static_joint_torques`),
-``tau = G(q) - J(q)^T w``, then gives the environment's wrench ``w = (F_x, F_z, M)`` at the bucket tip:
-``w = J^-T (G(q) - tau)``.
+DiMaio 1998 §4.2 plays back on the TB035 with the bucket's interaction force as an input of the
+impedance (eq. 4.38); the real machine's force came from its cylinder pressures (the instrumented
+TB035 of Fig. 4.13 had pressure transducers on each cylinder; Tafazoli 1997, cited there as [52]).
+The excavator models carry one force sensor per cylinder (``actuatorfrc``: what the two chambers'
+pressures give) and a force/torque sensor at the bucket pin. The pin sensor alone does not see the
+environment's wrench on a backhoe's bucket: the bucket linkage's link carries a second load path into
+the bucket (measured on ``models/tb035``: holding still with no soil, the pin reads 36 kN while the bucket
+weighs 0.8 kN), so :class:`CylinderForceEstimate` reads the cylinders instead.
 
-Simplified, stated: static (the links' inertia and the oil's dynamics read as force while the arm
-accelerates, so readings right after a move are not trusted: the executor's ``touch_ignore_s``), the
-links' masses and centres of mass as the arm's model of itself holds them (the bucket linkage lumped into
-the stick), and the transducers without noise (the world's cylinder forces are exact). Near a singular
-``J`` (the stick folded onto the boom) the estimate is not defined; the reading is then NaN.
+The balance is Singh 1995 §5.3's eq. 28 solved for the wrench: the actuators' joint torques are each
+cylinder force times its moment arm ``dL/dq`` (virtual work through the pin triangle or the bucket's
+four-bar, :mod:`excavsim.robot.cylinders`), and at rest ``tau_act = tau_grav - J^T F``, so
 
-:class:`CylinderForceReading` has the interface the dig executor uses of
-:class:`~excavsim.sensing.ft.ForceSensor` (``rate_hz``, ``reading``, ``reading_into``, ``sample``,
-``reset``), so the executor runs on either.
+    J^T F = tau_grav(q) - tau_act
+
+is solved for the planar wrench ``F = (F_x, F_z, M)`` at the bucket tip (``J`` the 3 x 3 planar Jacobian
+with the pitch row, :meth:`~excavsim.robot.kinematics.PlanarArm.jacobian`). Simplified, stated: a static
+balance (the links' and the servos' inertial and damping forces are read as soil force while the arm
+accelerates, as the T3's wrist sensor reads the bucket's), the rocker's and link's weight is counted on the
+stick (where :func:`~excavsim.robot.extract.arm_from_model` puts it), and the cylinders' friction is not
+modelled. It is singular where ``J`` is (the stretched arm), so the solve is least squares.
+
+:class:`CylinderForceReading` is the same balance for the trenching loop's dig executor: it reads the joint
+torques an :class:`~excavsim.world.hydraulics.ExcavatorWorld` observation carries (cylinder force x moment
+arm, already), at the F/T sensor's rate, and writes the whole :class:`~excavsim.sensing.ft.FTReading` the
+executor reads (the force in the tip frame for touch-down and emptying, in the world for weighing).
 """
 
 from __future__ import annotations
@@ -29,10 +36,62 @@ import numpy as np
 
 from excavsim.errors import ConfigError, UsageError
 from excavsim.handoff.observation import Observation
+from excavsim.robot.excavators import FUNCTIONS, ExcavatorSpec
 from excavsim.robot.kinematics import PlanarArm
 from excavsim.robot.machine import Machine
 from excavsim.robot.statics import gravity_torques
 from excavsim.sensing.ft import FTReading
+
+
+class CylinderForceEstimate:
+    """The environment's force on the bucket from the cylinder forces and the joint angles.
+
+    It offers the part of :class:`~excavsim.sensing.ft.ForceSensor`'s interface the playback reads
+    (:meth:`reading_into`), so that :func:`~excavsim.execution.demonstration.plane_state` takes it.
+
+    Args:
+        spec: the machine's numbers (the cylinders' moment arms).
+        arm: its planar chain read from the model (masses, Jacobian).
+
+    Observation layout: ``q``, ``actuator_force`` in the machine's function order (swing, boom, stick,
+    bucket) in their first four entries; ``actuator_force[1:4]`` are cylinder forces [N], positive pushing.
+    """
+
+    def __init__(self, spec: ExcavatorSpec, arm: PlanarArm):
+        self.spec, self.arm = spec, arm
+
+    def joint_torques(self, q: np.ndarray, cylinder_forces: np.ndarray) -> np.ndarray:
+        """(3,) boom, stick and bucket joint torques [N m] that the cylinder forces (3,) [N] give at ``q`` (3,)."""
+        arms = np.array([float(self.spec.moment_arm(f, q[j])) for j, f in enumerate(FUNCTIONS[1:])])
+        return np.asarray(cylinder_forces, dtype=float) * arms
+
+    def wrench(self, q: np.ndarray, cylinder_forces: np.ndarray) -> np.ndarray:
+        """(3,) the planar wrench (F_x radial, F_z up [N], M [N m]) of the soil on the bucket at its tip."""
+        q = np.asarray(q, dtype=float)
+        rhs = gravity_torques(self.arm, q) - self.joint_torques(q, cylinder_forces)
+        jac = self.arm.jacobian(q)  # (3, 3): rows x, z, pitch; J^T F = tau
+        return np.linalg.lstsq(jac.T, rhs, rcond=1e-9)[0]
+
+    def reading_into(self, obs: Observation, out: np.ndarray) -> np.ndarray:
+        """The estimate written as a :class:`~excavsim.sensing.ft.ForceSensor` reading into ``out`` (4, 3):
+        rows force_tip, torque_tip (not estimated: zero), force_world [N] and torque_world (about the arm
+        plane's normal) [N m].
+
+        Raises:
+            ExcavsimError: the observation's angles or forces are missing or not finite.
+        """
+        q = np.asarray(obs.q, dtype=float)
+        f = np.asarray(obs.actuator_force, dtype=float)
+        if q.shape[0] < 4 or f.shape[0] < 4 or not (np.all(np.isfinite(q[:4])) and np.all(np.isfinite(f[:4]))):
+            raise UsageError(f"CylinderForceEstimate needs finite joint angles and cylinder forces (swing, boom, "
+                             f"stick, bucket first); given q {q!r}, forces {f!r}")
+        fx, fz, m = self.wrench(q[1:4], f[1:4])
+        phi = self.arm.waist_sign * q[0]
+        c, s = np.cos(phi), np.sin(phi)
+        out[:] = 0.0
+        out[2] = (fx * c, fx * s, fz)
+        out[3] = (m * s, -m * c, 0.0)  # about the plane's -y turned by the swing: CCW in (x, z) positive
+        return out
 
 
 class CylinderForceReading:

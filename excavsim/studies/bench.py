@@ -645,7 +645,9 @@ def bench_envs(*, copies: int = 8, steps: int = 200, seed: int = 0) -> list[Row]
     with ``copies`` copies stepped ``steps`` times, beside bare ``mj_step`` of the same control steps
     (the scene's substeps with the same servo rates, no soil, no observation). Steps/s from CPU time
     (this process; ``async``'s workers are not counted there, so it reports wall time) and wall time.
-    Target: the batched environment at >= 50 % of bare MuJoCo's rate (issue 36)."""
+    Target: the batched environment at >= 50 % of bare MuJoCo's rate (issue 36). Also one
+    ``excavsim/ExcavatorJoint-v0`` (the TB035 at 50 Hz) with random valves and with a dig's constant valves
+    (the bucket in the soil), no target."""
     import multiprocessing
 
     import gymnasium as gym
@@ -696,6 +698,16 @@ def bench_envs(*, copies: int = 8, steps: int = 200, seed: int = 0) -> list[Row]
     cpu, wall = timed(lambda: [env.step(actions[k, 0]) for k in range(steps)])
     env.close()
     single = add("single", steps, cpu, wall, "one TrenchJointDig-v0")
+
+    # the excavator's joint level (the TB035 at 50 Hz): random valves, and a dig (boom down, stick in, bucket
+    # curling) whose bucket is in the soil the whole time
+    exc = gym.make("excavsim/ExcavatorJoint-v0", max_time_s=2 * steps / 50 + 10)
+    for name, acts in (("random valves", actions[:, 0]), ("digging", np.tile(np.float32([0, -0.6, 0.5, 0.4]), (steps, 1)))):
+        exc.reset(seed=seed)
+        exc.step(acts[0])
+        cpu, wall = timed(lambda: [exc.step(acts[k]) for k in range(steps)])
+        add(f"ExcavatorJoint-v0 (TB035), {name}", steps, cpu, wall, "one environment, 10 substeps per step")
+    exc.close()
 
     multiprocessing.set_forkserver_preload(["excavsim.envs.joint_env"])
     results = {}

@@ -231,12 +231,24 @@ class ExcavatorWorld:
             Diverged: MuJoCo warned, or the state is not finite (now or in an earlier step).
             OutOfTime: the step came after :attr:`wall_deadline`.
         """
+        return self.step_rates(self.drive.rates(target, self.drive.setpoints(self.data)))
+
+    def step_rates(self, rates: np.ndarray) -> np.ndarray:
+        """One control step with the four servos' set-point rates ``rates`` (4,) [rad/s, m/s] given directly
+        (a valve command, as a joint-level agent gives it; :meth:`step` computes them from joint targets); the
+        caller keeps them within the flow limits (``drive.ctrl_lo``/``ctrl_hi``; MuJoCo clamps to ``ctrlrange``).
+        The joint encoders after it.
+
+        Raises:
+            Diverged: MuJoCo warned, or the state is not finite (now or in an earlier step).
+            OutOfTime: the step came after :attr:`wall_deadline`.
+        """
         d = self.data
         if self.diverged is not None:
             raise Diverged(f"the excavator world diverged earlier and cannot go on: {self.diverged}")
         if self.wall_deadline is not None and time.perf_counter() > self.wall_deadline:
             raise OutOfTime(f"the episode's wall-clock limit passed at t = {self._clock:.2f} s simulated")
-        d.ctrl[self.drive.act] = self.drive.rates(target, self.drive.setpoints(d))
+        d.ctrl[self.drive.act] = rates
         self.contact = self.soil.step(d, self.control_dt)
         d.xfrc_applied[self._bucket] = self.contact.wrench
         mujoco.mj_step(self.model, d, self.substeps)

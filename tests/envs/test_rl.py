@@ -21,7 +21,8 @@ from gymnasium.utils.env_checker import check_env as gym_check_env
 
 import excavsim.envs
 from excavsim.config.loading import load_loading_config
-from excavsim.envs import DIG_ENV_ID, ENV_IDS, JOINT_DIG_ENV_ID, JOINT_ENV_ID, LOAD_DIG_ENV_ID, EnvError
+from excavsim.envs import (DIG_ENV_ID, ENV_IDS, EXCAVATOR_JOINT_ENV_ID, JOINT_DIG_ENV_ID, JOINT_ENV_ID, LOAD_DIG_ENV_ID,
+                           EnvError)
 from excavsim.envs.batched import BatchedJointEnv, watch_ok
 from excavsim.envs.render import RenderModeError, offscreen_error
 
@@ -35,6 +36,7 @@ SHORT = {  # each environment with a tiny spec and, at the joint level, 0.3 s ep
     DIG_ENV_ID: {"spec": {**TINY, "dig_budget": 1}},
     JOINT_ENV_ID: {"spec": TINY, "max_time_s": 0.3, "scan_period_s": 0.2},
     JOINT_DIG_ENV_ID: {"spec": TINY, "max_time_s": 0.3},
+    EXCAVATOR_JOINT_ENV_ID: {"max_time_s": 0.3},
     LOAD_DIG_ENV_ID: {"spec": {"name": "tiny", "dig_budget": 1, "seed": 0, "loading": {  # a 0.6 m pile, one coarse scan
         "pile": {"height": 0.6, "top": 0.3, "foot": 1.5}, "n_scans": 1, "scanner": {"n_azimuth": 80, "n_elevation": 20}}},
         "loading_config": _LOADING.model_copy(update={"planner": _LOADING.planner.model_copy(  # a coarse planner grid

@@ -257,9 +257,9 @@ def test_the_planar_chain_read_from_the_model_is_the_closed_form(name, rng):
 
 
 def test_the_tb035_digs_a_trench_with_its_planar_chain():
-    """examples/tb035_trench.py: three passes, each filling the bucket, leave a trench 0.33 m deep or more
-    along its middle (0.35 m at its near end, 0.46-0.48 m at its deepest since the rocker's armature keeps
-    the linkage from vibrating), with the volume account closed and no cylinder beyond relief."""
+    """examples/tb035_trench.py: three passes, each filling the bucket, leave a trench 0.35 m deep or more
+    along its middle (0.34 m at its shallow end: 0.3485 m since the linkage's armature settled the bucket servo,
+    0.35 before), with the volume account closed and no cylinder beyond relief."""
     import importlib.util
 
     path = constants.REPO_ROOT / "examples" / "tb035_trench.py"
@@ -268,7 +268,8 @@ def test_the_tb035_digs_a_trench_with_its_planar_chain():
     spec.loader.exec_module(module)
     r = module.trench(seed=0)
     middle = (r["x_m"] >= 2.8) & (r["x_m"] <= 3.3)
-    assert r["surface_z_m"][middle].max() < -0.33
+    assert r["surface_z_m"][middle].max() < -0.34
+    assert np.median(r["surface_z_m"][middle]) < -0.45
     assert r["surface_z_m"][r["x_m"] >= 4.3].min() == pytest.approx(0.0, abs=1e-6)  # beyond the trench: untouched
     heaped = 1.25 * TB035.bucket.struck_capacity_m3()
     assert min(r["bucket_per_pass_m3"]) > 0.9 * heaped
