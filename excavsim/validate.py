@@ -255,7 +255,7 @@ KINDS: dict[str, Kind] = {k.name: k for k in _KIND_LIST}
 
 # Where a file lies tells its kind: a folder of configs/ (several kinds: told apart by the fields), else a stem.
 FOLDER_KINDS = {"trenches": ("goal",), "campaigns": ("campaign", "loading_campaign"), "experiments": ("experiment",),
-                "regress": ("regress",), "machines": ("machine",)}
+                "regress": ("regress",), "specs": ("spec",), "machines": ("machine",)}
 STEM_KINDS = ("robot", "scene", "soils", "sensing", "planner", "executor", "loading", "loading_mujoco", "truck")
 
 

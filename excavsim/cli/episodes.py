@@ -1,5 +1,6 @@
-"""The episode commands: ``demo``, ``cycle``, ``trench`` (one episode, or a specification's) and
-``replay`` (a recorded episode in the Rerun viewer)."""
+"""The episode commands: ``demo``, ``cycle``, ``trench`` (one episode, or a specification's), ``run``
+(a specification's episode of any task: ``trench --spec``) and ``replay`` (a recorded episode in the
+Rerun viewer)."""
 
 from __future__ import annotations
 
@@ -42,8 +43,14 @@ def _cmd_trench(args: argparse.Namespace) -> int:
     spec = parse_config({**spec.model_dump(), **{k: v for k, v in given.items() if v is not None}}, EpisodeSpec,
                         source="the command line")
     run_with_outputs(spec, robot_path=args.robot_config, scene_path=args.scene_config, record=args.record,
-                     live=args.live, save_maps=args.save_maps, timing=args.timing)
+                     live=args.live, save_maps=args.save_maps, timing=args.timing, command=getattr(args, "command", "trench"))
     return 0
+
+
+def _cmd_run(args: argparse.Namespace) -> int:
+    """``excavsim run SPEC``: ``excavsim trench --spec SPEC`` (the specification names its task)."""
+    args.goal = None
+    return _cmd_trench(args)
 
 
 def _sim_time(text: str) -> float | None:
@@ -110,27 +117,20 @@ def register(sub: argparse._SubParsersAction) -> None:
 
     trench = sub.add_parser("trench", help="dig a trench: scan, plan, dig, settle until done or out of digs")
     trench.add_argument("--spec", metavar="YAML", help="an episode specification (goal, soil, seed, budget, "
-                                                       "configuration overrides; e.g. configs/regress/small_sand.yaml)")
+                                                       "configuration overrides; e.g. configs/specs/trench_small.yaml)")
     trench.add_argument("--goal", metavar="NAME|YAML", type=name_or_path,
                         help="trench goal: a name of configs/trenches (sand, straight, small) or a YAML file "
                              "(default sand)")
-    trench.add_argument("--soil", metavar="NAME", help="soil preset of configs/soils.yaml (default: the scene's)")
-    trench.add_argument("--dig-budget", type=dig_budget_type, metavar="N",
-                        help=f"most digs to try (1 to {MAX_DIG_BUDGET}, default 20)")
-    trench.add_argument("--record", metavar="FILE.rrd", type=out_file(()),
-                        help="record the episode to a Rerun file (see `replay`)")
-    trench.add_argument("--live", nargs="?", const="", metavar="ADDRESS",
-                        help="stream the episode to a Rerun viewer as it runs: alone, spawn one (needs a display); "
-                             "with PORT, HOST:PORT or rerun+http://HOST:PORT/proxy, a running viewer (`rerun`)")
-    trench.add_argument("--timing", action="store_true",
-                        help="print Table 7 (§7.3): the mean per-cycle perception, feasible-set, selection, set-up "
-                             "and execution times beside the thesis' Sparc 10 numbers")
-    trench.add_argument("--save-maps", metavar="DIR", type=out_dir,
-                        help="save every scanned elevation map (for `plan --map`)")
-    trench.add_argument("--robot-config", metavar="YAML", help="servo configuration (default configs/robot.yaml)")
-    trench.add_argument("--scene-config", metavar="YAML", help="scene configuration (default configs/scene.yaml)")
-    trench.add_argument("--seed", type=seed_type, help=f"episode seed (0 to {MAX_SEED}, default 0)")
+    _episode_options(trench)
     trench.set_defaults(func=_cmd_trench)
+
+    run = sub.add_parser("run", help="run an episode specification of any task (trench, load, truck): "
+                                     "`trench --spec SPEC`")
+    run.add_argument("spec", metavar="SPEC.yaml", help="an episode specification: its task, machine, soil, seed, "
+                                                      "budget and configuration overrides (e.g. configs/specs/"
+                                                      "truck_trial.yaml)")
+    _episode_options(run)
+    run.set_defaults(func=_cmd_run)
 
     replay = sub.add_parser("replay", help="open a recorded episode (.rrd) in the Rerun viewer")
     replay.add_argument("file", metavar="FILE.rrd",
@@ -149,3 +149,23 @@ def register(sub: argparse._SubParsersAction) -> None:
     cycle = sub.add_parser("cycle", help="one cycle of the loop: an episode of one dig of the default trench")
     world_options(cycle)
     cycle.set_defaults(func=_cmd_cycle)
+
+
+def _episode_options(parser: argparse.ArgumentParser) -> None:
+    """The options ``trench`` and ``run`` share: fields of the specification, its outputs, base configurations."""
+    parser.add_argument("--soil", metavar="NAME", help="soil preset of configs/soils.yaml (default: the scene's)")
+    parser.add_argument("--dig-budget", type=dig_budget_type, metavar="N",
+                        help=f"most digs to try (1 to {MAX_DIG_BUDGET}, default 20)")
+    parser.add_argument("--record", metavar="FILE.rrd", type=out_file(()),
+                        help="record the episode to a Rerun file (see `replay`)")
+    parser.add_argument("--live", nargs="?", const="", metavar="ADDRESS",
+                        help="stream the episode to a Rerun viewer as it runs: alone, spawn one (needs a display); "
+                             "with PORT, HOST:PORT or rerun+http://HOST:PORT/proxy, a running viewer (`rerun`)")
+    parser.add_argument("--timing", action="store_true",
+                        help="print Table 7 (§7.3): the mean per-cycle perception, feasible-set, selection, set-up "
+                             "and execution times beside the thesis' Sparc 10 numbers")
+    parser.add_argument("--save-maps", metavar="DIR", type=out_dir,
+                        help="save every scanned elevation map (for `plan --map`)")
+    parser.add_argument("--robot-config", metavar="YAML", help="servo configuration (default configs/robot.yaml)")
+    parser.add_argument("--scene-config", metavar="YAML", help="scene configuration (default configs/scene.yaml)")
+    parser.add_argument("--seed", type=seed_type, help=f"episode seed (0 to {MAX_SEED}, default 0)")

@@ -12,6 +12,7 @@ from excavsim.errors import ConfigError, UsageError, shorten
 
 def _cmd_tune(args: argparse.Namespace) -> int:
     from excavsim.tasks.truck import trial as truck
+    from excavsim.tasks.truck import tuning
 
     cfg = truck.load_truck_config(args.config)
     retarget = None
@@ -28,7 +29,7 @@ def _cmd_tune(args: argparse.Namespace) -> int:
         compare(seeds=args.seeds, soils=args.soils or ([args.soil] if args.soil else None), trials=args.trials,
                 out=args.out, retarget=retarget, cfg=cfg)
         return 0
-    truck.tune_and_report(args.trials, cfg, args.out, seed=args.seed, soil=args.soil, retarget=retarget,
+    tuning.tune_and_report(args.trials, cfg, args.out, seed=args.seed, soil=args.soil, retarget=retarget,
                           record=args.record)
     return 0
 

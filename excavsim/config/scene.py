@@ -69,6 +69,19 @@ class SoilTruthConfig(StrictModel):
                     "(Singh 1995 §7.1.3); calibrated to Table 4's shuffled 3-NN error [-]",
     )
 
+    arm_damping_ratio: float | None = Field(
+        default=None, gt=0, le=2,
+        description="damping ratio of each planar servo (shoulder, elbow, wrist pitch) at the home pose, the others "
+                    "locked: a lightly damped hydraulic arm rings on contact and after a move (Singh 1995 §7.1.3, "
+                    "Fig. 104; excavsim.world.arm); null keeps robot.yaml's servo damping [-]",
+    )
+    arm_give_share: float = Field(
+        default=0.0, ge=0, le=10,
+        description="compliance of each planar joint's transmission as a share of its servo's (k_t = kp / share): "
+                    "the joint gives under load by a further share x tau / kp that its encoder does not see "
+                    "(Singh 1995 §7.1.3; excavsim.world.arm); 0 is rigid [-]",
+    )
+
     @model_validator(mode="after")
     def _rock_range(self) -> SoilTruthConfig:
         if self.rock_radius_min_m > self.rock_radius_max_m:
@@ -100,6 +113,11 @@ class BucketSoilConfig(StrictModel):
         default=0.02, gt=0, le=1, description="sliding speed below which friction is scaled down (regularization) [m/s]"
     )
     rock_stiffness_n_per_m: float = Field(default=1.0e5, gt=0, le=1e8, description="rock contact stiffness [N/m]")
+    load_surcharge: bool = Field(
+        default=True,
+        description="the bucket's load bears on the failure wedge as surcharge, its share growing with the fill "
+                    "(Singh 1995 eq. 7, Fig. 57, §5.1.3); false: only soil heaped ahead of the edge does",
+    )
     friction_mass_kg: float = Field(
         default=25.0, gt=0, le=1e4,
         description="lower bound on the bucket's effective mass that keeps the explicit friction stable [kg]",

@@ -10,7 +10,7 @@ from __future__ import annotations
 
 import pathlib
 
-from pydantic import Field, field_validator
+from pydantic import Field, field_validator, model_validator
 
 from excavsim import constants
 from excavsim.config.loader import StrictModel, load_config
@@ -87,6 +87,17 @@ class TruckRanges(StrictModel):
         return v
 
 
+class TruckTuning(StrictModel):
+    """An episode of task truck as a self-tuning run (Rowe 1997 §6.2): ``trials`` trials of the script, each in
+    a fresh world, the tuner choosing each trial's parameters (the task's dig source)."""
+
+    trials: int = Field(ge=2, le=1000, description="trials of the run (at least twice learning.initial_trials: "
+                                                   "a first and a last window)")
+    learn: bool = Field(default=True, description="true: tuned by LWR and the simplex after the initial trials; "
+                                                  "false: the untuned baseline, every trial from the computed "
+                                                  "parameters plus the same small noise")
+
+
 class TruckFile(StrictModel):
     """``configs/truck.yaml``: see the file for every number and its source."""
 
@@ -101,6 +112,16 @@ class TruckFile(StrictModel):
     cost: TruckCost
     learning: TruckLearning
     ranges: TruckRanges = Field(default_factory=TruckRanges)
+    tuning: TruckTuning | None = Field(default=None, description="an episode of task truck as a self-tuning run "
+                                                                 "(default none: one trial, computed parameters)")
+
+    @model_validator(mode="after")
+    def _windows(self) -> TruckFile:
+        if self.tuning is not None and self.tuning.trials < 2 * self.learning.initial_trials:
+            raise ValueError(f"tuning.trials: a tuning run needs at least {2 * self.learning.initial_trials} trials "
+                             f"(a first and a last window of learning.initial_trials = "
+                             f"{self.learning.initial_trials}); given {self.tuning.trials}")
+        return self
 
     @field_validator("dig_path")
     @classmethod

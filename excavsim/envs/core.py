@@ -236,7 +236,109 @@ class _AgentDigs(PlannedDigs):
         return super().belief(rig, emap)
 
 
-class DigCore:
+class DigLevelCore:
+    """What every dig-level environment's core does the same way: the platform's
+    :class:`~excavsim.loop.episode.Episode` of its task, stepped one dig per agent action in the
+    caller's thread (:class:`DigCore` for trenching, :class:`~excavsim.envs.load_core.LoadCore` for
+    loading from a pile).
+
+    :meth:`reset` starts an episode and cycles it up to the first dig that needs the agent's action;
+    :meth:`step` checks the action against the box ``action_low``..``action_high``, has the episode
+    decide the agent's dig, digs it, and cycles on to the next decision or the end, which is
+    ``terminated`` when the episode's end is one of :data:`TERMINAL_ENDS` and ``truncated``
+    otherwise (the dig budget, the wall clock). A subclass supplies the task's side:
+    :meth:`_start` (make the episode and reset it), :meth:`_advance` (cycle to the next decision:
+    an object with ``result``, the episode's result once it ended), :meth:`_agent_choice_for` (the
+    cycle's dig with the agent's action), :meth:`_dig` (dig the decided dig and set ``_last`` with
+    its ``reward``), :meth:`_observation`, :meth:`_info` and :attr:`action_label`.
+    """
+
+    action_low: np.ndarray
+    action_high: np.ndarray
+    action_label = "the dig action"  # how check_vector names the action in its errors
+
+    def _clear(self) -> None:
+        """Forget the running episode's state (the subclass's too, when it extends this)."""
+        self._pending = None  # the decision the agent is asked for, or the end
+        self._last: dict[str, Any] | None = None  # the last dig and its reward (set by _dig)
+        self._decided: dict[str, Any] | None = None  # how the agent's last action was dug
+        self.result = None
+        self.over = True  # no episode to step
+        self.digs = 0
+
+    def _start(self, seed: int) -> None:
+        """Make ``self._episode`` and reset it with ``seed`` (with the task's pieces the core reads)."""
+        raise NotImplementedError
+
+    def _advance(self):
+        raise NotImplementedError
+
+    def _agent_choice_for(self, action: np.ndarray) -> Choice:
+        raise NotImplementedError
+
+    def _dig(self) -> None:
+        raise NotImplementedError
+
+    def reset(self, seed: int) -> tuple[dict[str, np.ndarray], dict[str, Any]]:
+        """Start an episode with ``seed`` (abandoning any running one); its first observation and info."""
+        if self._closed:
+            raise EnvError("the environment is closed")
+        seed = check_seed(seed)
+        if self._episode is not None:
+            self._episode.close()
+        self._clear()
+        try:
+            self._start(seed)
+            self.over = False  # an episode that ended before its first dig reports its end at the first step
+            self._pending = decision = self._advance()
+        except BaseException:
+            self.over = True
+            raise
+        return self._observation(), self._info(decision, first=True)
+
+    def step(self, action: Any) -> tuple[dict[str, np.ndarray], float, bool, bool, dict[str, Any]]:
+        """Dig ``action``; (observation, reward, terminated, truncated, info).
+
+        Raises:
+            EnvError: the action is outside the space or not finite, or no episode is running
+                (before the first reset, or after the episode ended).
+        """
+        if self.over:
+            raise EnvError("the episode has ended (or never started): call reset() first")
+        a = check_vector(action, self.action_low, self.action_high, self.action_label)
+        self._last = self._decided = None
+        if self._pending.result is not None:  # the episode ended before this step: nothing to dig
+            decision, reward = self._pending, 0.0
+        else:
+            ep = self._episode
+            try:
+                ep.decide(self._agent_choice_for(a))
+                if not ep.over:
+                    self._dig()
+                self._pending = decision = self._advance()
+            except BaseException:
+                self.over = True
+                raise
+            reward = self._last["reward"] if self._last is not None else 0.0
+            self.digs += 1 if self._last is not None else 0
+        terminated = truncated = False
+        if decision.result is not None:
+            self.result = decision.result
+            terminated = decision.result.end in TERMINAL_ENDS
+            truncated = not terminated
+            self.over = True
+        return self._observation(), float(reward), terminated, truncated, self._info(decision)
+
+    def close(self) -> None:
+        """Abandon the running episode and free the world; a closed core cannot be reset (closing twice is fine)."""
+        if self._episode is not None:
+            self._episode.close()
+            self._episode = None
+        self._clear()
+        self._closed = True
+
+
+class DigCore(DigLevelCore):
     """The trenching episode, one step per dig (the core of ``excavsim/TrenchDig-v0``).
 
     Each step digs one trenching action (k, alpha, d1) [m, rad, m]. The action is snapped to the
@@ -289,17 +391,14 @@ class DigCore:
         self._closed = False
         self._clear()
 
+    action_label = "the dig action (k, alpha, d1)"
+
     def _clear(self) -> None:
+        super()._clear()  # _last: the last dig's metrics, record summary and reward terms
         self._sim = self._rig = self._truth = self._belief = None
-        self._pending: _Decision | None = None
         self._planned: Choice | None = None  # the planner's choice of the cycle waiting for the agent
-        self._last: dict[str, Any] | None = None  # the last dig's metrics, record summary and reward terms
-        self._decided: dict[str, Any] | None = None  # how the agent's last action was dug
         self._goal_layers = None
         self._measured = (0.0, 0.0)
-        self.result: EpisodeResult | None = None
-        self.over = True  # no episode to step
-        self.digs = 0
 
     # -- the episode, up to the agent's next decision ---------------------------------------------
     def _advance(self) -> _Decision:
@@ -400,61 +499,16 @@ class DigCore:
                       "terms": terms, "reward": float(reward)}
 
     # -- the caller's side -------------------------------------------------------------------------
-    def reset(self, seed: int) -> tuple[dict[str, np.ndarray], dict[str, Any]]:
-        """Start an episode with ``seed`` (abandoning any running one); its first observation and info."""
-        if self._closed:
-            raise EnvError("the environment is closed")
-        seed = check_seed(seed)
-        if self._episode is not None:
-            self._episode.close()
-        self._clear()
+    def _start(self, seed: int) -> None:
         self._episode = ep = spec_episode(self.spec, self.resolved, observer=self.observer)
-        try:
-            self._source = _AgentDigs(DigExperience() if self.spec.memory else None)
-            ep.reset(seed, digs=self._source)
-            task = ep.task
-            self._sim, self._rig = task.sim, task.rig
-            self._truth = TrueTrench(task.sim, task.mask, task.z_goal)
-            self.over = False  # an episode that ended before its first dig reports its end at the first step
-            self._pending = decision = self._advance()
-        except BaseException:
-            self.over = True
-            raise
-        return self._observation(), self._info(decision, first=True)
+        self._source = _AgentDigs(DigExperience() if self.spec.memory else None)
+        ep.reset(seed, digs=self._source)
+        task = ep.task
+        self._sim, self._rig = task.sim, task.rig
+        self._truth = TrueTrench(task.sim, task.mask, task.z_goal)
 
-    def step(self, action: Any) -> tuple[dict[str, np.ndarray], float, bool, bool, dict[str, Any]]:
-        """Dig ``action`` (k, alpha, d1) [m, rad, m]; (observation, reward, terminated, truncated, info).
-
-        Raises:
-            EnvError: the action is outside the space or not finite, or no episode is running
-                (before the first reset, or after the episode ended).
-        """
-        if self.over:
-            raise EnvError("the episode has ended (or never started): call reset() first")
-        a = check_vector(action, self.action_low, self.action_high, "the dig action (k, alpha, d1)")
-        self._last = None
-        if self._pending.result is not None:  # the episode ended before this step: nothing to dig
-            decision = self._pending
-            reward = 0.0
-        else:
-            ep = self._episode
-            try:
-                ep.decide(self._agent_choice(self._planned, a))
-                if not ep.over:
-                    self._dig()
-                self._pending = decision = self._advance()
-            except BaseException:
-                self.over = True
-                raise
-            reward = self._last["reward"] if self._last is not None else 0.0
-            self.digs += 1 if self._last is not None else 0
-        terminated = truncated = False
-        if decision.result is not None:
-            self.result = decision.result
-            terminated = decision.result.end in TERMINAL_ENDS
-            truncated = not terminated
-            self.over = True
-        return self._observation(), float(reward), terminated, truncated, self._info(decision)
+    def _agent_choice_for(self, action: np.ndarray) -> Choice:
+        return self._agent_choice(self._planned, action)
 
     def _observation(self) -> dict[str, np.ndarray]:
         if self._goal_layers is None:
@@ -499,15 +553,6 @@ class DigCore:
             info["episode"] = {k: (None if isinstance(v, float) and math.isnan(v) else v)
                                for k, v in summary.items() if k not in TIMING_KEYS}
         return info
-
-    def close(self) -> None:
-        """Abandon the running episode and free the world; a closed core cannot be reset (closing twice is fine)."""
-        if self._episode is not None:
-            self._episode.close()
-            self._episode = None
-        self._clear()
-        self._closed = True
-
 
 class _Digs:
     """The one attribute of an episode result that :func:`~excavsim.loop.scenario.dig_rows` reads."""

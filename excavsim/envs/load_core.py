@@ -30,14 +30,15 @@ import numpy as np
 
 from excavsim.config import parse_config
 from excavsim.config.loading import LoadingConfig, load_loading_config
-from excavsim.envs.core import Field, check_seed, check_vector, check_weights
+from excavsim.envs.core import DigLevelCore, Field, check_weights
 from excavsim.errors import ConfigError, EnvError
 from excavsim.loop.digs import Choice
 from excavsim.loop.episode import Episode
-from excavsim.loop.scenario import EpisodeSpec, ResolvedSpec, load_spec, loading_summary
+from excavsim.loop.scenario import EpisodeSpec, ResolvedSpec, load_spec
 from excavsim.planning import loading as lp
 from excavsim.tasks.load import planar as ld
 from excavsim.tasks.load.in_mujoco import SECTIONS, LoadTask, map_sections
+from excavsim.tasks.load.in_mujoco import summary as loading_summary
 
 LANE_LENGTH_M = 8.5  # models/pile_box: the lane runs from x = 0 to 8.5 m
 PROFILE_STEP_M = 0.05
@@ -48,9 +49,6 @@ JOINT_BOUND = 30.0  # the joints' encoders [m, rad]: the loader's travel is with
 LOAD_WEIGHTS = {"delivered_per_l": 0.01, "spilled_per_l": 0.01, "dig": 1.0}
 """The loading environment's default reward weights: per litre delivered at the truck, per litre spilled
 off the lane, per dig executed (a cycle's time: the cost of 100 l delivered)."""
-TERMINAL_ENDS = ("done", "no_dig", "diverged")
-"""Episode ends that terminate (the map holds no dig of minimal utility, the dig could not be executed,
-the world broke); the dig budget truncates."""
 TIMING_KEYS = ("wall_s",)  # wall-clock numbers left out of ``info`` (they differ run to run)
 DEFAULT_SPEC = {"name": "load", "task": "load"}
 
@@ -89,8 +87,9 @@ class _Decision:
     result: Any = None
 
 
-class LoadCore:
-    """A loading episode in MuJoCo, one step per dig (see the module docstring).
+class LoadCore(DigLevelCore):
+    """A loading episode in MuJoCo, one step per dig (see the module docstring; the stepping is
+    :class:`~excavsim.envs.core.DigLevelCore`'s, shared with trenching's :class:`~excavsim.envs.core.DigCore`).
 
     The action is the loading planner's independent variables: (k, alpha) [m, rad] with
     ``parameterization: k_alpha`` (configs/loading.yaml; d1 maximized, r the smallest reachable
@@ -153,13 +152,12 @@ class LoadCore:
         self._clear()
 
     def _clear(self) -> None:
+        super()._clear()  # _last: the last dig and its reward's terms
         self._task = None
-        self._pending: _Decision | None = None
-        self._last: dict[str, Any] | None = None  # the last dig and its reward's terms
-        self._decided: dict[str, Any] | None = None
-        self.result = None
-        self.over = True
-        self.digs = 0
+
+    @property
+    def action_label(self) -> str:
+        return f"the loading action ({', '.join(self.action_names)})"
 
     # -- the episode, up to the agent's next decision -----------------------------------------------------
     def _advance(self) -> _Decision:
@@ -208,60 +206,15 @@ class LoadCore:
         self._last = {"dig": dig, "terms": terms, "reward": float(reward)}
 
     # -- the caller's side ----------------------------------------------------------------------------------
-    def reset(self, seed: int) -> tuple[dict[str, np.ndarray], dict[str, Any]]:
-        """Start an episode with ``seed`` (abandoning any running one); its first observation and info."""
-        if self._closed:
-            raise EnvError("the environment is closed")
-        seed = check_seed(seed)
-        if self._episode is not None:
-            self._episode.close()
-        self._clear()
+    def _start(self, seed: int) -> None:
         spec = self.spec  # the episode of excavsim.loop.scenario.spec_episode, with this 2-D configuration
         task = LoadTask(spec.machine_name, cfg=self.resolved.loading, cfg2d=self.cfg2d)
         self._episode = ep = Episode(task, dig_budget=spec.dig_budget, observer=self.observer)
-        try:
-            ep.reset(seed)
-            self._task = ep.task
-            self.over = False  # an episode that ended at its first look reports its end at the first step
-            self._pending = decision = self._advance()
-        except BaseException:
-            self.over = True
-            raise
-        return self._observation(), self._info(decision, first=True)
+        ep.reset(seed)
+        self._task = ep.task
 
-    def step(self, action: Any) -> tuple[dict[str, np.ndarray], float, bool, bool, dict[str, Any]]:
-        """Dig ``action`` ((k, alpha) [m, rad], or (k, alpha, r) [m, rad, m]); (observation, reward,
-        terminated, truncated, info).
-
-        Raises:
-            EnvError: the action is outside the space or not finite, or no episode is running.
-        """
-        if self.over:
-            raise EnvError("the episode has ended (or never started): call reset() first")
-        a = check_vector(action, self.action_low, self.action_high,
-                         f"the loading action ({', '.join(self.action_names)})")
-        self._last = self._decided = None
-        if self._pending.result is not None:  # the episode ended before this step: nothing to dig
-            decision, reward = self._pending, 0.0
-        else:
-            ep = self._episode
-            try:
-                ep.decide(self._agent_choice(self._pending.plan, a))
-                if not ep.over:
-                    self._dig()
-                self._pending = decision = self._advance()
-            except BaseException:
-                self.over = True
-                raise
-            reward = self._last["reward"] if self._last is not None else 0.0
-            self.digs += 1 if self._last is not None else 0
-        terminated = truncated = False
-        if decision.result is not None:
-            self.result = decision.result
-            terminated = decision.result.end in TERMINAL_ENDS
-            truncated = not terminated
-            self.over = True
-        return self._observation(), float(reward), terminated, truncated, self._info(decision)
+    def _agent_choice_for(self, action: np.ndarray) -> Choice:
+        return self._agent_choice(self._pending.plan, action)
 
     def _observation(self) -> dict[str, np.ndarray]:
         task, emap = self._task, self._episode.emap
@@ -310,11 +263,3 @@ class LoadCore:
             info["episode"] = {k: (None if isinstance(v, float) and math.isnan(v) else v)
                                for k, v in summary.items() if k not in TIMING_KEYS}
         return info
-
-    def close(self) -> None:
-        """Abandon the running episode; a closed core cannot be reset (closing twice is fine)."""
-        if self._episode is not None:
-            self._episode.close()
-            self._episode = None
-        self._clear()
-        self._closed = True

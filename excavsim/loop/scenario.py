@@ -1,9 +1,10 @@
-"""Episode specifications: one trenching episode as data, shared by ``trench``, ``campaign`` and ``regress``.
+"""Episode specifications: one episode of any task as data, shared by ``run``, ``trench``, ``campaign`` and ``regress``.
 
-An :class:`EpisodeSpec` names the trench goal, the soil, the seed, the stopping rules and
-overrides of any configuration file (robot, scene, planner, executor, sensing), written as nested
-mappings merged over the defaults in ``configs/``. For example, a weaker wrist and a coarser
-planner grid::
+An :class:`EpisodeSpec` names the task and the machine (``task: trench | load | truck``, the tasks
+of :mod:`~excavsim.loop.catalog`), the soil, the seed, the stopping rules and overrides of any
+configuration file (for trenching the robot, scene, planner, executor and sensing; ``loading:`` and
+``truck:`` for the other tasks), written as nested mappings merged over the defaults in
+``configs/``. For example, a trench with a weaker wrist and a coarser planner grid::
 
     name: weak-wrist
     soil: lean_clay
@@ -11,15 +12,15 @@ planner grid::
     robot: {joints: {wrist_pitch: {torque_limit_nm: 500}}}
     planner: {grid: {k_step_m: 0.2}}
 
-:func:`spec_episode` makes its :class:`~excavsim.loop.episode.Episode`, :func:`run_spec` builds the
-world and runs it; :func:`episode_summary` flattens the result
-into a JSON-ready dict of numbers (the row a campaign writes and ``regress`` compares).
+:func:`spec_episode` makes its :class:`~excavsim.loop.episode.Episode` (the task's module makes it
+through the catalog), :func:`run_spec` builds the world and runs it; :func:`episode_summary` flattens
+the result into a JSON-ready dict of numbers (the row a campaign writes and ``regress`` compares),
+:func:`dig_rows` gives one row per dig: each the task's own.
 """
 
 from __future__ import annotations
 
 import copy
-import math
 import pathlib
 import re
 from collections.abc import Callable
@@ -231,11 +232,10 @@ def spec_episode(spec: EpisodeSpec, resolved: ResolvedSpec | None = None, *,
 
         return Episode(task_class("load")(spec.machine_name, cfg=r.loading), dig_budget=spec.dig_budget, progress=progress,
                        observer=observer)
-    if spec.task == "truck":  # one trial: one cycle
-        from excavsim.loop.catalog import task_class
+    if spec.task == "truck":  # one trial (one cycle), or a tuning run of its trials
+        from excavsim.loop.catalog import task_module
 
-        return Episode(task_class("truck")(spec.machine_name, cfg=r.truck, soil=spec.soil), dig_budget=1,
-                       progress=progress, observer=observer)
+        return task_module("truck").spec_episode(spec, r, progress=progress, observer=observer)
     from excavsim.loop.catalog import task_module
 
     return task_module("trench").spec_episode(spec, r, progress=progress, observer=observer)
@@ -273,15 +273,15 @@ def _is_loading(res) -> bool:
 
 
 def _is_truck(res) -> bool:
-    """Whether ``res`` is a truck-loading trial's result (a Trial) rather than a trench's."""
-    return hasattr(res, "pile") and hasattr(res, "dumped_m3")
+    """Whether ``res`` is a truck-loading result (a Trial, or a tuning run's) rather than a trench's."""
+    return (hasattr(res, "pile") and hasattr(res, "dumped_m3")) or hasattr(res, "tuning_trials")
 
 
 def run_with_outputs(spec: EpisodeSpec, *, robot_path: str | None = None, scene_path: str | None = None,
                      record: str | None = None, live: str | None = None, save_maps: str | None = None,
-                     timing: bool = False, say: Callable[[str], None] = print):
-    """``excavsim trench``: check every file of ``spec``, then run it with its outputs, saying the
-    episode, its summary and where the outputs went.
+                     timing: bool = False, say: Callable[[str], None] = print, command: str = "trench"):
+    """``excavsim trench`` and ``excavsim run``: check every file of ``spec``, then run it with its
+    outputs, saying the episode, its summary and where the outputs went.
 
     Args:
         spec: the episode.
@@ -293,13 +293,14 @@ def run_with_outputs(spec: EpisodeSpec, *, robot_path: str | None = None, scene_
         timing: also say Table 7 (Singh 1995 §7.3): the mean per-cycle perception, feasible-set,
             selection, set-up and execution times beside the thesis' Sparc 10 numbers.
         say: where the lines go.
+        command: the command that runs it (``trench`` or ``run``), for the first line.
 
     Returns:
         The episode's result.
     """
     from excavsim.handoff.episode import ObserverGroup, format_episode
 
-    ResolvedSpec(spec, robot_path=robot_path, scene_path=scene_path)  # every file checked first
+    resolved = ResolvedSpec(spec, robot_path=robot_path, scene_path=scene_path)  # every file checked first
     if spec.task != "trench":  # another task of the one episode: run it, say its table, record it if it can
         from excavsim.loop.catalog import task_module
 
@@ -309,8 +310,13 @@ def run_with_outputs(spec: EpisodeSpec, *, robot_path: str | None = None, scene_
             can = "only --record" if recorder is not None else "none of them"
             raise UsageError(f"--record, --live, --save-maps and --timing follow trenching episodes; task "
                              f"{spec.task} takes {can}")
-        cycles = "one trial" if spec.task == "truck" else f"{spec.dig_budget} digs at most"
-        say(f"excavsim trench --spec: task {spec.task}, machine {spec.machine_name}, {cycles}, seed {spec.seed}")
+        cycles = f"{spec.dig_budget} digs at most"
+        if spec.task == "truck":
+            tuning = resolved.truck.tuning
+            cycles = "one trial" if tuning is None else (f"a {'tuned' if tuning.learn else 'untuned'} run of "
+                                                         f"{tuning.trials} trials")
+        label = "excavsim trench --spec" if command == "trench" else f"excavsim {command}"
+        say(f"{label}: task {spec.task}, machine {spec.machine_name}, {cycles}, seed {spec.seed}")
         result = run_spec(spec, progress=say, observer=recorder(record) if record else None)
         say(module.format_run(result))
         if record:
@@ -337,7 +343,7 @@ def run_with_outputs(spec: EpisodeSpec, *, robot_path: str | None = None, scene_
         observer = ObserverGroup(observer, timer)
     goal = spec.goal if isinstance(spec.goal, str) else (spec.goal.name or "inline goal")
     by = "" if spec.machine_name == "t3" else f" with the {spec.machine_name}"
-    say(f"excavsim trench: {goal} trench{by}, {spec.dig_budget} digs at most, soil {spec.soil or 'of the scene'}, "
+    say(f"excavsim {command}: {goal} trench{by}, {spec.dig_budget} digs at most, soil {spec.soil or 'of the scene'}, "
         f"seed {spec.seed}")
     result = run_spec(spec, progress=say, observer=observer, robot_path=robot_path, scene_path=scene_path)
     say(format_episode(result))
@@ -351,68 +357,34 @@ def run_with_outputs(spec: EpisodeSpec, *, robot_path: str | None = None, scene_
     return result
 
 
-def dig_rows(res) -> list[dict[str, Any]]:
-    """One JSON-ready row per dig of an episode: for a trench its action (NaN for a fallback dig),
-    volumes [l], outcome and failure, and the predicted and measured peak wrist-pitch torques [N m];
-    for loading its action, section and volumes [l] and its peak soil force [kN]; for a truck trial
-    its one cycle (:func:`excavsim.tasks.truck.episode.dig_rows`)."""
+def task_of(res) -> str:
+    """The task whose result ``res`` is: ``truck`` (a trial or a tuning run), ``load`` (a loading
+    episode's run) or ``trench`` (an :class:`~excavsim.handoff.episode.EpisodeResult`)."""
     if _is_truck(res):
-        from excavsim.loop.catalog import task_module
+        return "truck"
+    return "load" if _is_loading(res) else "trench"
 
-        return task_module("truck").dig_rows(res)
-    if _is_loading(res):
-        return [{"dig": i, "section": d.section, "k_m": d.action.k, "h_m": d.action.h,
-                 "alpha_deg": math.degrees(d.action.alpha), "d1_m": d.action.d1, "r_m": d.action.r,
-                 "base_x_m": d.base_x, "planned_l": 1000 * d.planned_m3, "dug_l": 1000 * d.bucket_m3,
-                 "delivered_l": 1000 * d.delivered_m3, "spilled_l": 1000 * d.spilled_m3,
-                 "lane_l": 1000 * d.lane_m3, "peak_force_kn": d.peak_force_n / 1000}
-                for i, d in enumerate(res.digs, start=1)]
+
+def dig_rows(res) -> list[dict[str, Any]]:
+    """One JSON-ready row per dig of an episode, its task's (the ``dig_rows`` of the task's module in
+    :mod:`~excavsim.loop.catalog`): for a trench its action (NaN for a fallback dig), volumes [l],
+    outcome and failure, and the predicted and measured peak wrist-pitch torques [N m]; for loading
+    its action, section and volumes [l] and its peak soil force [kN]; for a truck trial its one cycle."""
     from excavsim.loop.catalog import task_module
 
-    return task_module("trench").dig_rows(res)
+    return task_module(task_of(res)).dig_rows(res)
 
 
 def episode_summary(res) -> dict[str, Any]:
-    """The episode's metrics as a flat dict of JSON numbers and strings (one campaign row).
+    """The episode's metrics as a flat dict of JSON numbers and strings (one campaign row), its task's
+    (the ``summary`` of the task's module in :mod:`~excavsim.loop.catalog`).
 
     Per-dig lists are reduced to totals, means and peaks; ``end`` is the stopping rule that fired
     (``done``, ``no_dig``, ``budget``, ``diverged`` or ``timeout``), ``reason`` its full text;
     ``diverged_digs`` counts the digs in which the simulation diverged (at most one: the episode ends there).
-    A loading episode's is :func:`loading_summary`, a truck trial's its task's
-    (:func:`excavsim.tasks.truck.episode.summary`).
+    A loading episode's and a truck trial's keep the same keys where they mean the same
+    (:func:`excavsim.tasks.load.in_mujoco.summary`, :func:`excavsim.tasks.truck.episode.summary`).
     """
-    if _is_truck(res):
-        from excavsim.loop.catalog import task_module
-
-        return task_module("truck").summary(res)
-    if _is_loading(res):
-        return loading_summary(res)
     from excavsim.loop.catalog import task_module
 
-    return task_module("trench").summary(res)
-
-
-def loading_summary(run) -> dict[str, Any]:
-    """A loading episode's metrics (a :class:`~excavsim.tasks.load.in_mujoco.MujocoRun`) as the flat dict
-    of :func:`episode_summary`: the same keys where they mean the same (``end``, ``reason``, ``digs``,
-    ``removed_fraction`` of the pile, ``dug_l_per_dig`` in the bucket at lift-out, ``planned_l_per_dig``,
-    ``efficiency``: delivered per dig over the heaped capacity, ``sim_s``, ``wall_s``,
-    ``volume_change_m3``: the volume account's drift), and the loading's own (delivered, spilled, the
-    lane's soil and the map's at the end, the peak soil force; ``failed_digs``: digs that delivered under a
-    tenth of the heaped capacity, assumed)."""
-    digs = run.digs
-    n = len(digs)
-    out: dict[str, Any] = {
-        "task": "load", "machine": run.machine, "end": run.end, "reason": run.reason, "digs": n,
-        "removed_fraction": run.removed_fraction, "pile_removed": bool(run.done),
-        "failed_digs": sum(d.delivered_m3 < 0.1 * run.capacity_m3 for d in digs),
-        "dug_l_per_dig": 1000 * sum(d.bucket_m3 for d in digs) / n if n else 0.0,
-        "planned_l_per_dig": 1000 * sum(d.planned_m3 for d in digs) / n if n else 0.0,
-        "efficiency": run.efficiency() if n else 0.0,
-        "delivered_l": 1000 * run.delivered_m3, "spilled_l": 1000 * run.spilled_m3,
-        "start_l": 1000 * run.start_m3, "end_l": 1000 * run.end_m3, "map_end_l": 1000 * run.map_end_m3,
-        "peak_force_kn": max((d.peak_force_n for d in digs), default=0.0) / 1000,
-        "sim_s": run.sim_time_s, "wall_s": run.wall_time_s, "volume_change_m3": run.total_drift_m3,
-    }
-    out["dug_l"] = [round(1000 * d.bucket_m3, 3) for d in digs]
-    return out
+    return task_module(task_of(res)).summary(res)

@@ -1,6 +1,6 @@
 """Rerun recording of a self-tuned truck-loading run (``excavsim tune --record FILE.rrd``).
 
-Rowe 1997 §4.3, §6.2. An observer of :func:`excavsim.tasks.truck.trial.tune` (the loop never
+Rowe 1997 §4.3, §6.2. An observer of :func:`excavsim.tasks.truck.tuning.tune` (the loop never
 imports it): ``started(cfg, base)``, ``trial(trial, cfg, cost=, sq_error=)`` after every trial (with its
 :class:`~excavsim.tasks.truck.trial.TrialTrace` and the loop's cost and squared placement error),
 ``finished(trials, cfg)``. Everything shown is the mind's
@@ -92,7 +92,7 @@ def _polar(r: float, theta: float, z: float) -> list[float]:
 
 
 class TruckRecorder:
-    """Records one :func:`~excavsim.tasks.truck.trial.tune` run to ``path`` (see the module docstring).
+    """Records one :func:`~excavsim.tasks.truck.tuning.tune` run to ``path`` (see the module docstring).
 
     Args:
         path: the ``.rrd`` file to write.

@@ -134,3 +134,27 @@ def test_validate_refuses_nonsense_of_every_kind(capsys, tmp_path, kind, text, m
     path.write_text(text)
     err = _refused(capsys, ["validate", kind, str(path)])
     assert err.startswith(f"excavsim: error: {path}") and match in err, err
+
+
+def test_run_is_trench_spec_for_any_task(capsys, monkeypatch):
+    """``excavsim run SPEC`` runs the specification as ``trench --spec SPEC`` does, naming itself; a field
+    its task does not use is refused as there."""
+    import excavsim.loop.scenario as scenario
+
+    seen = []
+    monkeypatch.setattr(scenario, "run_spec", lambda spec, **kw: seen.append(spec) or object())
+    from excavsim.loop import catalog
+
+    class Module:
+        @staticmethod
+        def format_run(result):
+            return "the task's table"
+
+    monkeypatch.setattr(catalog, "task_module", lambda name: Module)
+    assert main(["run", "configs/specs/truck_trial.yaml", "--seed", "4"]) == 0
+    out = capsys.readouterr().out
+    assert "excavsim run: task truck, machine t3, one trial, seed 4" in out and "the task's table" in out
+    assert seen[0].task == "truck" and seen[0].seed == 4
+    assert main(["run", "configs/specs/truck_trial.yaml", "--dig-budget", "3"]) == 2
+    assert "task truck does not use dig_budget" in capsys.readouterr().err
+    assert main(["run"]) == 2  # SPEC is required

@@ -110,9 +110,11 @@ def _outcome(row: dict) -> str:
     return row.get("end", "error") if row["status"] == "ok" else "error"
 
 
-# the task-specific columns of the table: shown when some episode has the metric (loading, truck loading)
+# the task-specific columns of the table: shown when some episode has the metric (loading, truck loading;
+# a truck tuning run's cost of its first and its last window)
 TASK_COLUMNS = (("delivered_l", "deliv. l"), ("spilled_l", "spilled l"), ("dumped_l", "dumped l"),
-                ("missed_l", "missed l"), ("cycle_s", "cycle s"), ("placement_error_cm", "place. cm"))
+                ("missed_l", "missed l"), ("cycle_s", "cycle s"), ("placement_error_cm", "place. cm"),
+                ("first_cost", "cost 1st"), ("cost", "cost"))
 
 
 def format_table(spec: CampaignSpec, rows: list[dict[str, Any]]) -> str:

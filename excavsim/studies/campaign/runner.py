@@ -409,7 +409,11 @@ def _progress_line(count: int, total: int, rec: dict, eta_s: float) -> str:
         def num(key: str, scale: float = 1.0, fmt: str = ".1f") -> str:  # None: not finite in the episode
             return "?" if s.get(key) is None else format(scale * s[key], fmt)
 
-        if s.get("task") == "truck":
+        if s.get("task") == "truck" and s.get("tuning"):  # a tuning run: its first and last windows
+            text = (f"{head} {s['end']}: {s['tuning']}, {s['trials']} trials, cost {num('first_cost', fmt='.2f')} "
+                    f"(first) -> {num('last_cost', fmt='.2f')} (last), cycle {num('cycle_s', fmt='.2f')} s "
+                    f"({rec['wall_s']:.0f} s)")
+        elif s.get("task") == "truck":
             text = (f"{head} {s['end']}: {num('dumped_l')} l dumped, {num('missed_l')} l missed, cycle "
                     f"{num('cycle_s', fmt='.2f')} s ({rec['wall_s']:.0f} s)")
         else:

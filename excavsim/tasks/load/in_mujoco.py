@@ -43,7 +43,7 @@ from __future__ import annotations
 import dataclasses
 import math
 import pathlib
-from typing import Protocol
+from typing import Any, Protocol
 
 import numpy as np
 
@@ -663,3 +663,42 @@ def run_episodes(*, cfg2d: ld.LoadingConfig, machine: str | None = None, seed: i
     if len(rows) > 1:
         say("\n" + format_comparison(rows))
     return all(r.done for _, r in rows)
+
+
+# -- what the platform's specification and campaigns ask of a task (excavsim.loop.scenario) ----------
+
+def summary(run: MujocoRun) -> dict[str, Any]:
+    """A loading episode's metrics (a :class:`MujocoRun`) as the flat dict of
+    :func:`~excavsim.loop.scenario.episode_summary`: the same keys where they mean the same (``end``,
+    ``reason``, ``digs``, ``removed_fraction`` of the pile, ``dug_l_per_dig`` in the bucket at lift-out, ``planned_l_per_dig``,
+    ``efficiency``: delivered per dig over the heaped capacity, ``sim_s``, ``wall_s``,
+    ``volume_change_m3``: the volume account's drift), and the loading's own (delivered, spilled, the
+    lane's soil and the map's at the end, the peak soil force; ``failed_digs``: digs that delivered under a
+    tenth of the heaped capacity, assumed)."""
+    digs = run.digs
+    n = len(digs)
+    out: dict[str, Any] = {
+        "task": "load", "machine": run.machine, "end": run.end, "reason": run.reason, "digs": n,
+        "removed_fraction": run.removed_fraction, "pile_removed": bool(run.done),
+        "failed_digs": sum(d.delivered_m3 < 0.1 * run.capacity_m3 for d in digs),
+        "dug_l_per_dig": 1000 * sum(d.bucket_m3 for d in digs) / n if n else 0.0,
+        "planned_l_per_dig": 1000 * sum(d.planned_m3 for d in digs) / n if n else 0.0,
+        "efficiency": run.efficiency() if n else 0.0,
+        "delivered_l": 1000 * run.delivered_m3, "spilled_l": 1000 * run.spilled_m3,
+        "start_l": 1000 * run.start_m3, "end_l": 1000 * run.end_m3, "map_end_l": 1000 * run.map_end_m3,
+        "peak_force_kn": max((d.peak_force_n for d in digs), default=0.0) / 1000,
+        "sim_s": run.sim_time_s, "wall_s": run.wall_time_s, "volume_change_m3": run.total_drift_m3,
+    }
+    out["dug_l"] = [round(1000 * d.bucket_m3, 3) for d in digs]
+    return out
+
+
+def dig_rows(res: MujocoRun) -> list[dict[str, Any]]:
+    """One JSON-ready row per dig of a loading episode: its action, section and volumes [l] and its peak
+    soil force [kN] (:func:`~excavsim.loop.scenario.dig_rows`)."""
+    return [{"dig": i, "section": d.section, "k_m": d.action.k, "h_m": d.action.h,
+             "alpha_deg": math.degrees(d.action.alpha), "d1_m": d.action.d1, "r_m": d.action.r,
+             "base_x_m": d.base_x, "planned_l": 1000 * d.planned_m3, "dug_l": 1000 * d.bucket_m3,
+             "delivered_l": 1000 * d.delivered_m3, "spilled_l": 1000 * d.spilled_m3,
+             "lane_l": 1000 * d.lane_m3, "peak_force_kn": d.peak_force_n / 1000}
+            for i, d in enumerate(res.digs, start=1)]

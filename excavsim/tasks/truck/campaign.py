@@ -1,7 +1,7 @@
 """The truck-loading campaign: tuned against untuned over seeds and soils, and a target moved mid-run.
 
 Rowe 1997 §6.2 (Fig. 12). For every soil and seed, three runs of ``trials`` trials
-(:func:`excavsim.tasks.truck.trial.tune`): **tuned** (the online learner), **untuned** (every trial from the
+(:func:`excavsim.tasks.truck.tuning.tune`): **tuned** (the online learner), **untuned** (every trial from the
 computed parameters plus the same small noise, ``learn=False``: what the script does without
 learning) and, with ``retarget``, **moved** (tuned, the target moved before trial ``retarget[0]``:
 does it re-learn?). The table gives, per run, the mean cost, time and squared placement error of the
@@ -24,6 +24,7 @@ import numpy as np
 from excavsim.config import get_soil
 from excavsim.errors import ConfigError
 from excavsim.tasks.truck import trial as truck
+from excavsim.tasks.truck import tuning
 
 
 @dataclasses.dataclass(frozen=True)
@@ -86,7 +87,7 @@ def run_campaign(*, seeds: Sequence[int], soils: Sequence[str], trials: int,
             if retarget is not None:
                 kinds["moved"] = dict(learn=True, retarget=retarget)
             for kind, kw in kinds.items():
-                ts = truck.tune(trials, cfg, seed=seed, soil=soil, base=base, **kw)
+                ts = tuning.tune(trials, cfg, seed=seed, soil=soil, base=base, **kw)
                 after = None
                 if kind == "moved":
                     after = Window.of(ts[retarget[0]:retarget[0] + window], cfg)

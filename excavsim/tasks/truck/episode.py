@@ -6,7 +6,13 @@ parameters computed for the site (§4.2; the self-tuning over trials is ``excavs
 scan again. The spec's ``truck:`` overrides ``configs/truck.yaml`` (validated by
 :class:`~excavsim.config.truck.TruckFile`); ``soil`` and ``seed`` choose the world. This module is what
 the platform's catalog (:mod:`excavsim.loop.catalog`) names: the task class, the campaign row
-(:func:`summary`), the per-cycle rows (:func:`dig_rows`) and the printed table (:func:`format_run`).
+(:func:`summary`), the per-cycle rows (:func:`dig_rows`), the printed table (:func:`format_run`) and
+the Rerun recorder of a trial (:func:`episode_recorder`, ``excavsim run SPEC --record FILE.rrd``).
+
+With ``truck: {tuning: {trials: N, learn: true|false}}`` the episode is a self-tuning run instead
+(:mod:`excavsim.tasks.truck.tuning`): N trials, each in a fresh world, the tuner (LWR and the simplex,
+§5) choosing their parameters, or the untuned baseline; its campaign row gives the first and the last
+window's means, so that a campaign grid compares tuned and untuned over soils and seeds.
 """
 
 from __future__ import annotations
@@ -16,7 +22,12 @@ from typing import Any
 
 from excavsim.config.truck import TruckFile
 from excavsim.errors import ConfigError
-from excavsim.tasks.truck.trial import Trial, TruckTask, truck_config
+from excavsim.loop.episode import Episode
+from excavsim.tasks.truck.trial import Trial, TruckTask, placement_error2, trial_cost, truck_config
+from excavsim.tasks.truck.tuning import Tuner, TuningRun, TuningTask, windows
+
+DIG_SOURCES = {"tuner": Tuner}
+"""The truck task's dig sources by name (:func:`excavsim.loop.catalog.dig_source`): Rowe's self-tuning."""
 
 
 class TruckTrial(TruckTask):
@@ -33,7 +44,65 @@ class TruckTrial(TruckTask):
         if machine != "t3":
             raise ConfigError(f"machine {machine!r} does not do task truck; allowed: t3")
         self.file = cfg
-        super().__init__(None, truck_config(cfg), source="computed", soil=soil)
+        # the trial keeps its trace (the servos' joints, the tip, the script's steps): what a recording
+        # shows; it only reads the servos, so the trial is the same with it or without it
+        super().__init__(None, truck_config(cfg), source="computed", soil=soil, trace=True)
+
+
+def spec_episode(spec, resolved, *, progress=None, observer=None) -> Episode:
+    """The :class:`~excavsim.loop.episode.Episode` of a truck specification (not yet reset): one trial with
+    the computed parameters (one cycle), or with ``truck.tuning`` a tuning run of its trials."""
+    tuning = resolved.truck.tuning
+    if tuning is None:
+        return Episode(TruckTrial(spec.machine_name, cfg=resolved.truck, soil=spec.soil), dig_budget=1,
+                       progress=progress, observer=observer)
+    if spec.machine_name != "t3":
+        raise ConfigError(f"machine {spec.machine_name!r} does not do task truck; allowed: t3")
+    return Episode(TuningTask(truck_config(resolved.truck), learn=tuning.learn, soil=spec.soil),
+                   dig_budget=tuning.trials, progress=progress, observer=observer)
+
+
+class TrialRecorder:
+    """A truck episode's hooks, recorded to Rerun by
+    :class:`~excavsim.record.truck.TruckRecorder` (the recording of ``excavsim tune --record``, here
+    of the episode's trial, or of every trial of a tuning run): the configuration and the computed parameters, the script's phases, the joints
+    and the tip, the scanned map after the dump, the pile measured and true, the cost.
+
+    Args:
+        path: the ``.rrd`` file to write.
+    """
+
+    def __init__(self, path: str):
+        from excavsim.record.truck import TruckRecorder
+
+        self.path = path
+        self._recorder_class = TruckRecorder
+        self.recorder = None
+        self.cfg = None
+
+    def started(self, sim, cfg) -> None:
+        self.cfg, self.seed = cfg, int(getattr(sim, "seed", 0))
+
+    def scanned(self, *args) -> None: ...
+    def planned(self, *args) -> None: ...
+    def stepped(self, *args) -> None: ...
+
+    def dug(self, index: int, trial: Trial) -> None:
+        if self.recorder is None:  # it starts with the first trial's parameters, known once the fixed dig is done
+            self.recorder = self._recorder_class(self.path, seed=self.seed)
+            self.recorder.started(self.cfg, trial.params)
+        self.recorder.trial(trial, self.cfg, cost=trial_cost(trial, self.cfg),
+                            sq_error=placement_error2(trial, self.cfg))
+
+    def finished(self, result: Trial | TuningRun | None) -> None:
+        if self.recorder is not None:
+            trials = [] if result is None else getattr(result, "tuning_trials", [result])
+            self.recorder.finished(trials, self.cfg)
+
+
+def episode_recorder(path: str) -> TrialRecorder:
+    """The Rerun recorder of a truck trial, the platform's hook for ``excavsim run SPEC --record FILE.rrd``."""
+    return TrialRecorder(path)
 
 
 def trial_end(trial: Trial) -> tuple[str, str]:
@@ -49,7 +118,7 @@ def trial_end(trial: Trial) -> tuple[str, str]:
     return "done", f"the script ended and dumped {100 * (1 - kept):.0f} % of the load"
 
 
-def summary(trial: Trial) -> dict[str, Any]:
+def summary(trial: Trial | TuningRun) -> dict[str, Any]:
     """A trial's metrics as a flat dict of JSON numbers and strings (a campaign row; ``regress``'s
     sample): ``end``/``reason`` (:func:`trial_end`), ``digs`` (1: the one cycle), the load in the bucket
     after the fixed dig (``loaded_l``, also ``dug_l_per_dig``), what the dump emptied (``dumped_l``, its
@@ -57,7 +126,10 @@ def summary(trial: Trial) -> dict[str, Any]:
     bed (``missed_l``, the spillage, :func:`~excavsim.tasks.truck.trial.missed_volume`), the script's cycle
     time (``cycle_s``, §6.2), the pile measured on the maps (``pile_r_m``, ``pile_theta_deg``) and its
     placement error (``placement_error_cm``), the cost of §6.2 (``cost``), ``failed`` (§5.4.1), and
-    the simulated and wall times."""
+    the simulated and wall times. A tuning run's (:func:`run_summary`) gives the same keys as the means
+    of its last window, and the first window's beside them."""
+    if isinstance(trial, TuningRun):
+        return run_summary(trial)
     end, reason = trial_end(trial)
     loaded, dumped = trial.loaded_m3, trial.dumped_m3
     o, r, theta = trial.objective, trial.pile.r, trial.pile.theta
@@ -74,17 +146,50 @@ def summary(trial: Trial) -> dict[str, Any]:
     }
 
 
-def dig_rows(trial: Trial) -> list[dict[str, Any]]:
+def run_summary(run: TuningRun) -> dict[str, Any]:
+    """A tuning run's metrics as a flat dict (a campaign row): ``tuning`` (tuned or untuned), ``trials``
+    (also ``digs``), ``end`` (``done`` when every trial ran and none of the last window failed, else
+    ``budget``), the first and the last window's mean cost, time and squared placement error
+    (``first_cost``, ``last_cost`` ...; the window is ``learning.initial_trials``, 6 as in §6.2), and the
+    trial metrics of :func:`summary` (``cost``, ``cycle_s``, ``placement_error_cm``, ``dumped_l`` ...)
+    as means over the last window; ``failed`` counts the run's failed trials."""
+    ts, n = run.tuning_trials, run.window
+    last = [summary(t) for t in ts[-n:]]
+    w = windows(run)
+    failed_last = sum(t.failed for t in ts[-n:])
+    end = "done" if ts and not failed_last else "budget"
+    kind = "tuned" if run.learn else "untuned"
+    reason = (f"{len(ts)} trials {kind}: last {n} mean cost {w['last_cost']:.2f} (first {n}: {w['first_cost']:.2f})"
+              + (f", {failed_last} of the last {n} failed" if failed_last else ""))
+    mean = {k: float(sum(r[k] for r in last) / len(last)) if last else math.nan
+            for k in ("loaded_l", "dumped_l", "dumped_fraction", "kept_l", "missed_l", "cycle_s", "pile_r_m",
+                      "pile_theta_deg", "placement_error_cm", "cost")}
+    return {"task": "truck", "machine": "t3", "tuning": kind, "end": end, "reason": reason, "digs": len(ts),
+            "trials": len(ts), "dug_l_per_dig": mean["loaded_l"], **mean, **w,
+            "failed": int(sum(t.failed for t in ts)), "sim_s": float(sum(t.sim_s for t in ts)), "wall_s": run.wall_s}
+
+
+def dig_rows(trial: Trial | TuningRun) -> list[dict[str, Any]]:
     """The trial's one cycle as a per-dig row: its parameters' source, the load, what was dumped and
-    missed [l], the cycle time [s] and the pile, measured and true."""
+    missed [l], the cycle time [s] and the pile, measured and true; a tuning run's trials one row each."""
+    if isinstance(trial, TuningRun):
+        return [{**row, "dig": t.index + 1} for t in trial.tuning_trials for row in dig_rows(t)]
     return [{"dig": 1, "source": trial.source, "loaded_l": 1000 * trial.loaded_m3, "dumped_l": 1000 * trial.dumped_m3,
              "missed_l": 1000 * trial.missed_m3, "cycle_s": trial.time_s, "pile_r_m": trial.pile.r,
              "pile_theta_deg": math.degrees(trial.pile.theta), "true_r_m": trial.true.r,
              "true_theta_deg": math.degrees(trial.true.theta), "outcome": trial.outcome}]
 
 
-def format_run(trial: Trial) -> str:
-    """A trial as printed by ``excavsim trench --spec`` (or ``run``): its outcome and numbers."""
+def format_run(trial: Trial | TuningRun) -> str:
+    """A trial as printed by ``excavsim trench --spec`` (or ``run``): its outcome and numbers; a tuning
+    run's first and last windows."""
+    if isinstance(trial, TuningRun):
+        s = run_summary(trial)
+        return (f"truck-loading tuning run (Rowe 1997 §6.2), {s['tuning']}: {s['reason']}\n"
+                f"  first {trial.window}: cost {s['first_cost']:.2f}, time {s['first_time_s']:.2f} s, squared error "
+                f"{s['first_sq_error_m2']:.4f} m^2\n"
+                f"  last {trial.window}:  cost {s['last_cost']:.2f}, time {s['last_time_s']:.2f} s, squared error "
+                f"{s['last_sq_error_m2']:.4f} m^2; {s['failed']} failed trials")
     s = summary(trial)
     return (f"truck-loading trial (Rowe 1997 §6.2): {s['reason']}\n"
             f"  loaded {s['loaded_l']:.1f} l, dumped {s['dumped_l']:.1f} l, {s['missed_l']:.1f} l beside the "

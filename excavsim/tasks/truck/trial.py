@@ -12,33 +12,28 @@ and the weighted centre of its peak region (below the map's cell size) is its po
 coordinates about the swing axis. A trial that leaves more than ``1 - min_dumped_fraction`` of the
 load in the bucket, or whose script does not end, is a failure (§5.4.1) and costs ``failure_cost`` more.
 
-:func:`tune` runs N trials online: the first ``initial_trials`` from the computed parameters plus
-small noise, then each from :func:`~excavsim.learning.lwr_tuning.select_action` on the memory so far
-(the predicted cost within the confidence bounds of §5.4.1 and the action bounds of
-:func:`tuned_bounds`; the expected cost is off by default, see ``configs/truck.yaml``), optionally
-with the target moved mid-run, and hands every trial to an observer (a recording); :func:`write_results`
-writes the learning curve (Fig. 12) and a CSV table. The campaign over seeds and soils is
-:mod:`excavsim.tasks.truck.campaign`.
+The tuning over trials (:func:`~excavsim.tasks.truck.tuning.tune`, ``excavsim tune``) is
+:mod:`excavsim.tasks.truck.tuning`; the campaign over seeds and soils is
+:mod:`excavsim.tasks.truck.campaign`. This module keeps what a trial and its judging need: the
+configuration, the dig, the scans and the pile, the task, the cost of §6.2 and the tuner's bounds.
 """
 
 from __future__ import annotations
 
-import csv
 import dataclasses
 import math
-from collections.abc import Callable
 from pathlib import Path
 
 import numpy as np
 
 from excavsim import constants
-from excavsim.config import get_soil, load_robot_config, load_sensing_config
+from excavsim.config import load_robot_config, load_sensing_config
 from excavsim.config.truck import TRUCK_YAML, TruckFile, load_truck_file
 from excavsim.errors import GoalError, UsageError
 from excavsim.execution.mass_script import (BOOM, BUCKET, FRACTIONS, STICK, SWING, TUNED, MassParams, TimingModel,
                                             TruckSite, compute_params, follow_path, mass_script, run_joint_script)
 from excavsim.handoff.maps import ElevationMap
-from excavsim.learning.lwr_tuning import Memory, Objective, select_action
+from excavsim.learning.lwr_tuning import Objective
 from excavsim.loop.digs import Choice
 from excavsim.loop.episode import Episode
 from excavsim.loop.rig import go_to
@@ -311,16 +306,26 @@ class TruckTask:
         if digs is not None:
             raise UsageError("a truck-loading trial runs its mass-excavation script; no dig source can be given "
                              "(digs must be None)")
+        q = self.new_world(seed, world)
+        if self.params is None:
+            self.params = self.computed(q)
+        self.trial: Trial | None = None
+        return self.sim, self.cfg
+
+    def new_world(self, seed: int, world: Simulation | None = None) -> np.ndarray:
+        """A trial's world (a fresh one of ``seed`` unless given), scanner and fixed dig; the joint angles at
+        the dig's end. Every trial starts from such a world (§6.2)."""
         self.sim = sim = world if world is not None else Simulation(soil=self.soil, seed=seed)
         self.arm = arm_from_model(sim.model)
         self.scanner = Scanner(sim, seed)
         q = dig(sim, self.cfg, self.arm)
-        if self.params is None:
-            self.params = compute_params(self.arm, self.cfg.site, timing_model(sim, self.cfg), q[1:4],
-                                         self.cfg.dig_swing, open_pitch=self.cfg.open_pitch)
         self.loaded = sim.truth.volumes.bucket
-        self.trial: Trial | None = None
-        return sim, self.cfg
+        return q
+
+    def computed(self, q: np.ndarray) -> MassParams:
+        """The parameters computed for the site (§4.2) from this world's dig, ended at joint angles ``q``."""
+        return compute_params(self.arm, self.cfg.site, timing_model(self.sim, self.cfg), q[1:4], self.cfg.dig_swing,
+                              open_pitch=self.cfg.open_pitch)
 
     def budget_reason(self, budget: int) -> str:
         return "the trial's script ran"
@@ -415,61 +420,6 @@ def retargeted(cfg: TruckConfig, r_m: float, theta: float) -> TruckConfig:
     return dataclasses.replace(cfg, site=dataclasses.replace(cfg.site, r_d=r_m, theta_d=theta))
 
 
-def tune(trials: int, cfg: TruckConfig | None = None, *, seed: int = 0,
-         progress: Callable[[Trial], None] | None = None, learn: bool = True,
-         retarget: tuple[int, float, float] | None = None, soil: str | None = None, observer=None,
-         base: MassParams | None = None) -> list[Trial]:
-    """Run ``trials`` trials online (see the module docstring); returns them in order.
-
-    ``learn=False`` is the untuned baseline: every trial from the computed parameters plus the same small
-    noise. ``retarget=(k, r_m, theta_rad)`` moves the dump target before trial ``k`` (0-based): the
-    parameters are computed again for the new target, the memory is kept (it maps actions to outcomes,
-    whatever the target) and only the objective changes; the first ``retarget_trials`` trials after the
-    move run the new computed parameters plus noise (§5.4.4: the computed parameters are "a competent
-    starting point"; without one the simplex, held near the data by the confidence bounds, creeps
-    towards the new target a fraction of the data's range per trial). ``soil`` names a soil preset
-    (configs/soils.yaml; default the scene's). ``observer`` (e.g. a recorder) is called with
-    ``started(cfg, base)``, ``trial(trial, cfg, cost=, sq_error=)`` after every trial (the trial carries
-    its :class:`TrialTrace`) and ``finished(trials, cfg)``. ``base``: the computed parameters for ``cfg``'s
-    target, seed and soil when the caller has them (:func:`nominal_params`), else computed here."""
-    cfg = cfg or load_truck_config()
-    base = base if base is not None else nominal_params(cfg, seed=seed, soil=soil)
-    lo, hi = tuned_bounds(base, cfg)
-    rng = np.random.default_rng((seed, 12))
-    memory = Memory(len(TUNED))
-    out: list[Trial] = []
-    scale = noise_scale(cfg)
-    computed_until = cfg.initial_trials
-    if observer is not None:
-        observer.started(cfg, base)
-    for k in range(trials):
-        if retarget is not None and k == retarget[0]:
-            cfg = retargeted(cfg, retarget[1], retarget[2])
-            base = nominal_params(cfg, seed=seed, soil=soil)
-            lo, hi = tuned_bounds(base, cfg)
-            computed_until = max(computed_until, k + cfg.retarget_trials)
-        pred, width = math.nan, math.nan
-        if not learn or k < computed_until or len(memory) < 2:
-            x = np.clip(base.tuned() + rng.normal(0.0, 1.0, len(TUNED)) * scale, lo, hi)
-            source = "computed + noise"
-        else:
-            sel = select_action(memory, cfg.objective, lower=lo, upper=hi)
-            x, pred, width, source = sel.x, sel.predicted_cost, sel.width, "learned"
-        trial = run_trial(base.with_tuned(x), cfg, seed=seed, index=k, source=source, soil=soil,
-                          trace=observer is not None)
-        trial.predicted_cost, trial.width = pred, width
-        trial.r_d, trial.theta_d = cfg.site.r_d, cfg.site.theta_d
-        memory.add(x, trial.time_s, trial.pile.r, trial.pile.theta, float(trial.failed))
-        out.append(trial)
-        if observer is not None:
-            observer.trial(trial, cfg, cost=trial_cost(trial, cfg), sq_error=placement_error2(trial, cfg))
-        if progress is not None:
-            progress(trial)
-    if observer is not None:
-        observer.finished(out, cfg)
-    return out
-
-
 def trial_objective(trial: Trial, cfg: TruckConfig) -> Objective:
     """The objective the trial was run for (its own target when the target moved during the run)."""
     if math.isnan(trial.r_d):
@@ -486,90 +436,3 @@ def placement_error2(trial: Trial, cfg: TruckConfig) -> float:
     """The squared placement error ``(r_d - r)^2 + r_d^2 (theta_d - theta)^2`` [m^2] of a trial."""
     o = trial_objective(trial, cfg)
     return (o.r_d - trial.pile.r) ** 2 + o.r_d ** 2 * (o.theta_d - trial.pile.theta) ** 2
-
-
-def write_results(trials: list[Trial], cfg: TruckConfig, out: Path) -> tuple[Path, Path]:
-    """The CSV table (one row per trial) and Fig. 12's learning curve (PNG) into ``out``."""
-    import matplotlib
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
-
-    out.mkdir(parents=True, exist_ok=True)
-    obj = cfg.objective
-    rows = []
-    for t in trials:
-        err2 = placement_error2(t, cfg)
-        row = {"trial": t.index + 1, "source": t.source, "cost": trial_cost(t, cfg), "time_s": t.time_s,
-               "r_m": t.pile.r, "theta_deg": math.degrees(t.pile.theta), "sq_error_m2": err2,
-               "true_r_m": t.true.r, "true_theta_deg": math.degrees(t.true.theta), "outcome": t.outcome,
-               "failed": int(t.failed), "target_r_m": trial_objective(t, cfg).r_d,
-               "target_theta_deg": math.degrees(trial_objective(t, cfg).theta_d),
-               "loaded_l": 1e3 * t.loaded_m3, "dumped_l": 1e3 * t.dumped_m3, "predicted_cost": t.predicted_cost,
-               "kernel_width": t.width, "wall_s": t.wall_s}
-        row.update({f"{n}{'' if n in FRACTIONS else '_deg'}": v
-                    for n, v in t.params.degrees().items() if n in TUNED})
-        rows.append(row)
-    csv_path = out / "tune.csv"
-    with csv_path.open("w", newline="") as f:
-        w = csv.DictWriter(f, fieldnames=list(rows[0]))
-        w.writeheader()
-        for row in rows:
-            w.writerow({k: (f"{v:.6g}" if isinstance(v, float) else v) for k, v in row.items()})
-    n = np.arange(1, len(rows) + 1)
-    fig, ax = plt.subplots(3, 1, figsize=(6, 7), sharex=True)
-    for a, key, label in zip(ax, ("cost", "time_s", "sq_error_m2"), ("cost", "time [s]", "squared error [m^2]")):
-        a.plot(n, [r[key] for r in rows], "o-", ms=3)
-        a.axvline(cfg.initial_trials + 0.5, color="grey", lw=0.8, ls="--")
-        a.set_ylabel(label)
-    ax[0].set_title(f"Self-tuned truck loading (Fig. 12 of Rowe 1997): target r = {obj.r_d} m, "
-                    f"theta = {math.degrees(obj.theta_d):.0f} deg", fontsize=8)
-    ax[-1].set_xlabel("trial")
-    fig.tight_layout()
-    png = out / "learning_curve.png"
-    fig.savefig(png, dpi=120)
-    plt.close(fig)
-    return csv_path, png
-
-
-def tune_and_report(trials: int, cfg: TruckConfig, out: Path, *, seed: int = 0, soil: str | None = None,
-                    retarget: tuple[int, float, float] | None = None, record: str | None = None,
-                    say: Callable[[str], None] = print) -> list[Trial]:
-    """``excavsim tune``: :func:`tune` with a line per trial, the first and last windows' means, and
-    the results written into ``out`` (:func:`write_results`).
-
-    Args:
-        trials: how many trials.
-        cfg: the truck configuration.
-        out: the output directory.
-        seed: the world's seed.
-        soil: a soil preset (default the scene's).
-        retarget: (trial index, r [m], theta [rad]) of a target move.
-        record: a Rerun file to record the trials to.
-        say: where the lines go.
-    """
-    if soil:
-        get_soil(soil)  # ConfigError naming the presets, before any trial
-    say(f"excavsim tune: {trials} truck-loading trials, target r = {cfg.site.r_d} m, theta = "
-        f"{math.degrees(cfg.site.theta_d):.1f} deg (Rowe 1997 §6.2)")
-
-    def show(t: Trial) -> None:
-        say(f"  {t.index + 1:3d} {t.source:16s} cost {trial_cost(t, cfg):8.2f}  time {t.time_s:5.2f} s  "
-            f"r {t.pile.r:.3f} m  theta {math.degrees(t.pile.theta):5.1f} deg  {t.outcome}  ({t.wall_s:.2f} s wall)")
-
-    observer = None
-    if record:
-        from excavsim.record.truck import TruckRecorder
-        observer = TruckRecorder(record, seed=seed)
-    done = tune(trials, cfg, seed=seed, progress=show, retarget=retarget, soil=soil, observer=observer)
-    csv_path, png = write_results(done, cfg, Path(out))
-    k = min(cfg.initial_trials, len(done))
-    costs = [trial_cost(t, cfg) for t in done]
-    times = [t.time_s for t in done]
-    err2 = [placement_error2(t, cfg) for t in done]
-    say(f"first {k}: mean cost {sum(costs[:k]) / k:.2f}, time {sum(times[:k]) / k:.2f} s, squared error "
-        f"{sum(err2[:k]) / k:.4f} m^2; last {k}: mean cost {sum(costs[-k:]) / k:.2f}, time "
-        f"{sum(times[-k:]) / k:.2f} s, squared error {sum(err2[-k:]) / k:.4f} m^2")
-    say(f"wrote {csv_path} and {png}")
-    if record:
-        say(f"recorded to {record}; replay it with: excavsim replay {record}")
-    return done

@@ -46,6 +46,30 @@ def test_trench_spec_runs_a_truck_spec(tmp_path, capsys):
     out = capsys.readouterr().out
     assert "task truck, machine t3, one trial" in out and "truck-loading trial (Rowe 1997 §6.2)" in out
     assert "theta = 30.0 deg" in out
-    # a truck trial has no recorder of its own episode yet (excavsim tune --record records its trials)
-    assert main(["trench", "--spec", str(path), "--record", str(tmp_path / "t.rrd")]) == 2
-    assert "task truck takes none of them" in capsys.readouterr().err
+    assert main(["trench", "--spec", str(path), "--save-maps", str(tmp_path / "maps")]) == 2
+    assert "task truck takes only --record" in capsys.readouterr().err
+
+
+def test_run_records_a_truck_trial_that_replays(tmp_path, capsys):
+    """``excavsim run SPEC --record`` records the trial as ``tune --record`` records each of its trials:
+    the recording passes ``rerun rrd verify`` and holds the site, the pile, the script's phases and joints."""
+    from excavsim.cli import main
+    from excavsim.record.replay import check_recording
+    from tests.tasks.truck.test_truck_tuning import _entities
+
+    path = tmp_path / "truck.yaml"
+    path.write_text("name: t\ntask: truck\nseed: 1\n")
+    rrd = tmp_path / "t.rrd"
+    assert main(["run", str(path), "--record", str(rrd)]) == 0
+    out = capsys.readouterr().out
+    assert "excavsim run: task truck, machine t3, one trial, seed 1" in out and f"recorded to {rrd}" in out
+    check_recording(str(rrd))  # a recording the installed Rerun loads (rerun rrd verify)
+    tree = _entities(rrd)
+    for per_trial in ("/world/pile/measured", "/world/pile/true", "/world/soil/scan", "/world/exec/path",
+                      "/world/target", "/metrics/cost", "/summary"):
+        assert tree[per_trial]["trial"] == 1, per_trial
+    assert tree["/config"]["static"] == 1 and tree["/joint_deg/swing"]["sim_time"] > 10
+    for sub in ("swing", "boom", "stick", "bucket"):
+        assert tree[f"/script/{sub}"]["sim_time"] >= 4, sub
+    trial = run_spec(EpisodeSpec(task="truck", seed=1))  # recorded or not, the same trial
+    assert f"cycle {trial.time_s:.2f} s" in out

@@ -19,6 +19,7 @@ from excavsim.errors import ExcavsimError
 from excavsim.execution.mass_script import FRACTIONS, TUNED
 from excavsim.learning.lwr_tuning import Memory, Objective, select_action
 from excavsim.tasks.truck import trial as truck
+from excavsim.tasks.truck import tuning
 
 
 @pytest.fixture(scope="module")
@@ -110,7 +111,7 @@ def test_a_bad_learning_flag_names_the_field(tmp_path):
 
 
 def test_a_move_is_followed_by_computed_trials_then_learning(cfg):
-    trials = truck.tune(5, dataclasses.replace(cfg, initial_trials=2), seed=0, retarget=(3, 1.6, math.radians(45)))
+    trials = tuning.tune(5, dataclasses.replace(cfg, initial_trials=2), seed=0, retarget=(3, 1.6, math.radians(45)))
     assert [t.source for t in trials] == ["computed + noise"] * 2 + ["learned"] + ["computed + noise"] * 2
     assert trials[-1].r_d == 1.6 and trials[0].r_d == cfg.site.r_d
 
@@ -130,7 +131,7 @@ def test_a_recorded_tuning_run_passes_rerun_verify_and_holds_its_entities(tmp_pa
 
     path = tmp_path / "tune.rrd"
     small = dataclasses.replace(cfg, initial_trials=1)
-    trials = truck.tune(2, small, seed=0, observer=TruckRecorder(path, seed=0), retarget=(1, 1.6, math.radians(45)))
+    trials = tuning.tune(2, small, seed=0, observer=TruckRecorder(path, seed=0), retarget=(1, 1.6, math.radians(45)))
     here = pathlib.Path(sys.executable).parent / "rerun"
     exe = str(here) if here.exists() else shutil.which("rerun")
     assert exe is not None, "the rerun CLI (installed with rerun-sdk) is missing"
