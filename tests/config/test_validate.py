@@ -47,6 +47,8 @@ CASES = {
     "truck": ("truck.yaml", "truck.yaml", ("target.r_m", -1.0), ("learning.expected_cost", "maybe")),
     "machine": ("machines/tb035.yaml", "machines/bad.yaml", ("executor.touch_force_n", -1.0),
                 ("planner.d2_max_m", "long")),
+    "truck_loading": ("truck_loading.yaml", "truck_loading.yaml", ("truck.payload_t", -1.0),
+                      ("tuning.tune", "maybe")),
 }
 
 
