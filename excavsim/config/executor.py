@@ -26,6 +26,20 @@ class ExecutorConfig(StrictModel):
                                      description="consecutive control ticks above touch_force_n that make a contact")
     touch_ignore_s: float = Field(default=0.3, ge=0, le=10,
                                   description="first part of the descent in which the F/T is not read for contact [s]")
+    touch_quiet_n: float = Field(
+        default=40.0, gt=0, le=1e4,
+        description="F/T force under which the arm counts as still before the descent (see touch_quiet_s) [N]")
+    touch_quiet_s: float = Field(
+        default=0.0, ge=0, le=10,
+        description="the descent starts once the F/T force has stayed under touch_quiet_n this long: the arm's "
+                    "ringing after the move above the entry has died down (Singh 1995 §7.1.3, Fig. 104); 0: at once [s]")
+    joint_give_rad_per_nm: list[float] = Field(
+        default=[0.0, 0.0, 0.0], min_length=3, max_length=3,
+        description="give of the shoulder, elbow and wrist pitch under load that their encoders miss, per N m of "
+                    "actuator torque: the executor takes the links' angles as the encoders' less this times the "
+                    "torques, and commands the encoders ahead by as much (calibrated against surveyed tip poses "
+                    "under known loads, excavsim.studies.figures.touchdown.calibrate_give); zeros: the encoders "
+                    "are the links' [rad/(N m)]")
     touch_sink_m: float = Field(
         default=0.03, ge=0, le=0.5,
         description="how far the edge sinks into the soil before the force registers (calibrated, flat sand) [m]",
@@ -67,6 +81,13 @@ class ExecutorConfig(StrictModel):
                                            description="soil force/velocity ratio that doubles the yield rate")
     impedance_min_speed_m_s: float = Field(default=0.01, gt=0, le=1,
                                            description="tip speed the force/velocity ratio uses at least [m/s]")
+
+    @model_validator(mode="after")
+    def _give(self) -> ExecutorConfig:
+        if not all(0.0 <= g <= 1e-3 for g in self.joint_give_rad_per_nm):
+            raise ValueError(f"joint_give_rad_per_nm={self.joint_give_rad_per_nm}; allowed: three numbers in "
+                             "[0, 1e-3] rad/(N m)")
+        return self
 
     @model_validator(mode="after")
     def _dump_pose(self) -> ExecutorConfig:

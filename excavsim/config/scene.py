@@ -69,6 +69,19 @@ class SoilTruthConfig(StrictModel):
                     "(Singh 1995 §7.1.3); calibrated to Table 4's shuffled 3-NN error [-]",
     )
 
+    arm_damping_ratio: float | None = Field(
+        default=None, gt=0, le=2,
+        description="damping ratio of each planar servo (shoulder, elbow, wrist pitch) at the home pose, the others "
+                    "locked: a lightly damped hydraulic arm rings on contact and after a move (Singh 1995 §7.1.3, "
+                    "Fig. 104; excavsim.world.arm); null keeps robot.yaml's servo damping [-]",
+    )
+    arm_give_share: float = Field(
+        default=0.0, ge=0, le=10,
+        description="compliance of each planar joint's transmission as a share of its servo's (k_t = kp / share): "
+                    "the joint gives under load by a further share x tau / kp that its encoder does not see "
+                    "(Singh 1995 §7.1.3; excavsim.world.arm); 0 is rigid [-]",
+    )
+
     @model_validator(mode="after")
     def _rock_range(self) -> SoilTruthConfig:
         if self.rock_radius_min_m > self.rock_radius_max_m:

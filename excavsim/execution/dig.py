@@ -26,6 +26,14 @@ the dig ends at once with outcome ``diverged``; when the episode's wall-clock li
 time limit in simulated time, the executor counts its control steps and stops the script as
 ``timeout in step ...`` once they cover that limit, so a clock that stalls cannot hold a dig forever.
 
+On a lightly damped arm (the world's ``truth.arm_damping_ratio``, Singh 1995 §7.1.3, Fig. 104)
+two numbers make the touch-down cope, both off by default: ``touch_quiet_s`` starts the descent only
+once the F/T has stayed under ``touch_quiet_n`` that long, so the ringing after the move above the
+entry is not taken for contact; ``joint_give_rad_per_nm`` (calibrated) takes the give that the
+encoders miss (``truth.arm_give_share``) off their angles in everything the executor decides, and
+commands the encoders ahead by the give at the low-passed torques, so that the links, not the
+encoders, follow the path.
+
 Speed: the loop runs every control step (38 000 in the default episode). By default the executor
 runs the script on a :class:`~excavsim.execution.script.CompiledEngine` and does a tick's work in
 one or two calls of the compiled :func:`_tick_kernel` (the engine's tick, the path cursor, IK, the
@@ -38,6 +46,7 @@ compliance, which the compiled loop does not do) runs the original Python loop o
 
 from __future__ import annotations
 
+import dataclasses
 import math
 from collections.abc import Callable
 
@@ -63,6 +72,7 @@ ARM = constants.PLANAR_JOINTS
 WAIST = "waist_joint"
 WRIST = ("wrist_yaw_joint", "wrist_roll_joint")
 ARM_SUB = 0  # the arm's sub-script comes first in the dig script
+GIVE_FILTER_S = 0.3  # time constant of the torques the give compensation commands from (tuned; 0.1-1 s work) [s]
 
 
 def touch_pitch(plan: DigPlan, arm: PlanarArm, cfg: ExecutorConfig) -> float:
@@ -115,9 +125,12 @@ def dig_script(plan: DigPlan, arm: PlanarArm, cfg: ExecutorConfig, park: np.ndar
                        f"no contact within {100 * cfg.touch_search_m:.0f} cm below the map")
     empty = Watch("empty", all_of(path_done("dump"), settled(ARM, tol),
                                   held(force_below(cfg.empty_force_n), seconds=cfg.empty_hold_s)))
+    above_settled = settled((WAIST,) + ARM, tol)
+    if cfg.touch_quiet_s > 0:  # wait for the arm's ringing to die down (§7.1.3); held first, so it counts every tick
+        above_settled = all_of(held(force_below(cfg.touch_quiet_n), seconds=cfg.touch_quiet_s), above_settled)
     arm_steps = (
         Step("above entry", always(), Command(tuple(q_above)), wait),
-        Step("touch-down", any_of(settled((WAIST,) + ARM, tol), late), follow("touchdown", cfg.touch_speed_m_s), wait,
+        Step("touch-down", any_of(above_settled, late), follow("touchdown", cfg.touch_speed_m_s), wait,
              watches=(contact,), abort=no_contact),
         Step("dig", event("contact"), follow("dig", cfg.path_speed_m_s), wait),
         Step("lift out", any_of(path_done("dig"), late), follow("lift", cfg.path_speed_m_s), wait),
@@ -167,6 +180,30 @@ class DigExecutor:
         self._ik_params = arm_params(arm)
         self._ik_buf = (np.zeros((1, 3)), np.zeros((1, 3)), np.zeros(1), np.zeros((1, 3)), np.zeros(1, bool),
                         np.zeros((1, 3)))
+        # the joints' give that the encoders miss, per N m (calibrated; None: the encoders are the links)
+        self._give: np.ndarray | None = None
+        self._tau_f: np.ndarray | None = None  # the low-passed torques of _servo_target
+        if any(cfg.joint_give_rad_per_nm):
+            self._give = np.zeros(len(names))
+            self._give[self._arm_idx] = cfg.joint_give_rad_per_nm
+
+    def _estimate(self, obs: Observation) -> Observation:
+        """The observation with the links' angles estimated from the encoders and the actuator torques
+        (``joint_give_rad_per_nm``): the angles every decision of the executor uses."""
+        if self._give is None:
+            return obs
+        return dataclasses.replace(obs, q=obs.q - self._give * obs.actuator_force)
+
+    def _servo_target(self, target: np.ndarray, obs: Observation) -> np.ndarray:
+        """The encoders' target for the links' ``target``: ahead of it by the give at the torques, low-passed
+        over ``GIVE_FILTER_S`` (the instantaneous torques feed the arm's ringing back into the servo
+        and make it oscillate; the load the give comes from, weight and soil, changes slowly)."""
+        if self._give is None:
+            return target
+        if self._tau_f is None:
+            self._tau_f = np.array(obs.actuator_force, dtype=float)
+        self._tau_f += (1.0 - math.exp(-self.sim.control_dt / GIVE_FILTER_S)) * (obs.actuator_force - self._tau_f)
+        return target + self._give * self._tau_f
 
     def _inverse(self, pose: np.ndarray) -> tuple[np.ndarray, bool]:
         poses, wrench, payload, q, ok, tau = self._ik_buf
@@ -186,14 +223,15 @@ class DigExecutor:
                 executor itself never reads.
         """
         sim = self.sim
+        self._tau_f = None
         announce = on_phase or (lambda _name, _rec: None)
         expected = expected_contact_z(plan, self.arm, touch_pitch(plan, self.arm, self.cfg))
         rec = ExecutionRecord(planned_volume_m3=plan.volume_m3, touch_expected_z=expected)
         script = dig_script(plan, self.arm, self.cfg, self.park)
         rec.script_text = script.describe()
         weighed: list[float] = []  # F/T weight of the load while the lifted bucket is held [N]
-        target = sim.observe().q.copy()  # hold still until the first commands; this reading draws F/T noise too
-        obs = sim.observe()
+        target = self._estimate(sim.observe()).q.copy()  # hold still until the first commands (F/T noise drawn too)
+        obs = self._estimate(sim.observe())
         # the script's time limit counted in steps (the engine's own check reads the clock, a tick earlier)
         max_steps = math.ceil(script.timeout_s / sim.control_dt) + 2 if script.timeout_s else math.inf
         compiled = not self.reference and self.cfg.compliance == "off" and all(
@@ -299,7 +337,7 @@ class DigExecutor:
         if engine.stop is not None:
             return None
         try:
-            return self.sim.track(target)
+            return self._estimate(self.sim.track(self._servo_target(target, obs)))
         except ExcavsimError as exc:
             self._failed(rec, exc)
             return None
@@ -375,7 +413,7 @@ class DigExecutor:
         by its offset, and lead in to it. Returns the path and the length of its lead-in [m]."""
         cfg = self.cfg
         rec.touch_found_z = float(tip[1])
-        rec.touch_offset_m = float(tip[1] + cfg.touch_sink_m - rec.touch_expected_z)
+        rec.touch_offset_m = rec.touch_found_z + cfg.touch_sink_m - rec.touch_expected_z
         if abs(rec.touch_offset_m) > cfg.touch_warn_m:
             kind = "below" if rec.touch_offset_m < 0 else "above"
             rec.warnings.append(

@@ -17,6 +17,10 @@ and, while the cutting edge advances into soil, the arm's vibration that the tes
 while digging (``truth.ft_dig_noise_share``, calibrated to the thesis' Table 4; see
 :meth:`Simulation._dig_disturbance`), drawn from a random stream of its own.
 
+With ``truth.arm_damping_ratio`` and ``truth.arm_give_share`` (off by default) the planar servos ring
+on contact and after a move and the joints give under load beyond what their encoders read, as the
+testbed's hydraulic arm did (Singh 1995 §7.1.3, Fig. 104; :mod:`excavsim.world.arm`).
+
 A watchdog checks every control step. MuJoCo meets an unstable state (a "huge value in QACC") by
 warning and silently resetting the state to the model's default, with its time back at 0, so a
 state that is finite again and a clock that restarts would hide the failure and let every timeout
@@ -44,6 +48,7 @@ from excavsim.errors import ConfigError, Diverged, OutOfTime
 from excavsim.handoff.observation import Observation
 from excavsim.readouts import ModelIndex
 from excavsim.robot.servo import setpoint_rates
+from excavsim.world.arm import apply_arm_truth, encoder_angles
 from excavsim.world.scene import build_physics
 from excavsim.world.soil import SoilContact, SoilModel, Volumes
 
@@ -104,6 +109,13 @@ class Simulation:
         self._ft_idx = np.r_[fa:fa + 3, ta:ta + 3]
         self._ft_sigma = np.repeat([self.scene.truth.ft_force_noise_n, self.scene.truth.ft_torque_noise_nm], 3)
         self._ft_dig = self.scene.truth.ft_dig_noise_share
+        truth = self.scene.truth
+        # the arm's compliance (excavsim.world.arm): off by default, when the model is left as built
+        self.arm_truth = None
+        if truth.arm_damping_ratio is not None or truth.arm_give_share > 0.0:
+            self.arm_truth = apply_arm_truth(self.model, self.data, self._act, self._joint_dof,
+                                             damping_ratio=truth.arm_damping_ratio, give_share=truth.arm_give_share)
+        self._give = self.arm_truth.give if self.arm_truth is not None and self.arm_truth.gives else None
         self.rate_limit = self.model.actuator_ctrlrange[self._act, 1].copy()
         self.torque_limit = self.model.actuator_forcerange[self._act, 1].copy()
         self.contact: SoilContact | None = None
@@ -128,8 +140,11 @@ class Simulation:
         return self._clock
 
     def joint_angles(self) -> np.ndarray:
-        """The joint encoders (6,) [rad], in ``constants.JOINTS`` order; draws no sensor noise."""
-        return self.data.qpos[self._joint_qpos].copy()
+        """The joint encoders (6,) [rad], in ``constants.JOINTS`` order; draws no sensor noise. With
+        ``truth.arm_give_share`` they miss the transmission's give (:func:`~excavsim.world.arm.encoder_angles`);
+        the links' true angles are ``data.qpos``."""
+        q = self.data.qpos[self._joint_qpos].copy()
+        return q if self._give is None else encoder_angles(q, self._actuator_force_view[self._act], self._give)
 
     def observe(self) -> Observation:
         """The sensor-level observation now (F/T with noise)."""
@@ -140,7 +155,10 @@ class Simulation:
         if self._ft_dig > 0.0 and c is not None and c.depth_m > 0.0 and c.advance_speed_m_s > DIG_ADVANCE_M_S:
             ft += self._dig_disturbance(c)
         # the MjData views cached at construction: the same arrays, without re-wrapping them every step
-        return Observation(self._clock, self._qpos_view[self._joint_qpos], self._qvel_view[self._joint_dof],
+        q = self._qpos_view[self._joint_qpos]
+        if self._give is not None:
+            q = encoder_angles(q, self._actuator_force_view[self._act], self._give)
+        return Observation(self._clock, q, self._qvel_view[self._joint_dof],
                            self._actuator_force_view[self._act], ft[:3], ft[3:])
 
     def _dig_disturbance(self, contact: SoilContact) -> np.ndarray:
@@ -240,8 +258,8 @@ class Simulation:
 
     def track(self, target: np.ndarray) -> Observation:
         """One control step driving the joints towards ``target`` (6,) [rad] with the servo law."""
-        rates = setpoint_rates(target, self.data.qpos[self._joint_qpos], gain_per_s=self.robot.setpoint_gain_per_s,
-                               rate_limit=self.rate_limit)
+        q = self.data.qpos[self._joint_qpos] if self._give is None else self.joint_angles()  # the encoders
+        rates = setpoint_rates(target, q, gain_per_s=self.robot.setpoint_gain_per_s, rate_limit=self.rate_limit)
         return self.step(rates)
 
     def settle_soil(self) -> None:

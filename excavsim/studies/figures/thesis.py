@@ -306,13 +306,19 @@ def _planner_figures() -> list[Figure]:
 
 
 def _sensing_figures() -> list[Figure]:
+    from excavsim.studies.figures import scale_dig as sd
     from excavsim.studies.figures import sensing as fs
+    from excavsim.studies.figures import touchdown as td
 
     return [Figure("fig96", "range and reflectance images, edges, filtered pixels (testbed scanner)", fs.fig96),
             Figure("fig97", "an elevation map and its error; the 8-seed map-error table (testbed scanner)", fs.fig97),
             Figure("fig98", "ranges to four targets over 100 scans: noise about a slow drift", fs.fig98),
             Figure("fig99", "a 10 % range scale error on a profile, and the contact adjustment", fs.fig99),
-            Figure("fig102", "least-squares fit of measured against surveyed target ranges", fs.fig102)]
+            Figure("fig100", "a dig planned on a map with a range scale error: shallow as executed, too "
+                             "aggressive on the contact-adjusted map; swept volumes", sd.fig100),
+            Figure("fig102", "least-squares fit of measured against surveyed target ranges", fs.fig102),
+            Figure("fig104", "touch-down on the nominal and the testbed arm: F/T and tip height against time",
+                   td.fig104)]
 
 
 def _learning_figures() -> list[Figure]:
