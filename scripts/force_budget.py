@@ -67,7 +67,8 @@ class ForceBudget(EpisodeObserver):
             return float((self.jacp.T @ f + self.jacr.T @ m_)[self.dof[WRIST]])
 
         self.steps.append((float(d.time), sim.joint_angles(), float(d.actuator_force[sim.index.actuator[WRIST]]),
-                           wrist(f_cut, m_cut), wrist(f_rest, m_rest), wrist(w, m_load), c.depth_m, c.rake_rad))
+                           wrist(f_cut, m_cut), wrist(f_rest, m_rest), wrist(w, m_load), c.depth_m, c.rake_rad,
+                           float(np.linalg.norm(c.force - w)), sim.soil.load))
 
     def dug(self, index, record, metrics):
         if not self.steps or self.dig is None:
@@ -94,6 +95,8 @@ class ForceBudget(EpisodeObserver):
             parts = np.array([s[3:6] for s in self.steps])[sel]
             rake = np.array([s[7] for s in self.steps])[sel]
             depth = np.array([s[6] for s in self.steps])[sel]
+            force = np.array([s[8] for s in self.steps])[sel]
+            load = np.array([s[9] for s in self.steps])[sel]
             for p, name in enumerate(PHASES):
                 on = phase == p
                 if not on.any():
@@ -102,6 +105,8 @@ class ForceBudget(EpisodeObserver):
                 row[f"meas_{name}"] = float(abs(act[on][k]))
                 row[f"terms_{name}"] = tuple(float(v) for v in parts[on][k])
                 row[f"depth_{name}"] = float(depth[on][k])
+                row[f"force_{name}"] = float(force[on].max())
+                row[f"load_{name}"] = float(load[on][k])
             if metrics.action is not None:
                 low = rake < metrics.action[1] + math.radians(self.rig.planner_cfg.epsilon_deg) - 1e-6
                 row["rake_below_share"] = float(np.mean(low[depth > 0])) if np.any(depth > 0) else 0.0
@@ -110,7 +115,8 @@ class ForceBudget(EpisodeObserver):
 
 def format_rows(rows: list[dict]) -> str:
     lines = [f"{'dig':>3} {'action (k, alpha, d1, d2)':<26} {'outcome':<15} {'phase':<9} {'pred':>6} {'meas':>6} "
-             f"{'cut':>6} {'bear':>6} {'load':>6} {'depth':>6}  wrist pitch [N m], depth [cm]"]
+             f"{'cut':>6} {'bear':>6} {'load':>6} {'depth':>6} {'|F|':>6} {'fill':>5}  wrist pitch [N m], depth [cm], "
+             "peak soil force [N], load [l]"]
     for r in rows:
         act = r["action"]
         label = (f"{act[0]:.2f} {math.degrees(act[1]):3.0f} {act[2]:.2f} {act[3]:.2f}" if act is not None
@@ -123,14 +129,16 @@ def format_rows(rows: list[dict]) -> str:
             head = f"{r['index']:>3} {label:<26} {r['outcome']:<15}" if first else " " * 46
             pred, meas = r.get(f"pred_{name}", math.nan), r.get(f"meas_{name}", math.nan)
             lines.append(f"{head} {name:<9} {pred:6.0f} {meas:6.0f} "
-                         f"{cut:6.0f} {bear:6.0f} {load:6.0f} {100 * r.get(f'depth_{name}', math.nan):6.1f}")
+                         f"{cut:6.0f} {bear:6.0f} {load:6.0f} {100 * r.get(f'depth_{name}', math.nan):6.1f} "
+                         f"{r.get(f'force_{name}', math.nan):6.0f} {1000 * r.get(f'load_{name}', math.nan):5.1f}")
             first = False
         if "rake_below_share" in r:
             lines.append(" " * 46 + f" rake below alpha + epsilon on {100 * r['rake_below_share']:.0f} % of the "
                                     "in-soil steps (Fig. 19: the bottom bears)")
     lines.append("pred: the planner's static wrist torque (peak in the phase); meas: the actuator's (peak); cut, "
                  "bear, load: the wrist torque of the soil's cutting force, of bearing + friction (+ rocks), and of "
-                 "the load's weight, at the measured peak (the rest is the bucket's own weight and inertia)")
+                 "the load's weight, at the measured peak (the rest is the bucket's own weight and inertia); |F|: the peak "
+                 "magnitude of the soil's force on the bucket without the load's weight; fill: the load at the peak")
     return "\n".join(lines)
 
 
@@ -141,10 +149,13 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--seed", type=int, default=3)
     parser.add_argument("--dig-budget", type=int, default=4)
     parser.add_argument("--wrist-limit", type=float, default=None, help="wrist pitch relief [N m]")
+    parser.add_argument("--no-load-surcharge", action="store_true",
+                        help="the world without the load's surcharge on the wedge (scene.bucket.load_surcharge false)")
     args = parser.parse_args(argv)
     robot = {"joints": {"wrist_pitch": {"torque_limit_nm": args.wrist_limit}}} if args.wrist_limit else {}
     spec = EpisodeSpec(name="force-budget", goal=args.goal, soil=args.soil, seed=args.seed,
-                       dig_budget=args.dig_budget, robot=robot)
+                       dig_budget=args.dig_budget, robot=robot,
+                       scene={"bucket": {"load_surcharge": False}} if args.no_load_surcharge else {})
     budget = ForceBudget()
     run_spec(spec, observer=budget)
     print(format_rows(budget.rows))

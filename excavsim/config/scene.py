@@ -113,6 +113,11 @@ class BucketSoilConfig(StrictModel):
         default=0.02, gt=0, le=1, description="sliding speed below which friction is scaled down (regularization) [m/s]"
     )
     rock_stiffness_n_per_m: float = Field(default=1.0e5, gt=0, le=1e8, description="rock contact stiffness [N/m]")
+    load_surcharge: bool = Field(
+        default=True,
+        description="the bucket's load bears on the failure wedge as surcharge, its share growing with the fill "
+                    "(Singh 1995 eq. 7, Fig. 57, §5.1.3); false: only soil heaped ahead of the edge does",
+    )
     friction_mass_kg: float = Field(
         default=25.0, gt=0, le=1e4,
         description="lower bound on the bucket's effective mass that keeps the explicit friction stable [kg]",

@@ -214,11 +214,18 @@ class RecordWedge:
         brittleness: ``I_B`` in [0, 1) [-], the share of the failure force lost at each failure.
         rate_per_decade: ``a`` >= 0 [-], the cohesion's rise per tenfold advance speed above
             ``rate_reference_m_s`` [m/s].
+        load_capacity_m3: ``C``, the heaped capacity of the world's load surcharge: the load ``V``
+            bears on the wedge with the share ``min(V / C, 1)`` (Singh 1995 eq. 7, Fig. 57;
+            :func:`excavsim.world.kernels.load_surcharge_volume`); ``inf``: not at all [m^3].
     """
 
     def __init__(self, width: float, *, surcharge_fraction: float = 0.0, probe_m: float = PROBE_M,
                  brittleness: float = 0.0, rate_per_decade: float = 0.0,
-                 rate_reference_m_s: float = RATE_REFERENCE_M_S):
+                 rate_reference_m_s: float = RATE_REFERENCE_M_S, load_capacity_m3: float = math.inf):
+        if not load_capacity_m3 > 0:
+            raise SoilModelError(f"load_capacity_m3 must be positive (inf: no load surcharge); given "
+                                 f"{load_capacity_m3!r}")
+        self.load_capacity_m3 = float(load_capacity_m3)
         if not 0.0 <= brittleness < 1.0:
             raise SoilModelError(f"brittleness must be in [0, 1); given {brittleness!r}")
         if not (rate_per_decade >= 0.0 and rate_reference_m_s > 0.0):
@@ -266,7 +273,8 @@ class RecordWedge:
         rows = np.arange(len(x))[:, None]
         prof = lp[rows, j] + frac * (lp[rows, j + 1] - lp[rows, j])
         ahead = self.width * np.maximum(prof - d[:, None], 0.0).mean(axis=1) * length
-        surcharge = gamma * (ahead + self.surcharge_fraction * vol) / big_d
+        bearing_load = vol * np.minimum(vol / self.load_capacity_m3, 1.0)
+        surcharge = gamma * (ahead + self.surcharge_fraction * vol + bearing_load) / big_d
         inertia = np.where(np.isfinite(n_acc), gamma / G_M_S2 * u**2 * d * n_acc * self.width, 0.0)
         rate = 1.0 + self.rate_per_decade * np.log10(np.maximum(u, self.rate_reference_m_s) / self.rate_reference_m_s)
         blade = (gamma * d**2 * n_gamma + rate * c * d * n_c) * self.width + surcharge + inertia

@@ -48,7 +48,7 @@ _CURL_STRIDE = 4  # as feasibility._CURL_STRIDE
 (DS, EPS, ZETA, OMEGA, END_PITCH, EXIT_PITCH, TOL_SHAPE, TOL_SURF, TD_REACH, VMAX, WIDTH, DENSITY,
  G_NEAR, G_FAR, G_ZREF, G_TAN_NEAR, G_TAN_FAR, G_BOTTOM, BOX_LO, BOX_HI,
  T_ZMIN, T_DZ, T_PMIN, T_DP,
- W_RAKE0, W_STEP, W_LO, W_HI, W_DELTA, W_GAMMA_G, W_COH, W_ADH, W_WIDTH, W_SHARE, W_CAP, N_SCALARS) = range(36)
+ W_RAKE0, W_STEP, W_LO, W_HI, W_DELTA, W_GAMMA_G, W_COH, W_ADH, W_WIDTH, W_SHARE, W_CAP, W_FILL, N_SCALARS) = range(37)
 # Counters (out_counts).
 C_REACH, C_FORCE, C_CURLS = range(3)
 # A pitch's terms (_terms): the pitch, its cosine and sine, the wrist link's turn with its cosine and sine, and
@@ -176,7 +176,7 @@ def _wedge(depth, rake, volume, sc, ng, nc, na, den, sin_a, cos_a):
     rk = min(max(rake, sc[W_LO]), sc[W_HI])
     v = max(volume, 0.0)
     held = min(v, sc[W_CAP])
-    q = sc[W_SHARE] * held + (v - held)
+    q = sc[W_SHARE] * held + sc[W_FILL] * held * (held / sc[W_CAP]) + (v - held)
     u = (rk - sc[W_RAKE0]) / sc[W_STEP]
     n = ng.size
     if not (u >= -1e-9 and u <= n - 1 + 1e-9):
@@ -641,7 +641,8 @@ def _inputs(feas, grid_k: np.ndarray, grid_alpha: np.ndarray, grid_d1: np.ndarra
     sc[T_ZMIN], sc[T_DZ], sc[T_PMIN], sc[T_DP] = spec.z_min_m, spec.dz_m, spec.pitch_min_deg, spec.dpitch_deg
     for i, key in ((W_RAKE0, "rake0"), (W_STEP, "rake_step"), (W_LO, "rake_lo"), (W_HI, "rake_hi"),
                    (W_DELTA, "delta"), (W_GAMMA_G, "gamma_g"), (W_COH, "cohesion"), (W_ADH, "adhesion"),
-                   (W_WIDTH, "width"), (W_SHARE, "share"), (W_CAP, "capacity")):
+                   (W_WIDTH, "width"), (W_SHARE, "share"), (W_CAP, "capacity"),
+                   (W_FILL, "fill")):
         sc[i] = w[key]
     wedge = np.ascontiguousarray(np.stack([w["n_gamma"], w["n_c"], w["n_a"], w["denominator"]]), dtype=np.float64)
     ds = cfg.sample_spacing_m

@@ -145,6 +145,26 @@ def clear_of_terrain(h, grid, org, rot, box_body, prev_ends):
 
 
 @numba.njit(cache=True, inline="always")
+def load_surcharge_volume(load_m3, capacity_m3):
+    """The part of the bucket's load that bears on the failure wedge as surcharge [m^3].
+
+    Singh 1995 §5.1.2.1 eq. 7 and Fig. 57: the soil displaced by the tool is the surcharge ``Q`` on
+    the wedge, entering eq. 5 as its weight over the denominator ``D`` (``q d N_q w = Q w / D``).
+    §5.1.3: a bucket first takes the cut soil in, and "after a certain amount of soil is scooped,
+    the soil becomes captive and additional travel results in a new cutting surface -- the soil at
+    the surface of the bucket acts as the cutting surface": the load then rides on the soil
+    entering the bucket. The share of the load that bears is its fill ``V / C`` of the heaped
+    capacity ``C`` (assumed: linear between an empty bucket, where only the wedge acts, as in the
+    short drags of Fig. 59, and a full one, where all the displaced soil does, as in Fig. 57), so
+    ``V_s = V min(V / C, 1)``; beyond ``C`` the cut soil stays ahead of the edge and counts in the
+    soil heaped on the wedge instead.
+    """
+    if load_m3 <= 0.0 or capacity_m3 <= 0.0:
+        return 0.0
+    return load_m3 * min(load_m3 / capacity_m3, 1.0)
+
+
+@numba.njit(cache=True, inline="always")
 def failure_cycle(st, p, travel, advance, f_nom, f_fail, spacing):
     """The cutting force on the blade through the wedge's failure cycle (Fig. 53-54); updates ``st``.
 
@@ -340,7 +360,8 @@ def soil_step(heights, strength, grid, mj_arrays, bucket_vel6, bucket, edge, sur
         across = np.array([ex / en, ey / en, ez / en])
         ahead = np.array([ax, ay, 0.0])
         v_ahead = surcharge_volume(h, g, centre, across, ahead, bk.width_m, wedge_len, cz + depth)
-        f_static += p.gamma_g_n_m3 * v_ahead / den
+        v_load = p.load_surcharge * load_surcharge_volume(st.load_m3, p.capacity_m3)
+        f_static += p.gamma_g_n_m3 * (v_ahead + v_load) / den
         # the strength of the soil the failure plane runs through, at its middle (interpolated)
         hs = bilinear(strength, x0, y0, cell, cx + 0.5 * spacing * ax, cy + 0.5 * spacing * ay)
         if np.isfinite(hs):

@@ -19,8 +19,12 @@ Model (and where it simplifies):
   (eq. 5) and the surcharge of the soil actually heaped on the wedge: the soil above the level of the
   surface ahead of the edge over the wedge's length ``d (cot rho + cot beta)``, entering as its
   weight over the denominator of eq. 5 (eq. 7 with ``q d (cot rho + cot beta)`` = surcharge weight
-  per width); nothing heaps on a flat surface until the full bucket spills ahead, so cohesionless
-  drags scale as ``d^2``. The force acts along ``-sin(delta) x_t - cos(delta) z_t`` in the tip frame
+  per width); nothing heaps on a flat surface until the full bucket spills ahead. The bucket's load
+  bears on the wedge too (``scene.bucket.load_surcharge``; Fig. 57's displaced soil as surcharge,
+  §5.1.3's captive soil acting as the cutting surface), a share ``V / C`` of it growing with the
+  fill of the heaped capacity (:func:`~excavsim.world.kernels.load_surcharge_volume`; the share is
+  assumed), so short drags with a nearly empty bucket scale as ``d^2`` (Fig. 59) and a filling
+  bucket's force grows with its load (Fig. 64: the wedge alone under-predicts as the tool proceeds). The force acts along ``-sin(delta) x_t - cos(delta) z_t`` in the tip frame
   (the angle ``pi/2 - rho - delta`` from horizontal of eq. 8).
 * **Speed** (Fig. 63): the dynamic form of the Fundamental Equation of Earthmoving (McKyes 1985) adds
   the force that accelerates the soil entering the wedge, ``rho_s v^2 d N_acc w``, with ``v`` the
@@ -248,6 +252,7 @@ class SoilModel:
             friction_velocity_m_s=scene.bucket.friction_velocity_m_s,
             friction_mass_kg=scene.bucket.friction_mass_kg,
             rock_stiffness_n_per_m=scene.bucket.rock_stiffness_n_per_m,
+            load_surcharge=1.0 if scene.bucket.load_surcharge else 0.0,
         )
         grid, b = self.grid, self.bucket
         self._grid_record = soil_records.filled(soil_records.GRID, x0_m=grid.x0, y0_m=grid.y0, cell_m=grid.cell,

@@ -109,6 +109,7 @@ PARAMS = np.dtype([
     ("friction_velocity_m_s", _F8),
     ("friction_mass_kg", _F8),
     ("rock_stiffness_n_per_m", _F8),
+    ("load_surcharge", _F8),
 ], align=True)
 """The constants of the bucket-soil interaction over an episode (see :mod:`excavsim.world.soil`).
 
@@ -137,6 +138,8 @@ Fields:
     friction_mass_kg: lower bound on the bucket's effective mass that keeps the friction's implied
         damping stable over a control step [kg].
     rock_stiffness_n_per_m: contact stiffness of buried rocks on the edge samples [N/m].
+    load_surcharge: 1 if the bucket's load bears on the wedge as surcharge (a share ``load /
+        capacity_m3`` of it, Singh 1995 eq. 7, Fig. 57), 0 if only the soil heaped ahead does [-].
 """
 
 STATE = np.dtype([

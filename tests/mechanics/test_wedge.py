@@ -350,8 +350,8 @@ def test_the_nominal_predictor_bears_in_full_what_the_bucket_cannot_take(sand, s
     from excavsim.planning.predictor import WedgePredictor
 
     s, cap, width, depth, rake = 0.3, 0.025, 0.3, 0.15, math.radians(40)
-    pred = WedgePredictor(sand, width, surcharge_fraction=s, capacity_m3=cap)
-    blade_only = WedgePredictor(sand, width, surcharge_fraction=s)
+    pred = WedgePredictor(sand, width, surcharge_fraction=s, capacity_m3=cap, fill_weighted=False)
+    blade_only = WedgePredictor(sand, width, surcharge_fraction=s, fill_weighted=False)
 
     def magnitude(p, v):
         return float(np.hypot(*p.predict(np.array([depth]), np.array([rake]), np.array([v]))[0]))
@@ -364,3 +364,25 @@ def test_the_nominal_predictor_bears_in_full_what_the_bucket_cannot_take(sand, s
                                                                                         rel=1e-3)
     with pytest.raises(ValueError, match="capacity_m3 must be positive"):
         WedgePredictor(sand, width, capacity_m3=0.0)
+
+
+def test_the_nominal_predictor_believes_the_worlds_fill_weighted_load_surcharge(sand):
+    """The default WedgePredictor holds the world's law (kernels.load_surcharge_volume): the held soil
+    h bears with the share h / C, Q = h^2 / C + max(v - C, 0); by hand at 15 cm and rho 40 deg."""
+    from excavsim.planning.predictor import WedgePredictor
+    from excavsim.world.kernels import load_surcharge_volume
+
+    cap, width, depth, rake = 0.025, 0.3, 0.15, math.radians(40)
+    pred = WedgePredictor(sand, width, capacity_m3=cap)
+    d = wedge_denominator(rake, critical_beta(rake, sand.phi, sand.delta), sand.phi, sand.delta)
+    gamma = sand.density_kg_m3 * G_M_S2
+    blade = float(wedge_force(depth, rake, sand, width))
+    for v in (0.005, 0.0125, 0.025, 0.03):
+        got = float(np.hypot(*pred.predict(np.array([depth]), np.array([rake]), np.array([v]))[0]))
+        held = min(v, cap)
+        assert got == pytest.approx(blade + gamma * (held * held / cap + v - held) / d, rel=1e-3)
+        if v <= cap:  # the same share as the world's
+            assert held * held / cap == pytest.approx(load_surcharge_volume(v, cap))
+    # a fifth full: a fifth of the 5 l bears (gamma g 1 l / D, about 22 N at rho 40 deg)
+    one_litre = gamma * 0.001 / d
+    assert one_litre == pytest.approx(21.7, abs=0.1)

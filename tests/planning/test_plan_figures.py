@@ -145,6 +145,8 @@ def test_plan_command_without_figures_uses_the_wrist_limit(cli_env, tmp_path, ca
     text = capsys.readouterr().out
     assert "of     500 N m" in text
     assert "pruned search" in text
+    # with the volume constraint on, Chapter 5's setting of Fig. 87 (volume constraint off) is reported too
+    assert "force-limited with the volume constraint off" in text
     assert not out.exists()
 
 

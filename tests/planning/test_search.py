@@ -201,3 +201,34 @@ def test_the_force_constraint_binds_at_steep_alpha_and_long_d1_in_the_testbed_sa
     on = make_planner(arm, reach_table, limits=np.array([25000.0, 12000.0, 500.0])).plan(flat_map(),
                                                                                         classify_limits=True)
     assert not (on.limiting >= 2).any()
+
+
+def test_fig87_the_testbed_sand_is_force_limited_at_steep_alpha_or_long_d1_and_more_so_at_500(arm, reach_table):
+    """Singh 1995 Fig. 87 (`excavsim plan --soil testbed_sand --wrist-limit 1000 --no-volume-constraint`):
+    with the load bearing on the wedge (the world's law, which the nominal predictor believes) a
+    significant area of the testbed sand's action space is force-limited at 1000 N m -- steep
+    approach angles or long penetrations -- and more of it at 500 N m (measured 50 and 308 cells;
+    21 and 161 with the constant 0.3 share before issue 35)."""
+    from excavsim.planning.figures import force_limited
+
+    s = get_soil("testbed_sand")
+    config = load_planner_config().model_copy(update={"volume_constraint": False})
+    counts = {}
+    for wrist in (1000.0, 500.0):
+        planner = TrenchPlanner(arm, reach_table, np.array([25000.0, 12000.0, wrist]), WIDTH, CAPACITY,
+                                load_trench_goal(STRAIGHT), config,
+                                WedgePredictor(s, WIDTH, capacity_m3=config.heaped_capacity_factor * CAPACITY),
+                                s.density_kg_m3)
+        res = planner.plan(flat_map(), classify_limits=True)
+        lim = force_limited(res)
+        counts[wrist] = int(lim.sum())
+        if wrist == 1000.0:
+            geometric = res.feasible & ~lim
+            alpha = np.broadcast_to(res.grid_alpha[None, :, None], lim.shape)
+            d1 = np.broadcast_to(res.grid_d1[None, None, :], lim.shape)
+            # the force-limited cells lie at steeper alpha or longer d1 than the geometry-limited ones
+            steep = alpha[lim].mean() > alpha[geometric].mean()
+            long = d1[lim].mean() > d1[geometric].mean()
+            assert steep or long
+    assert counts[1000.0] >= 20
+    assert counts[500.0] > 2 * counts[1000.0]

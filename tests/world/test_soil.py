@@ -42,6 +42,7 @@ class Driver:
         self.sim = sim
         self.arm = arm_from_model(sim.model)
         self.q_prev: np.ndarray | None = None
+        self.loads_before: list[float] = []  # the bucket's load before each step [m^3]
 
     def place(self, pose, waist: float = 0.0, dt: float | None = None):
         m, d = self.sim.model, self.sim.data
@@ -54,6 +55,7 @@ class Driver:
         self.q_prev = q
         mujoco.mj_forward(m, d)
         d.time += dt
+        self.loads_before.append(self.sim.soil.load)
         return self.sim.soil.step(d, dt)
 
     def line(self, start, end, speed: float, waist: float = 0.0):
@@ -124,25 +126,47 @@ def test_bearing_factors_match_tabulated_values():
     assert bearing_factors(0.0)[0] == pytest.approx(2 + math.pi)
 
 
+@pytest.mark.parametrize("load_surcharge", [False, True])
 @pytest.mark.parametrize("depth", [0.05, 0.10, 0.15])
-def test_horizontal_drag_matches_the_wedge_model(depth):
-    """Quiet soil (no truth terms): steady force equals eq. 8 at the rake of the drag, in direction eq. 8."""
-    sim = Simulation(scene=quiet_scene(), seed=2)
+def test_horizontal_drag_matches_the_wedge_model(depth, load_surcharge):
+    """Quiet soil (no truth terms): steady force equals eq. 8 at the rake of the drag, in direction eq. 8,
+    plus (with ``load_surcharge``) the bearing share ``V min(V / C, 1)`` of the load as surcharge (eq. 7)."""
+    base = quiet_scene()
+    scene = base.model_copy(update={"bucket": base.bucket.model_copy(update={"load_surcharge": load_surcharge})})
+    sim = Simulation(scene=scene, seed=2)
     rake = math.radians(30)
-    contacts = Driver(sim).drag(2.3, 1.9, depth, rake)
-    steady = contacts[len(contacts) // 2:]
+    driver = Driver(sim)
+    contacts = driver.drag(2.3, 1.9, depth, rake)
+    half = len(contacts) // 2
+    steady = contacts[half:]
     f = np.array([c.cutting_force for c in steady])
     soil = sim.soil.soil
-    # Nothing heaps ahead (the bucket is far from full), so no surcharge; the inertial term of the
-    # dynamic earthmoving equation at the drag's 0.1 m/s is under 1 %.
+    # Nothing heaps ahead (the bucket is far from full); the inertial term of the dynamic earthmoving
+    # equation at the drag's 0.1 m/s is under 1 %.
+    from excavsim.mechanics.wedge import surcharge_force
     from excavsim.mechanics.wedge_inertia import inertial_force
     width = sim.soil.bucket.width
     expect = float(wedge_force(depth, rake, soil, width) + inertial_force(depth, rake, 0.1, soil, width))
+    if load_surcharge:
+        load = np.array(driver.loads_before[-len(steady):])
+        cap = sim.soil.heaped_capacity
+        assert load.max() < cap  # not full: nothing spills ahead
+        expect = expect + surcharge_force(load * load / cap, rake, soil)
     mag = np.linalg.norm(f, axis=1)
     np.testing.assert_allclose(mag, expect, rtol=0.01)
     # Direction: backward (+x, away from the robot) and down at pi/2 - rho - delta from horizontal.
     angle = np.arctan2(-f[:, 2], f[:, 0])
     np.testing.assert_allclose(angle, math.pi / 2 - rake - soil.delta, atol=0.01)
+
+
+def test_load_surcharge_share_grows_with_the_fill():
+    """kernels.load_surcharge_volume by hand: V min(V / C, 1)."""
+    from excavsim.world.kernels import load_surcharge_volume
+    assert load_surcharge_volume(0.0, 0.025) == 0.0
+    assert load_surcharge_volume(0.005, 0.025) == pytest.approx(0.001)  # a fifth full: a fifth of 5 l bears
+    assert load_surcharge_volume(0.0125, 0.025) == pytest.approx(0.00625)
+    assert load_surcharge_volume(0.025, 0.025) == pytest.approx(0.025)  # full: all of it (Fig. 57)
+    assert load_surcharge_volume(0.03, 0.025) == pytest.approx(0.03)
 
 
 def test_drag_forces_are_hundreds_of_newtons_and_grow_with_depth():

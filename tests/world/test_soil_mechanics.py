@@ -25,9 +25,12 @@ QUIET = {"cohesion_rate_per_decade": 0.0, "brittleness_index": 0.0, "heterogenei
          "ft_force_noise_n": 0.0, "ft_torque_noise_nm": 0.0}
 
 
-def world(seed: int = 0, soil: str | None = None, **truth) -> Simulation:
-    """A fresh world whose truth terms are off unless given."""
+def world(seed: int = 0, soil: str | None = None, load_surcharge: bool = False, **truth) -> Simulation:
+    """A fresh world whose truth terms are off unless given, and the load's surcharge on the wedge
+    (issue 35) off unless asked: these properties isolate the other terms (tests/world/test_soil.py
+    checks the load's term along a drag)."""
     scene = drags.scene_with_truth(**{**QUIET, **truth})
+    scene = scene.model_copy(update={"bucket": scene.bucket.model_copy(update={"load_surcharge": load_surcharge})})
     if soil is not None:
         scene = scene.model_copy(update={"soil": soil})
     return Simulation(scene=scene, seed=seed)
@@ -155,13 +158,19 @@ def test_soil_heaped_ahead_of_the_blade_is_the_surcharge():
 def test_no_force_sample_above_the_wedge_force_in_quiet_sand(depth, length):
     """The entry along rake - epsilon keeps the heel in the edge's slot: no bearing transient (it was 1.8 kN
     at 10 cm, 7.6 kN at 20 cm), and no sample above 1.05 x (eq. 8 + inertia) while nothing heaps (the
-    drags end before the 25.5 l heaped bucket is full: at 20 cm the entry alone cuts 16 l)."""
-    sim = world(brittleness_index=0.2)
+    drags end before the 25.5 l heaped bucket is full: at 20 cm the entry alone cuts 16 l), with the
+    load's surcharge on: its bearing share at the drag's final load bounds it (kernels.load_surcharge_volume)."""
+    from excavsim.mechanics.wedge import surcharge_force
+    from excavsim.world.kernels import load_surcharge_volume
+
+    sim = world(brittleness_index=0.2, load_surcharge=True)
     contacts = recorded(sim)
     rec = drags.horizontal_drag(sim, x0_m=2.4, length_m=length, depth_m=depth, rake_rad=RAKE)
     assert sim.soil.load < sim.soil.heaped_capacity
     soil, width = get_soil("testbed_sand"), sim.soil.bucket.width
-    bound = 1.05 * float(wedge_force(depth, RAKE, soil, width) + inertial_force(depth, RAKE, 0.1, soil, width))
+    load = float(surcharge_force(load_surcharge_volume(sim.soil.load, sim.soil.heaped_capacity), RAKE, soil))
+    assert load > 0.0
+    bound = 1.05 * float(wedge_force(depth, RAKE, soil, width) + inertial_force(depth, RAKE, 0.1, soil, width) + load)
     assert rec.magnitude_n.max() <= bound, (rec.magnitude_n.max(), bound)
     assert max(np.linalg.norm(c.bearing_force) for c in contacts) < 1.0
 

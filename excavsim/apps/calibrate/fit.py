@@ -313,7 +313,7 @@ def parse_fixes(model: str, items: list[str] | None) -> dict[str, float]:
 
 def fit_wedge(data: ForceDataset, soil, width: float, *, starts: int = 4, seed: int = 0,
               profile: bool = True, fixed: dict[str, float] | None = None, brittleness: float = 0.0,
-              rate_per_decade: float = 0.0) -> Fit:
+              rate_per_decade: float = 0.0, load_capacity_m3: float | None = None) -> Fit:
     """The wedge model's ``c, phi, delta, gamma`` fitted with bounds to a record
     (:class:`~excavsim.learning.wedge_fit.RecordWedge`, the touch-down samples left out), from
     ``soil`` and random starts; standard errors from the Jacobian, the estimates' correlation and,
@@ -328,13 +328,16 @@ def fit_wedge(data: ForceDataset, soil, width: float, *, starts: int = 4, seed: 
     cycle's ``I_B`` the record model averages over (0: eq. 8's crest; the default world's soil has
     0.2, ``truth.brittleness_index``). ``rate_per_decade``: the rate effect on cohesion the record
     model applies above 0.01 m/s (0: c is the strength at the digs' rate; the default world's clays
-    have 0.1, ``truth.cohesion_rate_per_decade``)."""
+    have 0.1, ``truth.cohesion_rate_per_decade``). ``load_capacity_m3``: the heaped capacity with
+    which the load bears on the wedge (the world's ``scene.bucket.load_surcharge``; None: the
+    default world's bucket, ``inf``: no load surcharge)."""
     from excavsim.learning.wedge_fit import RecordWedge, advance_speed, residual_autocorrelation, residual_inflation
 
     held = {WEDGE_FIX[WEDGE_FIX_ALIASES.get(n, n)][0]: v * WEDGE_FIX[WEDGE_FIX_ALIASES.get(n, n)][1]
             for n, v in (fixed or {}).items()}
 
-    rw = RecordWedge(width, brittleness=brittleness, rate_per_decade=rate_per_decade)
+    cap = _heaped_capacity() if load_capacity_m3 is None else load_capacity_m3
+    rw = RecordWedge(width, brittleness=brittleness, rate_per_decade=rate_per_decade, load_capacity_m3=cap)
     x = rw.inputs(data.samples, _loads(data, width), advance_speed(data["x"], data["t"], data["dig"]))
     keep = _used(data)
     start = np.array([soil.cohesion_pa, soil.phi, soil.delta, soil.density_kg_m3 * identify.G_M_S2])
@@ -635,6 +638,20 @@ def _bucket_width() -> float:
     from excavsim.world.simulation import Simulation
 
     return float(Simulation(seed=0).model.numeric(constants.BUCKET_WIDTH_NUMERIC).data[0])
+
+
+def _heaped_capacity() -> float:
+    """The default world's heaped bucket capacity, with which its load bears on the wedge [m^3]
+    (``inf`` if the default scene has the load surcharge off)."""
+    from excavsim import constants
+    from excavsim.config import load_scene_config
+    from excavsim.world.simulation import Simulation
+
+    scene = load_scene_config()
+    if not scene.bucket.load_surcharge:
+        return math.inf
+    struck = float(Simulation(seed=0).model.numeric(constants.BUCKET_CAPACITY_NUMERIC).data[0])
+    return struck * scene.bucket.heaped_capacity_factor
 
 
 def _plot_fit(path: pathlib.Path, data: ForceDataset, fits: dict[str, Fit], reruns: dict[str, Rerun],

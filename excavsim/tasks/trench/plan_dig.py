@@ -31,6 +31,20 @@ def flat_fill_map() -> ElevationMap:
     return ElevationMap(0.55, -1.5, 0.05, np.full((60, 60), 0.5), np.ones((60, 60), bool), 0.0)
 
 
+def _force_limited_where(result) -> str:
+    """Where the force-limited cells of ``result`` lie (Fig. 87: steep alpha, long d1): their mean
+    alpha and d1 beside those of the feasible cells the geometry limits; empty if there are none."""
+    lim = result.limiting
+    force = (result.feasible & (lim == 3)) | (~result.feasible & (lim == 2))
+    geometric = result.feasible & ~force
+    if not force.any() or not geometric.any():
+        return ""
+    alpha = np.degrees(np.broadcast_to(result.grid_alpha[None, :, None], force.shape))
+    d1 = np.broadcast_to(result.grid_d1[None, None, :], force.shape)
+    return (f"at alpha {alpha[force].mean():.0f} deg, d1 {d1[force].mean():.2f} m on average (the geometry-limited: "
+            f"alpha {alpha[geometric].mean():.0f} deg, d1 {d1[geometric].mean():.2f} m)")
+
+
 def plan_on_map(*, goal: str | None = None, map_path: str | None = None, planner_config: str | None = None,
                 robot_config: str | None = None, soil: str = "testbed_sand", wrist_limit: float | None = None,
                 volume_constraint: bool = True, figures_dir: str | pathlib.Path | None = None,
@@ -100,6 +114,21 @@ def plan_on_map(*, goal: str | None = None, map_path: str | None = None, planner
                           f"{counts['evaluated']}, pruned along d1 {counts['pruned_d1']}"))
     rows.append(("force-limited", f"{n_short + n_none} cells (Fig. 87): {n_short} feasible with the drag cut short "
                                   f"by the torque limits, {n_none} with no drag within them"))
+    where = _force_limited_where(result)
+    if where:
+        rows.append(("", where))
+    if config.volume_constraint:
+        # Chapter 5's setting of Fig. 87: the force constraint in the volume constraint's place (§4.1.2)
+        free_cfg = config.model_copy(update={"volume_constraint": False})
+        free = make_planner(arm, limits, width, capacity, trench, free_cfg, nominal, table=table).plan(
+            emap, classify_limits=True)
+        lim_free = free.limiting
+        n_free = int(np.sum(free.feasible & (lim_free == 3)) + np.sum(~free.feasible & (lim_free == 2)))
+        rows.append(("  no volume limit", f"{n_free} cells force-limited with the volume constraint off (Chapter 5's "
+                                          "setting of Fig. 87, --no-volume-constraint)"))
+        where = _force_limited_where(free)
+        if where:
+            rows.append(("", where))
     search = "unpruned: every constraint on every cell, for the figures" if figures else "pruned search"
     rows.append(("time", f"planning {result.seconds:.2f} s ({search}); reachability table {t_table:.1f} s"))
     width_col = max(len(r[0]) for r in rows)

@@ -47,11 +47,14 @@ def test_the_force_trace_figure_drives_the_world_and_reports_its_numbers(tmp_pat
     [(png, summary)] = write_figures(["fig54"], tmp_path)
     assert png.read_bytes()[:8] == PNG_MAGIC
     # eq. 8 at 10 cm, rake 30 deg, 0.3 m wide testbed sand: 102 N, the force just before failure; the
-    # world's failure cycle runs between 80 % and 100 % of it (times the local strength)
+    # bucket's load bears on the wedge as it fills over the 0.6 m (issue 35; measured mean 269 N), so
+    # the world's mean lies above eq. 8 and near the planner's prediction, which includes the load
+    # (325 N), its failure cycle running between 80 % and 100 % of the failure force
     assert "eq. 8 102 N" in summary
     mean = float(summary.split("mean ")[1].split(" N")[0])
-    assert 0.6 * 102 < mean < 1.2 * 102, summary
-    assert float(summary.split("largest sample ")[1].split(" N")[0]) < 1.5 * 102, summary
+    planner = float(summary.split("planner ")[1].split(" N")[0])
+    assert 1.5 * 102 < mean and 0.6 * planner < mean < 1.2 * planner, summary
+    assert float(summary.split("largest sample ")[1].split(" N")[0]) < 1.8 * planner, summary
 
 
 def test_a_drive_records_from_the_start_of_the_returned_motion():
