@@ -109,6 +109,13 @@ NAMES: dict[str, str] = {
        for old in ("excavsim.loop.loading_mujoco", "excavsim.tasks.load.in_mujoco")
        for n in ("format_comparison", "load_campaign", "same_pile_2d", "run_campaign", "format_campaign",
                  "write_campaign", "run_episodes")},
+    # calibration: the fits stayed (apps.calibrate.fit), the command's run and Table 5.3's experiment left it
+    **{f"{old}.{n}": f"excavsim.apps.calibrate.run.{n}"
+       for old in ("excavsim.loop.calibrate", "excavsim.apps.calibrate.fit")
+       for n in ("RERUN_LAG_S", "Rerun", "rerun", "calibrate", "record_digs", "calibrate_file")},
+    **{f"{old}.{n}": f"excavsim.apps.calibrate.table53.{n}"
+       for old in ("excavsim.loop.calibrate", "excavsim.apps.calibrate.fit")
+       for n in ("TABLE_5_3_THESIS", "table_5_3")},
 }
 
 # Literal strings that are neither module names nor module paths (git pathspecs in tests).
