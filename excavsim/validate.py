@@ -24,6 +24,7 @@ loading_mujoco            loading from a pile in MuJoCo (``excavsim load --mujoc
 loading_campaign          a campaign of MuJoCo loading episodes (``excavsim load --campaign``),
                           its ``mujoco_config`` too
 truck                     truck loading by the self-tuned mass-excavation script (``excavsim truck``)
+truck_loading             a truck loaded to full by the 25 t excavator (task ``truck_loading``)
 ========================  =====================================================================
 
 Every refusal is a :class:`~excavsim.errors.ConfigError` naming the file, the field and what is
@@ -45,6 +46,7 @@ from excavsim.config.loading import LoadingConfig, load_loading_config
 from excavsim.config.loading_mujoco import (LoadingCampaign, LoadingMujocoConfig, load_loading_campaign,
                                            load_loading_mujoco_config)
 from excavsim.config.truck import TruckFile, load_truck_file
+from excavsim.config.truck_loading import TruckLoadingFile, load_truck_loading_file
 from excavsim.errors import ConfigError, ExcavsimError, shorten
 
 SUFFIXES = (".yaml", ".yml", ".json")  # the files a directory given to validate contributes
@@ -177,6 +179,11 @@ def _truck(path: pathlib.Path) -> str:
     return "TruckFile"
 
 
+def _truck_loading(path: pathlib.Path) -> str:
+    load_truck_loading_file(path)
+    return "TruckLoadingFile"
+
+
 @dataclasses.dataclass(frozen=True)
 class Kind:
     """A kind of configuration file: its name, its model (whose fields tell a file's kind from its
@@ -211,13 +218,16 @@ _KIND_LIST = (
     Kind("loading_campaign", _const(LoadingCampaign), _loading_campaign,
          "a campaign of MuJoCo loading episodes (configs/campaigns/loading_mujoco.yaml)"),
     Kind("truck", _const(TruckFile), _truck, "truck loading by the self-tuned script (configs/truck.yaml)"),
+    Kind("truck_loading", _const(TruckLoadingFile), _truck_loading,
+         "a truck loaded to full by the 25 t excavator (configs/truck_loading.yaml)"),
 )
 KINDS: dict[str, Kind] = {k.name: k for k in _KIND_LIST}
 
 # Where a file lies tells its kind: a folder of configs/ (several kinds: told apart by the fields), else a stem.
 FOLDER_KINDS = {"trenches": ("goal",), "campaigns": ("campaign", "loading_campaign"), "experiments": ("experiment",),
                 "regress": ("regress",), "specs": ("spec",)}
-STEM_KINDS = ("robot", "scene", "soils", "sensing", "planner", "executor", "loading", "loading_mujoco", "truck")
+STEM_KINDS = ("robot", "scene", "soils", "sensing", "planner", "executor", "loading", "loading_mujoco", "truck",
+              "truck_loading")
 
 
 def _fields(kind: str) -> frozenset[str]:

@@ -68,6 +68,14 @@ def _load_mujoco(args: argparse.Namespace, cfg) -> int:
     return 0 if done else 1
 
 
+def _cmd_truck_curve(args: argparse.Namespace) -> int:
+    from excavsim.tasks.truck_loading.figure import learning_curve
+
+    print(learning_curve(args.campaign_dir, args.out))
+    print(f"wrote {args.out}")
+    return 0
+
+
 def register(sub: argparse._SubParsersAction) -> None:
     """Add the task commands to ``sub``."""
     load = sub.add_parser("load", help="loading from a pile in a 2-D world (§7.2.1, Figs. 108-112): front loader "
@@ -118,3 +126,9 @@ def register(sub: argparse._SubParsersAction) -> None:
                       help="seeds of --compare (default 0 1 2)")
     tune.add_argument("--soils", nargs="+", metavar="NAME", help="soil presets of --compare (default the scene's)")
     tune.set_defaults(func=_cmd_tune)
+    curve = sub.add_parser("truck-curve", help="the Fig. 12-style learning curve (Rowe 1997 §6.2) of a truck_loading "
+                           "campaign (configs/campaigns/excavator_truck.yaml): cost, cycle time and placement per pass")
+    curve.add_argument("campaign_dir", metavar="DIR", help="the campaign's output directory (with episodes/*.json)")
+    curve.add_argument("--out", metavar="PNG", default="runs/truck_curve.png", type=out_file((".png",)),
+                       help="the figure (default runs/truck_curve.png)")
+    curve.set_defaults(func=_cmd_truck_curve)

@@ -37,16 +37,18 @@ from excavsim.config.semantic import check_goal
 from excavsim.errors import UsageError, shorten
 
 
-TASK_MACHINES = {"trench": ("t3",), "load": ("loader", "shovel"), "truck": ("t3",)}
+TASK_MACHINES = {"trench": ("t3",), "load": ("loader", "shovel"), "truck": ("t3",), "truck_loading": ("excavator_25t",)}
 """The tasks an episode specification can name, each with the machines that do it (the first is the default)."""
 TRENCH_ONLY = ("goal", "done_fraction", "tolerance_m", "robot", "scene", "planner", "executor", "sensing", "memory",
                "predictor")
 """Fields of :class:`EpisodeSpec` that configure the trenching task only."""
-FIELD_TASKS: dict[str, tuple[str, ...]] = {**{f: ("trench",) for f in TRENCH_ONLY}, "dig_budget": ("trench", "load"),
-                                           "loading": ("load",), "truck": ("truck",)}
+FIELD_TASKS: dict[str, tuple[str, ...]] = {**{f: ("trench",) for f in TRENCH_ONLY}, "dig_budget": ("trench", "load", "truck_loading"),
+                                           "loading": ("load",), "truck": ("truck",),
+                                           "truck_loading": ("truck_loading",)}
 """The fields of :class:`EpisodeSpec` that only some tasks use, each with those tasks (a truck trial is one
 dig-swing-dump cycle: it has no dig budget). The other fields (name, task, machine, soil, seed) every task uses."""
-TASK_OVERRIDES = {"load": ("loading", "configs/loading_mujoco.yaml"), "truck": ("truck", "configs/truck.yaml")}
+TASK_OVERRIDES = {"load": ("loading", "configs/loading_mujoco.yaml"), "truck": ("truck", "configs/truck.yaml"),
+                  "truck_loading": ("truck_loading", "configs/truck_loading.yaml")}
 """The field holding each application task's configuration overrides, and the file they apply to."""
 
 
@@ -57,18 +59,24 @@ class EpisodeSpec(StrictModel):
     task: str = Field(default="trench", description="the task: trench (dig a trench goal with the T3), load "
                                                     "(load from a pile in MuJoCo: excavsim.tasks.load.in_mujoco) or "
                                                     "truck (one truck-loading trial of the mass-excavation script "
-                                                    "on the T3, Rowe 1997 §6.2: excavsim.tasks.truck)")
+                                                    "on the T3, Rowe 1997 §6.2: excavsim.tasks.truck) or "
+                                                    "truck_loading (a truck loaded to full, pass after pass, by the "
+                                                    "25 t excavator, Rowe 1997 §4, §6: excavsim.tasks.truck_loading)")
     machine: str | None = Field(default=None, description="the machine: t3 (tasks trench and truck); loader or "
-                                                          "shovel (task load); default the task's first")
+                                                          "shovel (task load); excavator_25t (task truck_loading); "
+                                                          "default the task's first")
     loading: dict[str, Any] = Field(default_factory=dict,
                                     description="overrides of configs/loading_mujoco.yaml (task load)")
     truck: dict[str, Any] = Field(default_factory=dict, description="overrides of configs/truck.yaml (task truck)")
+    truck_loading: dict[str, Any] = Field(default_factory=dict, description="overrides of configs/truck_loading.yaml "
+                                                                            "(task truck_loading)")
     goal: str | TrenchGoal = Field(
         default="sand", description="a trench of configs/trenches (by name), a YAML path, or the goal inline")
     soil: str | None = Field(default=None, description="soil preset of configs/soils.yaml (default: the scene's)")
     seed: int = Field(default=0, ge=0, le=2**32 - 1, description="episode seed (soil, sensor noise, scanner drift)")
     dig_budget: int = Field(default=20, ge=1, le=1000,
-                            description="most digs to try (tasks trench and load; a truck trial is one cycle)")
+                            description="most digs to try (tasks trench and load; the most passes of task "
+                                        "truck_loading; a truck trial is one cycle)")
     done_fraction: float = Field(default=0.95, gt=0, le=1, description="goal volume fraction that counts as done")
     tolerance_m: float = Field(default=0.03, gt=0, le=1, description="no map cell may stay this far above the goal")
     robot: dict[str, Any] = Field(default_factory=dict, description="overrides of configs/robot.yaml")
@@ -181,6 +189,12 @@ class ResolvedSpec:
 
             self.truck: TruckFile = _override(load_truck_file(), spec.truck, TruckFile, f"{spec.name}: truck")
             return
+        if spec.task == "truck_loading":
+            from excavsim.config.truck_loading import TruckLoadingFile, load_truck_loading_file
+
+            self.truck_loading: TruckLoadingFile = _override(load_truck_loading_file(), spec.truck_loading,
+                                                             TruckLoadingFile, f"{spec.name}: truck_loading")
+            return
         self.goal: TrenchGoal = resolve_goal(spec.goal)
         self.robot: RobotConfig = _override(load_robot_config(robot_path), spec.robot, RobotConfig,
                                             f"{spec.name}: robot")
@@ -216,6 +230,11 @@ def spec_episode(spec: EpisodeSpec, resolved: ResolvedSpec | None = None, *,
         from excavsim.loop.catalog import task_module
 
         return task_module("truck").spec_episode(spec, r, progress=progress, observer=observer)
+    if spec.task == "truck_loading":  # passes until the truck is full, at most dig_budget
+        from excavsim.loop.catalog import task_class
+
+        return Episode(task_class("truck_loading")(spec.machine_name, cfg=r.truck_loading, soil=spec.soil),
+                       dig_budget=spec.dig_budget, progress=progress, observer=observer)
     from excavsim.loop.catalog import task_module
 
     return task_module("trench").spec_episode(spec, r, progress=progress, observer=observer)
@@ -250,6 +269,12 @@ def run_spec(spec: EpisodeSpec, *, progress: Callable[[str], None] | None = None
 def _is_loading(res) -> bool:
     """Whether ``res`` is a loading episode's result (a MujocoRun) rather than a trench's."""
     return hasattr(res, "delivered_m3")
+
+
+def _task_of(res) -> str | None:
+    """The registered task whose result ``res`` is, when the result names it (``task``), else None."""
+    task = getattr(res, "task", None)
+    return task if isinstance(task, str) else None
 
 
 def _is_truck(res) -> bool:
@@ -295,6 +320,8 @@ def run_with_outputs(spec: EpisodeSpec, *, robot_path: str | None = None, scene_
             tuning = resolved.truck.tuning
             cycles = "one trial" if tuning is None else (f"a {'tuned' if tuning.learn else 'untuned'} run of "
                                                          f"{tuning.trials} trials")
+        if spec.task == "truck_loading":
+            cycles = f"{spec.dig_budget} passes at most"
         label = "excavsim trench --spec" if command == "trench" else f"excavsim {command}"
         say(f"{label}: task {spec.task}, machine {spec.machine_name}, {cycles}, seed {spec.seed}")
         result = run_spec(spec, progress=say, observer=recorder(record) if record else None)
@@ -337,8 +364,12 @@ def run_with_outputs(spec: EpisodeSpec, *, robot_path: str | None = None, scene_
 
 
 def task_of(res) -> str:
-    """The task whose result ``res`` is: ``truck`` (a trial or a tuning run), ``load`` (a loading
-    episode's run) or ``trench`` (an :class:`~excavsim.handoff.episode.EpisodeResult`)."""
+    """The task whose result ``res`` is: the task a result names (``task``, e.g. ``truck_loading``), else
+    ``truck`` (a trial or a tuning run), ``load`` (a loading episode's run) or ``trench`` (an
+    :class:`~excavsim.handoff.episode.EpisodeResult`)."""
+    named = _task_of(res)
+    if named is not None:
+        return named
     if _is_truck(res):
         return "truck"
     return "load" if _is_loading(res) else "trench"
@@ -362,7 +393,8 @@ def episode_summary(res) -> dict[str, Any]:
     (``done``, ``no_dig``, ``budget``, ``diverged`` or ``timeout``), ``reason`` its full text;
     ``diverged_digs`` counts the digs in which the simulation diverged (at most one: the episode ends there).
     A loading episode's and a truck trial's keep the same keys where they mean the same
-    (:func:`excavsim.tasks.load.in_mujoco.summary`, :func:`excavsim.tasks.truck.episode.summary`).
+    (:func:`excavsim.tasks.load.in_mujoco.summary`, :func:`excavsim.tasks.truck.episode.summary`); a truck
+    loaded by the excavator, :func:`excavsim.tasks.truck_loading.task.summary`.
     """
     from excavsim.loop.catalog import task_module
 

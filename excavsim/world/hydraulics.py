@@ -115,7 +115,7 @@ class ExcavatorWorld:
     def __init__(self, machine: str, soil: SoilParams | str | None = None, scene: SceneConfig | None = None, *,
                  seed: int = 0, keyframe: str = "home"):
         self.spec = get_machine(machine)
-        self.model = mujoco.MjModel.from_xml_path(str(self.spec.scene_xml))
+        self.model = self._compile()
         self.data = mujoco.MjData(self.model)
         mujoco.mj_resetDataKeyframe(self.model, self.data, element_id(self.model, "key", keyframe))
         mujoco.mj_forward(self.model, self.data)
@@ -137,6 +137,10 @@ class ExcavatorWorld:
         self.contact = None
         self.steps = 0
         self._warnings = np.array(self.data.warning.number, dtype=np.int64)
+
+    def _compile(self) -> mujoco.MjModel:
+        """The world's MuJoCo model: the machine's scene (a world with more in it adds its bodies here)."""
+        return mujoco.MjModel.from_xml_path(str(self.spec.scene_xml))
 
     def joint_angles(self) -> np.ndarray:
         """The joint encoders (4,): swing, boom, stick, bucket [rad]."""

@@ -295,6 +295,10 @@ class SoilModel:
             jid = mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_JOINT, constants.WAIST_JOINT)
             self.dimaio = dimaio.DiMaioForces(soil, scene, b.width, self.gravity, waist.xanchor[jid, :2].copy())
         self.spoil = 0.0
+        # Bodies above the terrain that catch poured soil before it reaches the ground, each called as
+        # ``catch(x, y, volumes, radius_m) -> (volumes still falling, volume caught)`` (a truck's bed,
+        # :class:`~excavsim.world.truck.TruckBed`); what they catch leaves this model's account.
+        self.catchers: list = []
         self._since_settle = 0.0
         self._hfield = self.grid.hfield_view(model)
         self.initial_volume = self.volumes().total
@@ -406,7 +410,10 @@ class SoilModel:
         org = data.xpos[b.body_id]
         lips = b.lips @ rot.T + org
         lip = lips[int(np.argmin(lips[:, 2]))]
-        self.spoil += self.grid.deposit(lip[:1], lip[1:2], np.array([poured]), radius_m=b.width / 2)
+        falling = np.array([poured])
+        for catch in self.catchers:  # something above the terrain takes its share first (a truck's bed)
+            falling, _ = catch(lip[:1], lip[1:2], falling, b.width / 2)
+        self.spoil += self.grid.deposit(lip[:1], lip[1:2], falling, radius_m=b.width / 2)
         # the load's weight in the wrench was computed before pouring
         dw = self._gamma_g * poured
         arm = rot @ b.load_centroid + org - data.xipos[b.body_id]

@@ -45,6 +45,8 @@ CASES = {
     "loading_campaign": ("campaigns/loading_mujoco.yaml", "campaigns/bad.yaml", ("seeds", [-1]),
                          ("machines", "loader")),
     "truck": ("truck.yaml", "truck.yaml", ("target.r_m", -1.0), ("learning.expected_cost", "maybe")),
+    "truck_loading": ("truck_loading.yaml", "truck_loading.yaml", ("truck.payload_t", -1.0),
+                      ("tuning.tune", "maybe")),
 }
 
 

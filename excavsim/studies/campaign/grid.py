@@ -35,7 +35,7 @@ from excavsim.config import StrictModel, load_config, parse_config
 from excavsim.errors import ConfigError
 from excavsim.loop.scenario import FIELD_TASKS, EpisodeSpec, ResolvedSpec, merge, resolve_goal
 
-OVERRIDE_SECTIONS = ("robot", "scene", "planner", "executor", "sensing", "loading", "truck")
+OVERRIDE_SECTIONS = ("robot", "scene", "planner", "executor", "sensing", "loading", "truck", "truck_loading")
 
 
 def _short(key: str, value: Any) -> Any:

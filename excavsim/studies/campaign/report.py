@@ -114,7 +114,8 @@ def _outcome(row: dict) -> str:
 # a truck tuning run's cost of its first and its last window)
 TASK_COLUMNS = (("delivered_l", "deliv. l"), ("spilled_l", "spilled l"), ("dumped_l", "dumped l"),
                 ("missed_l", "missed l"), ("cycle_s", "cycle s"), ("placement_error_cm", "place. cm"),
-                ("first_cost", "cost 1st"), ("cost", "cost"))
+                ("first_cost", "cost 1st"), ("cost", "cost"), ("truck_t", "truck t"), ("spill_l", "spill l"),
+                ("truck_s", "truck s"), ("last_cost", "cost last 3"))
 
 
 def format_table(spec: CampaignSpec, rows: list[dict[str, Any]]) -> str:

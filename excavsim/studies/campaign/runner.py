@@ -416,6 +416,9 @@ def _progress_line(count: int, total: int, rec: dict, eta_s: float) -> str:
         elif s.get("task") == "truck":
             text = (f"{head} {s['end']}: {num('dumped_l')} l dumped, {num('missed_l')} l missed, cycle "
                     f"{num('cycle_s', fmt='.2f')} s ({rec['wall_s']:.0f} s)")
+        elif s.get("task") == "truck_loading":
+            text = (f"{head} {s['end']} after {s['digs']} passes, {num('truck_t')} t in the truck, "
+                    f"{num('spill_l', fmt='.0f')} l spilled, {num('cycle_s')} s a bucket ({rec['wall_s']:.0f} s)")
         else:
             text = (f"{head} {s['end']} after {s['digs']} digs, {num('dug_l_per_dig')} l/dig, "
                     f"{num('removed_fraction', 100.0, '.0f')} % removed ({rec['wall_s']:.0f} s)")

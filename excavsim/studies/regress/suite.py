@@ -85,12 +85,17 @@ METRICS: dict[str, Metric] = {
     "missed_l": Metric("lower", 1.0, 0.25),        # soil dumped beside the truck's bed (the spillage) [l]
     "cycle_s": Metric("lower", 0.2),               # the script's cycle time (Rowe 1997 §6.2) [s]
     "placement_error_cm": Metric("lower", 3.0),    # the pile's distance from the target [cm]
+    # a truck loaded by the 25 t excavator (task truck_loading): digs (passes), cycle_s (per bucket) and
+    # placement_error_cm (from the aim in the bed) as above, and
+    "truck_t": Metric("higher", 0.3, 0.05),        # soil in the truck [t]
+    "spill_l": Metric("lower", 30.0, 0.25),        # soil that left the bucket and missed the bed [l]
 }
 TASK_METRICS: dict[str, tuple[str, ...]] = {
     "trench": ("removed_fraction", "dug_l_per_dig", "efficiency", "digs", "stalls", "overdig_max_cm",
                "underdig_max_cm", "underdig_rms_cm", "peak_wrist_pitch_nm"),
     "load": ("removed_fraction", "digs", "failed_digs", "delivered_l", "spilled_l", "efficiency"),
     "truck": ("dumped_l", "missed_l", "cycle_s", "placement_error_cm"),
+    "truck_loading": ("digs", "truck_t", "spill_l", "cycle_s", "placement_error_cm"),
 }
 """The metrics judged per task (a scenario's task is its spec's ``task``; a baseline entry without one is trench)."""
 TIMINGS = ("planning_s", "wall_s", "sim_s")  # printed, never judged
