@@ -50,8 +50,8 @@ def _cmd_load(args: argparse.Namespace) -> int:
 
 
 def _load_mujoco(args: argparse.Namespace, cfg) -> int:
-    """``excavsim load --mujoco`` or ``--campaign``: loading episodes in MuJoCo (excavsim.tasks.load.in_mujoco)."""
-    from excavsim.tasks.load import in_mujoco as lm
+    """``excavsim load --mujoco`` or ``--campaign``: loading episodes in MuJoCo (excavsim.tasks.load.campaign)."""
+    from excavsim.tasks.load import campaign as lm
 
     if args.study:
         raise UsageError("--study is the 2-D simulation's (Fig. 112); --mujoco runs single episodes")
