@@ -61,7 +61,7 @@ class EpisodeSpec(StrictModel):
     name: str = Field(default="episode", description="label for logs and result files")
     task: str = Field(default="trench", description="the task: trench (dig a trench goal with the T3 or a "
                                                     "hydraulic excavator), load "
-                                                    "(load from a pile in MuJoCo: excavsim.tasks.load.in_mujoco) or "
+                                                    "(load from a pile in MuJoCo: excavsim.tasks.load.task) or "
                                                     "truck (one truck-loading trial of the mass-excavation script "
                                                     "on the T3, Rowe 1997 §6.2: excavsim.tasks.truck) or "
                                                     "truck_loading (a truck loaded to full, pass after pass, by the "
@@ -275,7 +275,7 @@ def run_spec(spec: EpisodeSpec, *, progress: Callable[[str], None] | None = None
              robot_path: str | pathlib.Path | None = None, scene_path: str | pathlib.Path | None = None):
     """Build the world of ``spec`` and run its episode; returns the task's result (for trench an
     :class:`~excavsim.handoff.episode.EpisodeResult`, for load a
-    :class:`~excavsim.tasks.load.in_mujoco.MujocoRun`, for truck a :class:`~excavsim.tasks.truck.trial.Trial`).
+    :class:`~excavsim.tasks.load.task.MujocoRun`, for truck a :class:`~excavsim.tasks.truck.trial.Trial`).
 
     Args:
         robot_path, scene_path: base configuration files the spec's overrides apply to (default
@@ -415,7 +415,7 @@ def episode_summary(res) -> dict[str, Any]:
     (``done``, ``no_dig``, ``budget``, ``diverged`` or ``timeout``), ``reason`` its full text;
     ``diverged_digs`` counts the digs in which the simulation diverged (at most one: the episode ends there).
     A loading episode's and a truck trial's keep the same keys where they mean the same
-    (:func:`excavsim.tasks.load.in_mujoco.summary`, :func:`excavsim.tasks.truck.episode.summary`); a truck
+    (:func:`excavsim.tasks.load.task.summary`, :func:`excavsim.tasks.truck.episode.summary`); a truck
     loaded by the excavator, :func:`excavsim.tasks.truck_loading.task.summary`.
     """
     from excavsim.loop.catalog import task_module
