@@ -38,11 +38,12 @@ def element_id(model, kind: str, name: str) -> int:
         raise ModelError(f"{kind} {name!r} not found in the model. Available: {names}") from None
 
 
-def keyframe_qpos(model, name: str) -> np.ndarray:
-    """The joint angles (6,) of keyframe ``name`` in :data:`~excavsim.constants.JOINTS` order [rad]."""
+def keyframe_qpos(model, name: str, joints: tuple[str, ...] = constants.JOINTS) -> np.ndarray:
+    """The joint angles of keyframe ``name`` in the order of ``joints`` (default the T3's six,
+    :data:`~excavsim.constants.JOINTS`) [rad]."""
     key = element_id(model, "key", name)
     qpos = np.asarray(model.key_qpos[key], dtype=float)
-    return qpos[[int(model.jnt_qposadr[element_id(model, "joint", j)]) for j in constants.JOINTS]].copy()
+    return qpos[[int(model.jnt_qposadr[element_id(model, "joint", j)]) for j in joints]].copy()
 
 
 @dataclasses.dataclass(frozen=True)

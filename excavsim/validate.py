@@ -13,7 +13,8 @@ robot, scene, soils,      the file's schema (:mod:`excavsim.config`)
 sensing, planner,
 executor
 goal                      a trench goal, against the soil box and the initial soil of
-                          ``configs/scene.yaml`` (:func:`~excavsim.config.semantic.check_goal`)
+                          ``configs/scene.yaml`` (:func:`~excavsim.config.semantic.check_goal`);
+                          one in ``configs/trenches/<machine>/`` against that machine's pit
 spec                      an episode specification, its overrides and goal resolved
 regress                   a golden scenario of ``excavsim regress``: its seeds, its specification resolved
 baseline                  the regression baseline (JSON): one value per seed, known metrics
@@ -24,6 +25,8 @@ loading_mujoco            loading from a pile in MuJoCo (``excavsim load --mujoc
 loading_campaign          a campaign of MuJoCo loading episodes (``excavsim load --campaign``),
                           its ``mujoco_config`` too
 truck                     truck loading by the self-tuned mass-excavation script (``excavsim truck``)
+machine                   a trenching machine's overrides of the planner, executor and sensing files
+                          (``configs/machines/``), each merged and checked
 truck_loading             a truck loaded to full by the 25 t excavator (task ``truck_loading``)
 ========================  =====================================================================
 
@@ -75,6 +78,12 @@ def _campaign_spec() -> type[BaseModel]:
     return CampaignSpec
 
 
+def _machine_config() -> type[BaseModel]:
+    from excavsim.config.machines import MachineConfig
+
+    return MachineConfig
+
+
 def _experiment_spec() -> type[BaseModel]:
     from excavsim.studies.experiment import ExperimentSpec
 
@@ -103,8 +112,37 @@ def _plain(model: type[BaseModel]) -> Callable[[pathlib.Path], str]:
 
 
 def _goal(path: pathlib.Path) -> str:
-    c.check_goal(c.load_trench_goal(path), c.load_scene_config(), source=_where(path))
-    return "TrenchGoal (inside the soil box, below the initial soil of configs/scene.yaml)"
+    from excavsim.config.machines import machine_box, machine_scene
+
+    # configs/trenches/<machine>/ holds another machine's goals, in its pit's coordinates
+    machine = path.parent.name if path.parent.parent.name == "trenches" else "t3"
+    c.check_goal(c.load_trench_goal(path), machine_scene(c.load_scene_config(), machine), source=_where(path),
+                 box=machine_box(machine) if machine != "t3" else None)
+    where = "the soil box" if machine == "t3" else f"the {machine}'s pit"
+    return f"TrenchGoal (inside {where}, below the initial soil of configs/scene.yaml)"
+
+
+def _machine(path: pathlib.Path) -> str:
+    from excavsim.config.machines import MachineConfig
+
+    cfg = c.load_config(path, MachineConfig)
+
+    class Merged(c.StrictModel):
+        planner: c.PlannerConfig
+        executor: c.ExecutorConfig
+        sensing: c.SensingConfig
+
+    bases = {"planner": c.load_planner_config, "executor": c.load_executor_config, "sensing": c.load_sensing_config}
+    c.parse_config({k: _merged(load().model_dump(), getattr(cfg, k)) for k, load in bases.items()}, Merged,
+                   source=_where(path))
+    return "MachineConfig (its overrides merged over configs/planner.yaml, executor.yaml and sensing.yaml)"
+
+
+def _merged(base: dict, over: dict) -> dict:
+    out = dict(base)
+    for k, v in over.items():
+        out[k] = _merged(out[k], v) if isinstance(v, dict) and isinstance(out.get(k), dict) else v
+    return out
 
 
 def _spec(path: pathlib.Path) -> str:
@@ -218,6 +256,7 @@ _KIND_LIST = (
     Kind("loading_campaign", _const(LoadingCampaign), _loading_campaign,
          "a campaign of MuJoCo loading episodes (configs/campaigns/loading_mujoco.yaml)"),
     Kind("truck", _const(TruckFile), _truck, "truck loading by the self-tuned script (configs/truck.yaml)"),
+    Kind("machine", _machine_config, _machine, "a trenching machine's overrides (configs/machines/*.yaml)"),
     Kind("truck_loading", _const(TruckLoadingFile), _truck_loading,
          "a truck loaded to full by the 25 t excavator (configs/truck_loading.yaml)"),
 )
@@ -225,7 +264,7 @@ KINDS: dict[str, Kind] = {k.name: k for k in _KIND_LIST}
 
 # Where a file lies tells its kind: a folder of configs/ (several kinds: told apart by the fields), else a stem.
 FOLDER_KINDS = {"trenches": ("goal",), "campaigns": ("campaign", "loading_campaign"), "experiments": ("experiment",),
-                "regress": ("regress",), "specs": ("spec",)}
+                "regress": ("regress",), "specs": ("spec",), "machines": ("machine",)}
 STEM_KINDS = ("robot", "scene", "soils", "sensing", "planner", "executor", "loading", "loading_mujoco", "truck",
               "truck_loading")
 
@@ -266,6 +305,8 @@ def infer_kind(path: str | os.PathLike) -> str:
     if path.suffix == ".json":
         return "baseline"
     folder = FOLDER_KINDS.get(path.parent.name)
+    if folder is None and path.parent.parent.name == "trenches":  # configs/trenches/<machine>/: its goals
+        folder = FOLDER_KINDS["trenches"]
     if folder is not None:
         return folder[0] if len(folder) == 1 else _by_fields(path, folder)
     if path.stem in STEM_KINDS:

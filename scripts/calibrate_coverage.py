@@ -99,6 +99,7 @@ def main(argv: list[str] | None = None) -> int:
     from excavsim.learning import identify
     from excavsim.learning.wedge_fit import RecordWedge, advance_speed
     from excavsim.apps.calibrate import fit as cal
+    from excavsim.apps.calibrate import run as calrun
     from excavsim.apps.calibrate.digs import record_digs
 
     ib = args.brittleness if args.brittleness is not None else (0.0 if args.quiet else 0.2)
@@ -123,7 +124,7 @@ def main(argv: list[str] | None = None) -> int:
                 data = ForceDataset.load(path)
             else:
                 data = record_digs(path, soil=soil_name, digs=args.digs, seed=seed, quiet=args.quiet)
-            width = float(data.meta.get("bucket_width_m", 0.0)) or cal._bucket_width()
+            width = float(data.meta.get("bucket_width_m", 0.0)) or calrun._bucket_width()
             keep = cal._used(data)
             rw = RecordWedge(width, brittleness=ib, rate_per_decade=rate)
             x = rw.inputs(data.samples, cal._loads(data, width), advance_speed(data["x"], data["t"], data["dig"]))

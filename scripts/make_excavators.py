@@ -334,16 +334,15 @@ def scene_xml(s: ExcavatorSpec) -> str:
     elevation = depth + 1.0
     keys = "\n    ".join(key_line(s, k, q) for k, q in keyframes(s).items())
     targets_geoms, targets_sites = [], []
-    pts = [(-0.5 * h, h, -0.3), (0.5 * h, h, -0.2), (-0.5 * h, -h, -0.3), (0.5 * h, -h, -0.2),
-           (h, -0.4 * h, -0.25), (h, 0.4 * h, -0.25), (-0.6 * h, h, -0.4), (0.6 * h, -h, -0.4)]
-    for i, (x, y, zf) in enumerate(pts):
-        z = zf * depth
-        if abs(x) == h:
-            sgn = -1 if x > 0 else 1
-            plate, site, zaxis = (x + sgn * 0.001, y, z), (x + sgn * 0.002, y, z), f(sgn, 0, 0)
-        else:
-            sgn = -1 if y > 0 else 1
-            plate, site, zaxis = (x, y + sgn * 0.001, z), (x, y + sgn * 0.002, z), f(0, sgn, 0)
+    # The pit is filled flush with the ground and has no walls above the soil (the T3's box has), so the
+    # surveyed targets lie flat on the ground around its rim, a tenth of its side out, 1 mm proud of the
+    # ground (the soil_box body sits on the pit's floor, the ground at z = depth in its frame), at
+    # different ranges from the scanner.
+    rim = h + 0.1 * side
+    pts = [(-0.5 * h, rim), (0.5 * h, rim), (-0.5 * h, -rim), (0.5 * h, -rim),
+           (rim, -0.4 * h), (rim, 0.4 * h), (-0.8 * h, rim), (0.8 * h, -rim)]
+    for i, (x, y) in enumerate(pts):
+        plate, site, zaxis = (x, y, depth + 0.001), (x, y, depth + 0.002), f(0, 0, 1)
         targets_geoms.append(f'<geom name="survey_target_{i}_plate" class="survey_target" pos="{f(plate)}" zaxis="{zaxis}"/>')
         targets_sites.append(f'<site name="survey_target_{i}" class="survey_target" pos="{f(site)}"/>')
     tg = "\n      ".join(targets_geoms)
@@ -397,7 +396,7 @@ def scene_xml(s: ExcavatorSpec) -> str:
             pos="{f(-h - (ground - h) / 2, 0, depth / 2)}"/>
       <geom name="ground_far" class="ground" size="{f((ground - h) / 2, h, depth / 2)}"
             pos="{f(h + (ground - h) / 2, 0, depth / 2)}"/>
-      <!-- Surveyed targets on the pit's walls, for the scanner's calibration (as in models/soil_box). -->
+      <!-- Surveyed targets lying on the ground around the pit's rim, for the scanner's calibration. -->
       {tg}
       {ts}
       <!-- A fixed scanner on a mast beside the pit (the testbed's name); the machine's own range finders

@@ -12,6 +12,7 @@ from excavsim.errors import ConfigError, UsageError, shorten
 
 def _cmd_calibrate(args: argparse.Namespace) -> int:
     from excavsim.apps.calibrate import fit as cal
+    from excavsim.apps.calibrate import run, table53
 
     if args.table_5_3 and (args.fix or args.brittleness or args.rate_effect):
         raise UsageError("--fix, --brittleness and --rate-effect belong to a record's fit; --table-5-3 identifies "
@@ -23,7 +24,7 @@ def _cmd_calibrate(args: argparse.Namespace) -> int:
     if args.table_5_3:
         print(f"excavsim calibrate --table-5-3: DiMaio's model identified from its own forces (Table 5.3, Fig. 5.40); "
               f"results in {args.out}")
-        cal.table_5_3(args.out, noise_n=args.noise)
+        table53.table_5_3(args.out, noise_n=args.noise)
         return 0
     if args.record is None:
         raise UsageError("calibrate needs a RECORD (a force data set .npz, .parquet or .csv, or a Rerun "
@@ -41,7 +42,7 @@ def _cmd_calibrate(args: argparse.Namespace) -> int:
         if record.suffix not in (".npz", ".parquet", ".csv"):
             raise ConfigError(f"--record-digs saves RECORD as a force data set: .npz, .parquet or .csv; given "
                               f"{shorten(record.name)}")
-    cal.calibrate_file(record, args.model, args.out, soil=args.soil, rerun_digs=not args.no_rerun, fixed=fixed,
+    run.calibrate_file(record, args.model, args.out, soil=args.soil, rerun_digs=not args.no_rerun, fixed=fixed,
                        brittleness=args.brittleness, rate_per_decade=args.rate_effect, record_digs_n=args.record_digs,
                        truth=args.truth, seed=args.seed, quiet=args.quiet, rrd=args.rrd)
     return 0

@@ -50,8 +50,8 @@ def _cmd_load(args: argparse.Namespace) -> int:
 
 
 def _load_mujoco(args: argparse.Namespace, cfg) -> int:
-    """``excavsim load --mujoco`` or ``--campaign``: loading episodes in MuJoCo (excavsim.tasks.load.in_mujoco)."""
-    from excavsim.tasks.load import in_mujoco as lm
+    """``excavsim load --mujoco`` or ``--campaign``: loading episodes in MuJoCo (excavsim.tasks.load.campaign)."""
+    from excavsim.tasks.load import campaign as lm
 
     if args.study:
         raise UsageError("--study is the 2-D simulation's (Fig. 112); --mujoco runs single episodes")
@@ -128,7 +128,7 @@ def register(sub: argparse._SubParsersAction) -> None:
     tune.set_defaults(func=_cmd_tune)
     curve = sub.add_parser("truck-curve", help="the Fig. 12-style learning curve (Rowe 1997 §6.2) of a truck_loading "
                            "campaign (configs/campaigns/excavator_truck.yaml): cost, cycle time and placement per pass")
-    curve.add_argument("campaign_dir", metavar="DIR", help="the campaign's output directory (with episodes/*.json)")
+    curve.add_argument("campaign_dir", metavar="DIR", help="the campaign's output directory (with its episodes/ folder of JSON results)")
     curve.add_argument("--out", metavar="PNG", default="runs/truck_curve.png", type=out_file((".png",)),
                        help="the figure (default runs/truck_curve.png)")
     curve.set_defaults(func=_cmd_truck_curve)

@@ -55,7 +55,7 @@ class ExecutorConfig(StrictModel):
     path_speed_m_s: float = Field(default=0.15, gt=0, le=2, description="tip speed along the planned path")
     pitch_radius_m: float = Field(default=0.5, gt=0, le=5,
                                   description="a turn of the bucket counts as this radius x its angle along a path [m]")
-    lift_height_m: float = Field(default=1.1, gt=0, le=2.5, description="tip height after lift-out [m]")
+    lift_height_m: float = Field(default=1.1, gt=0, le=6, description="tip height after lift-out [m]")
     spoil_waist_deg: float = Field(default=40.0, ge=-45, le=100, description="waist angle of the spoil area")
     dump_pose: list[float] = Field(default=[1.7, 1.3, 100.0], min_length=3, max_length=3,
                                    description="tip (x m, z m, pitch deg) to dump at")
@@ -92,8 +92,8 @@ class ExecutorConfig(StrictModel):
     @model_validator(mode="after")
     def _dump_pose(self) -> ExecutorConfig:
         x, z, pitch = self.dump_pose
-        if not (0.3 <= x <= 4 and 0 <= z <= 2.5 and -180 <= pitch <= 180):
-            raise ValueError(f"dump_pose={self.dump_pose}; allowed: x in [0.3, 4] m, z in [0, 2.5] m, "
+        if not (0.3 <= x <= 12 and 0 <= z <= 6 and -180 <= pitch <= 180):
+            raise ValueError(f"dump_pose={self.dump_pose}; allowed: x in [0.3, 12] m, z in [0, 6] m, "
                              "pitch in [-180, 180] deg (within the arm's reach)")
         return self
 

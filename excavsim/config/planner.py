@@ -21,10 +21,10 @@ class TrenchGoal(StrictModel):
 
     name: str = Field(default="", description="label for logs")
     waist_deg: float = Field(default=0.0, ge=-45, le=100, description="waist angle of the arm plane [deg]")
-    near_x_m: float = Field(gt=0, le=4, description="radial distance of the trench's near edge [m]")
-    far_x_m: float = Field(gt=0, le=4, description="radial distance of the trench's far edge [m]")
+    near_x_m: float = Field(gt=0, le=15, description="radial distance of the trench's near edge [m] (up to a 25 t excavator's reach)")
+    far_x_m: float = Field(gt=0, le=15, description="radial distance of the trench's far edge [m]")
     surface_z_m: float = Field(default=0.5, ge=0, le=1.4, description="height the depth is measured from [m]")
-    depth_m: float = Field(gt=0, le=1.0, description="depth of the trench bottom [m]")
+    depth_m: float = Field(gt=0, le=3.0, description="depth of the trench bottom [m]")
     near_wall_deg: float = Field(default=60.0, gt=0, le=90, description="near wall angle from horizontal [deg]")
     far_wall_deg: float = Field(default=60.0, gt=0, le=90, description="far wall angle from horizontal [deg]")
 
@@ -47,14 +47,14 @@ def _axis_len(lo: float, hi: float, step: float) -> float:
 class PlannerGrid(StrictModel):
     """The discretized action space (k, alpha, d1) of the trenching action (§3.4.1, ch. 6)."""
 
-    k_min_m: float = Field(default=1.4, gt=0, le=4)
-    k_max_m: float = Field(default=3.3, gt=0, le=4)
+    k_min_m: float = Field(default=1.4, gt=0, le=15)
+    k_max_m: float = Field(default=3.3, gt=0, le=15)
     k_step_m: float = Field(default=0.1, gt=0, le=1)
     alpha_min_deg: float = Field(default=0.0, ge=0, le=89)
     alpha_max_deg: float = Field(default=45.0, ge=0, le=89)
     alpha_step_deg: float = Field(default=5.0, gt=0, le=45)
     d1_min_m: float = Field(default=0.02, gt=0, le=1)
-    d1_max_m: float = Field(default=0.50, gt=0, le=1.5)
+    d1_max_m: float = Field(default=0.50, gt=0, le=3)
     d1_step_m: float = Field(default=0.01, gt=0, le=0.5)
 
     @model_validator(mode="after")
@@ -82,7 +82,7 @@ class PlannerConfig(StrictModel):
     omega_deg_per_m: float = Field(default=50.0, ge=0, le=500, description="rake decrease per metre of drag")
     zeta_deg: float = Field(default=8.0, ge=-30, le=60, description="smallest rake during the drag, zeta(omega)")
     sample_spacing_m: float = Field(default=0.025, gt=0, le=0.2, description="trajectory sample spacing [m]")
-    d2_max_m: float = Field(default=1.2, gt=0, le=3, description="longest drag considered [m]")
+    d2_max_m: float = Field(default=1.2, gt=0, le=6, description="longest drag considered [m]")
     curl_end_pitch_deg: float = Field(default=-30.0, ge=-120, le=60, description="pitch at the end of the curl")
     curl_radii_m: list[float] = Field(default=[0.35, 0.4, 0.5, 0.6, 0.8], min_length=1, max_length=20,
                                       description="curl radii tried, smallest first (§3.4.2.4)")

@@ -34,14 +34,15 @@ class SoilBox:
     floor_z: float
 
 
-@functools.lru_cache(maxsize=1)
-def soil_box() -> SoilBox:
-    """The soil box's inside, read from its MJCF (the body's position and the heightfield's half-sizes)."""
-    root = ET.parse(constants.SOIL_BOX_XML).getroot()
+@functools.lru_cache(maxsize=4)
+def soil_box(xml=constants.SOIL_BOX_XML) -> SoilBox:
+    """The soil box's inside, read from its MJCF (the body's position and the heightfield's half-sizes):
+    the T3's box by default, or the pit of another machine's scene (``models/<machine>/scene.xml``)."""
+    root = ET.parse(xml).getroot()
     body = root.find(f".//body[@name='{constants.SOIL_BOX_BODY}']")
     hfield = root.find(f".//hfield[@name='{constants.SOIL_HFIELD}']")
     if body is None or hfield is None:
-        raise ModelError(f"{constants.SOIL_BOX_XML}: no body {constants.SOIL_BOX_BODY!r} or hfield "
+        raise ModelError(f"{xml}: no body {constants.SOIL_BOX_BODY!r} or hfield "
                          f"{constants.SOIL_HFIELD!r}")
     cx, cy, cz = (float(v) for v in body.get("pos", "0 0 0").split())
     rx, ry = (float(v) for v in hfield.get("size").split()[:2])
@@ -59,7 +60,7 @@ def goal_section_m2(goal: TrenchGoal, soil_height_m: float) -> float:
     return dx * (sum(depth) - 0.5 * (depth[0] + depth[-1]))
 
 
-def check_goal(goal: TrenchGoal, scene: SceneConfig, *, source: str = "goal") -> None:
+def check_goal(goal: TrenchGoal, scene: SceneConfig, *, source: str = "goal", box: SoilBox | None = None) -> None:
     """Refuse a goal that lies outside the soil box, above or below the initial soil, or holds no soil.
 
     The goal's opening (``near_x_m`` to ``far_x_m`` along the arm plane at ``waist_deg``, from the
@@ -67,10 +68,13 @@ def check_goal(goal: TrenchGoal, scene: SceneConfig, *, source: str = "goal") ->
     :data:`SURFACE_TOLERANCE_M` above the initial soil; its bottom above the box floor; and the soil
     above its profile must have a cross-section of at least :data:`MIN_GOAL_SECTION_M2`.
 
+    ``box`` is the soil's box (default the T3's, :func:`soil_box`; another machine's pit is
+    ``soil_box(its scene.xml)``, with the scene's ``initial_soil_height_m`` its depth).
+
     Raises:
         GoalError: (a ConfigError) naming ``source``, the field and what is allowed.
     """
-    box = soil_box()
+    box = box or soil_box()
     c, s = math.cos(math.radians(goal.waist_deg)), math.sin(math.radians(goal.waist_deg))
     for field in ("near_x_m", "far_x_m"):
         r = getattr(goal, field)

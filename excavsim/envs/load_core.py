@@ -1,7 +1,7 @@
 """The loading environment's core: loading from a pile in MuJoCo one dig at a time, free of any RL library.
 
 :class:`LoadCore` steps the platform's :class:`~excavsim.loop.episode.Episode` of a
-:class:`~excavsim.tasks.load.in_mujoco.LoadTask` (what ``excavsim trench --spec`` runs for ``task:
+:class:`~excavsim.tasks.load.task.LoadTask` (what ``excavsim trench --spec`` runs for ``task:
 load``) phase by phase, with the agent's loading action in place of the loading planner's choice
 (:func:`excavsim.planning.loading.plan`, Singh 1995 §3.5, §4.1-4.2). Each cycle the task scans the
 lane, reads the map's three sections and plans on them (the done test: no dig of minimal utility on
@@ -37,8 +37,8 @@ from excavsim.loop.episode import Episode
 from excavsim.loop.scenario import EpisodeSpec, ResolvedSpec, load_spec
 from excavsim.planning import loading as lp
 from excavsim.tasks.load import planar as ld
-from excavsim.tasks.load.in_mujoco import SECTIONS, LoadTask, map_sections
-from excavsim.tasks.load.in_mujoco import summary as loading_summary
+from excavsim.tasks.load.task import SECTIONS, LoadTask, map_sections
+from excavsim.tasks.load.task import summary as loading_summary
 
 LANE_LENGTH_M = 8.5  # models/pile_box: the lane runs from x = 0 to 8.5 m
 PROFILE_STEP_M = 0.05
@@ -98,7 +98,7 @@ class LoadCore(DigLevelCore):
     constraint of §4.1-4.2), the nearest feasible cell (in grid steps) is dug instead
     (``info["snapped_to_allowed"]``).
 
-    Reward per dig (truth, :class:`~excavsim.tasks.load.in_mujoco.SoilAccount`):
+    Reward per dig (truth, :class:`~excavsim.tasks.load.task.SoilAccount`):
     ``delivered_per_l`` x litres the bucket poured at the truck, less ``spilled_per_l`` x litres
     that left the lane otherwise (pushed over its ends or sides), less ``dig`` per executed dig.
 
@@ -106,7 +106,7 @@ class LoadCore(DigLevelCore):
         spec: the episode (see :func:`as_load_spec`); its seed is the first episode's unless reset
             gives one; its ``dig_budget`` truncates.
         weights: reward weights over :data:`LOAD_WEIGHTS`.
-        observer: a :class:`~excavsim.tasks.load.in_mujoco.LoadingObserver` (a Rerun recorder, say).
+        observer: a :class:`~excavsim.tasks.load.task.LoadingObserver` (a Rerun recorder, say).
         loading_config: the machines' numbers and the planner's grid and rules
             (:class:`~excavsim.config.loading.LoadingConfig` or its YAML path; default
             ``configs/loading.yaml``, as ``excavsim trench --spec`` uses); the action box is its grid's.

@@ -33,8 +33,8 @@ class LoadDigEnv(DigStepEnv):
     (what was dug: k, h, alpha, d1, r, foot, base_x, section, planned, bucket, delivered, spilled
     and lane volumes [m^3]), ``reward_terms``, ``executed_cell`` (grid indices of k, alpha, r),
     ``snapped_to_allowed`` and ``planner_cell`` (the planner's own dig was dug); at the end
-    ``episode`` (:func:`~excavsim.tasks.load.in_mujoco.summary` without its wall time). The
-    :class:`~excavsim.tasks.load.in_mujoco.MujocoRun` is :attr:`result` once the episode ended.
+    ``episode`` (:func:`~excavsim.tasks.load.task.summary` without its wall time). The
+    :class:`~excavsim.tasks.load.task.MujocoRun` is :attr:`result` once the episode ended.
 
     Seeding as :class:`~excavsim.envs.dig_env.TrenchDigEnv`: ``reset(seed=s)`` runs the episode with
     seed ``s`` (the soil, the scanner's noise and drift); ``reset()`` without a seed runs the spec's

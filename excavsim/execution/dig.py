@@ -66,6 +66,7 @@ from excavsim.handoff.dig import DigPlan, ExecutionRecord
 from excavsim.handoff.observation import Observation, Servos
 from excavsim.robot.fast import arm_params, chain_lengths, forward_pose, ik_torques, solve_pose
 from excavsim.robot.kinematics import PlanarArm
+from excavsim.robot.machine import T3, Machine
 from excavsim.sensing.ft import ForceSensor, FTReading
 
 ARM = constants.PLANAR_JOINTS
@@ -99,10 +100,12 @@ def expected_contact_z(plan: DigPlan, arm: PlanarArm, pitch: float) -> float:
     return float(np.max(plan.surface(pts[:, 0]) - pts[:, 1]))
 
 
-def dig_script(plan: DigPlan, arm: PlanarArm, cfg: ExecutorConfig, park: np.ndarray) -> Script:
-    """The trenching dig script with this plan's numbers (see the module docstring); ``park`` (6,)
-    is the model's park keyframe [rad]. Its paths (touchdown, dig, lift, dump) are laid out by the
-    executor when their steps start."""
+def dig_script(plan: DigPlan, arm: PlanarArm, cfg: ExecutorConfig, park: np.ndarray, machine: Machine = T3) -> Script:
+    """The trenching dig script with this plan's numbers (see the module docstring); ``park`` is the
+    model's park keyframe in the order of ``machine.joints`` [rad]. Its paths (touchdown, dig, lift, dump)
+    are laid out by the executor when their steps start. The script runs on ``machine``'s joints: its
+    waist (the T3's waist, an excavator's swing), its planar chain, and its held joints (the T3's wrist
+    yaw and roll, level; an excavator has none)."""
     entry = plan.poses[0]
     above = np.array([entry[0], entry[1] + cfg.approach_height_m, touch_pitch(plan, arm, cfg)])
     q_above, ok = arm.inverse(above)
@@ -111,7 +114,9 @@ def dig_script(plan: DigPlan, arm: PlanarArm, cfg: ExecutorConfig, park: np.ndar
     if not ok or not ok_dump:
         raise GoalError(f"dig script: the pose above the entry {above.round(3)} or the dump pose "
                         f"{cfg.dump_pose} is out of reach")
-    park = np.asarray(park, dtype=float)[:4]
+    park = np.asarray(park, dtype=float)
+    park_waist, park_arm = float(park[machine.index((machine.waist,))[0]]), park[machine.index(machine.planar)]
+    arm_joints, waist, every = machine.planar, machine.waist, machine.joints
     tol = cfg.settle_tol_rad
     wait = cfg.move_timeout_s
     late = timed_out()  # a move that does not settle in time does not hang the dig
@@ -121,11 +126,11 @@ def dig_script(plan: DigPlan, arm: PlanarArm, cfg: ExecutorConfig, park: np.ndar
 
     contact = Watch("contact", all_of(past(cfg.touch_ignore_s),
                                       held(force_above(cfg.touch_force_n), ticks=cfg.touch_contact_ticks)))
-    no_contact = Abort("no contact", all_of(path_end("touchdown"), settled(constants.JOINTS, tol)),
+    no_contact = Abort("no contact", all_of(path_end("touchdown"), settled(every, tol)),
                        f"no contact within {100 * cfg.touch_search_m:.0f} cm below the map")
-    empty = Watch("empty", all_of(path_done("dump"), settled(ARM, tol),
+    empty = Watch("empty", all_of(path_done("dump"), settled(arm_joints, tol),
                                   held(force_below(cfg.empty_force_n), seconds=cfg.empty_hold_s)))
-    above_settled = settled((WAIST,) + ARM, tol)
+    above_settled = settled((waist,) + arm_joints, tol)
     if cfg.touch_quiet_s > 0:  # wait for the arm's ringing to die down (§7.1.3); held first, so it counts every tick
         above_settled = all_of(held(force_below(cfg.touch_quiet_n), seconds=cfg.touch_quiet_s), above_settled)
     arm_steps = (
@@ -135,20 +140,23 @@ def dig_script(plan: DigPlan, arm: PlanarArm, cfg: ExecutorConfig, park: np.ndar
         Step("dig", event("contact"), follow("dig", cfg.path_speed_m_s), wait),
         Step("lift out", any_of(path_done("dig"), late), follow("lift", cfg.path_speed_m_s), wait),
         Step("hold lifted", any_of(path_done("lift"), late), Command(), wait),
-        Step("over spoil", any_of(reached(WAIST, tol), late), Command(tuple(q_dump)), wait),
-        Step("dump", any_of(settled(ARM, tol), late), follow("dump", cfg.path_speed_m_s), wait, watches=(empty,)),
-        Step("park", any_of(event("empty"), late), Command(tuple(park[1:])), wait,
-             ends=any_of(settled(constants.JOINTS, tol), late)),
+        Step("over spoil", any_of(reached(waist, tol), late), Command(tuple(q_dump)), wait),
+        Step("dump", any_of(settled(arm_joints, tol), late), follow("dump", cfg.path_speed_m_s), wait,
+             watches=(empty,)),
+        Step("park", any_of(event("empty"), late), Command(tuple(park_arm)), wait,
+             ends=any_of(settled(every, tol), late)),
     )
     waist_steps = (
         Step("dig plane", always(), Command((plan.waist,))),
         # the waist swings even if the lift never settled: the arm holds once the lift timed out
         Step("swing to spoil", any_of(path_done("lift"), started("hold lifted")),
              Command((math.radians(cfg.spoil_waist_deg),))),
-        Step("swing to park", event("empty"), Command((park[0],))),
+        Step("swing to park", event("empty"), Command((park_waist,))),
     )
-    wrist_steps = (Step("level", always(), Command((0.0, 0.0))),)
-    subs = (SubScript(ARM, arm_steps), SubScript((WAIST,), waist_steps), SubScript(WRIST, wrist_steps))
+    subs = (SubScript(arm_joints, arm_steps), SubScript((waist,), waist_steps))
+    if machine.held:
+        still = tuple(name for name, _ in machine.held)
+        subs += (SubScript(still, (Step("level", always(), Command(tuple(v for _, v in machine.held))),)),)
     return Script("trench dig", subs, timeout_s=cfg.dig_timeout_moves * wait)
 
 
@@ -160,22 +168,27 @@ class DigExecutor:
         arm: the robot's planar kinematics.
         cfg: the script's numbers.
         ft: the wrist F/T sensor reporting at the bucket tip.
-        park: (6,) joint angles of the park pose, the model's keyframe [rad].
+        park: joint angles of the park pose, the model's keyframe, in ``machine.joints`` order [rad].
         reference: run the original Python loop (:class:`ScriptEngine`, :meth:`ForceSensor.reading`)
             instead of the compiled one; the same dig to the bit, ten times slower.
+        machine: the joints the script runs on (default the T3's). A machine with hydraulics has torque
+            limits that vary with the pose (relief pressure x area x moment arm): the stall watch then
+            reads ``sim.torque_limit`` afresh every control step.
     """
 
     def __init__(self, sim: Servos, arm: PlanarArm, cfg: ExecutorConfig, ft: ForceSensor, park: np.ndarray, *,
-                 reference: bool = False):
+                 reference: bool = False, machine: Machine = T3):
         self.sim = sim
         self.reference = reference
         self.arm = arm
         self.cfg = cfg
         self.ft = ft
         self.park = np.asarray(park, dtype=float)
-        names = list(constants.JOINTS)
-        self._arm_idx = [names.index(j) for j in ARM]
+        self.machine = machine
+        names = list(machine.joints)
+        self._arm_idx = machine.index(machine.planar)
         self._names = names
+        self._limits_vary = machine.hydraulics is not None
         # compiled elbow-up IK for the one pose of each control step (equal to PlanarArm.inverse)
         self._ik_params = arm_params(arm)
         self._ik_buf = (np.zeros((1, 3)), np.zeros((1, 3)), np.zeros(1), np.zeros((1, 3)), np.zeros(1, bool),
@@ -227,7 +240,7 @@ class DigExecutor:
         announce = on_phase or (lambda _name, _rec: None)
         expected = expected_contact_z(plan, self.arm, touch_pitch(plan, self.arm, self.cfg))
         rec = ExecutionRecord(planned_volume_m3=plan.volume_m3, touch_expected_z=expected)
-        script = dig_script(plan, self.arm, self.cfg, self.park)
+        script = dig_script(plan, self.arm, self.cfg, self.park, self.machine)
         rec.script_text = script.describe()
         weighed: list[float] = []  # F/T weight of the load while the lifted bucket is held [N]
         target = self._estimate(sim.observe()).q.copy()  # hold still until the first commands (F/T noise drawn too)
@@ -279,6 +292,8 @@ class DigExecutor:
         while True:
             self.ft.reading_into(obs, ftw)
             q = obs.q
+            if self._limits_vary:  # the relief torques at this pose
+                limit[:] = np.asarray(sim.torque_limit, dtype=np.float64)[arm_idx]
             flags = _tick_kernel(True, prog, state, obs.time, q, obs.actuator_force, ftw, target, arm_idx,
                                  self._ik_params, chain, path_arrays[0], path_arrays[1], fs, limit, pose, out)
             if flags & _F_TICKED:  # new steps (lay out their paths, announce them) or an abort
@@ -304,7 +319,7 @@ class DigExecutor:
                     rec.executed_path.append(pose.copy())
                 if flags & _F_STALL:
                     j = int(out[0])
-                    rec.stall = {"joint": ARM[j], "time": obs.time, "tip": pose.copy(),
+                    rec.stall = {"joint": self.machine.planar[j], "time": obs.time, "tip": pose.copy(),
                                  "torque": float(obs.actuator_force[self._arm_idx[j]])}
                     target[self._arm_idx] = q[self._arm_idx]
                     p = paths[ARM_SUB] = PathFollower(np.asarray(rec.executed_path)[::-1], p.speed, cfg.pitch_radius_m)
@@ -354,6 +369,8 @@ class DigExecutor:
         stall = _StallWatch(self.cfg, sim.torque_limit[self._arm_idx])
         steps = 0
         while True:
+            if self._limits_vary:  # the relief torques at this pose
+                stall.torque_limit = np.asarray(sim.torque_limit)[self._arm_idx]
             reading = self.ft.reading(obs)
             sense = Sense(obs.time, dict(zip(self._names, obs.q)), dict(zip(self._names, obs.qdot)),
                           dict(zip(self._names, obs.actuator_force)), reading.force_tip)
@@ -451,7 +468,7 @@ class DigExecutor:
         j = stall.check(obs.time, q, obs.actuator_force[self._arm_idx], target[self._arm_idx])
         if j is None:
             return path
-        rec.stall = {"joint": ARM[j], "time": obs.time, "tip": self.arm.forward(q),
+        rec.stall = {"joint": self.machine.planar[j], "time": obs.time, "tip": self.arm.forward(q),
                      "torque": float(obs.actuator_force[self._arm_idx[j]])}
         target[self._arm_idx] = q
         return PathFollower(np.asarray(rec.executed_path)[::-1], path.speed, self.cfg.pitch_radius_m)

@@ -79,10 +79,14 @@ class SurfaceProfile:
     @classmethod
     def from_map(cls, emap: ElevationMap, arm: ArmPlane, waist: float, width: float, *,
                  dx: float = 0.01, n_across: int = 5, clearance_m: float = 0.0) -> SurfaceProfile:
-        """Sample ``emap`` every ``dx`` from 0 to 4 m along the arm plane at ``waist`` [rad], each
-        sample the mean of ``n_across`` points spread over the bucket ``width`` [m]; the box's walls
-        are the map's extent, and the bucket (``arm.bucket_outline``) keeps ``clearance_m`` from them."""
-        x = np.arange(0.0, 4.0 + dx / 2, dx)
+        """Sample ``emap`` every ``dx`` from 0 to 4 m along the arm plane at ``waist`` [rad] (further, to
+        the map's farthest corner rounded up to a metre, when the map reaches beyond 4 m from the waist
+        axis: an excavator's pit), each sample the mean of ``n_across`` points spread over the bucket
+        ``width`` [m]; the box's walls are the map's extent, and the bucket (``arm.bucket_outline``) keeps
+        ``clearance_m`` from them."""
+        x0, x1, y0, y1 = emap.extent
+        far = max(math.hypot(cx, cy) for cx in (x0, x1) for cy in (y0, y1))
+        x = np.arange(0.0, max(4.0, float(math.ceil(far))) + dx / 2, dx)
         offsets = (np.arange(n_across) + 0.5) / n_across * width - width / 2
         pts = arm.plane_to_world(waist, np.stack([x, np.zeros_like(x)], axis=-1))  # (n, 3)
         side = np.array([-math.sin(arm.waist_sign * waist), math.cos(arm.waist_sign * waist)])
@@ -90,7 +94,6 @@ class SurfaceProfile:
         ys = pts[:, None, 1] + offsets[None, :] * side[1]
         z = emap.height_at(xs, ys).mean(axis=1)
         # where the bucket's whole width (its edges, half a width either side) is inside the map
-        x0, x1, y0, y1 = emap.extent
         ex = pts[:, None, 0] + np.array([-0.5, 0.5]) * width * side[0]
         ey = pts[:, None, 1] + np.array([-0.5, 0.5]) * width * side[1]
         inside = np.all((ex >= x0) & (ex <= x1) & (ey >= y0) & (ey <= y1), axis=1)

@@ -15,7 +15,7 @@ from excavsim.errors import ConfigError
 
 TASKS: dict[str, str] = {
     "trench": "excavsim.tasks.trench.task:TrenchTask",  # a trench goal dug by the T3 (Singh 1995 §7.2, Fig. 107)
-    "load": "excavsim.tasks.load.in_mujoco:LoadTask",  # loading from a pile in MuJoCo (Singh 1995 §7.2.1)
+    "load": "excavsim.tasks.load.task:LoadTask",  # loading from a pile in MuJoCo (Singh 1995 §7.2.1)
     "truck": "excavsim.tasks.truck.episode:TruckTrial",  # one truck-loading trial on the T3 (Rowe 1997 §6.2)
     # a truck loaded to full, pass after pass, by the 25 t excavator (Rowe 1997 §4, §6)
     "truck_loading": "excavsim.tasks.truck_loading.task:TruckLoadingTask",

@@ -32,8 +32,13 @@ def trench_footprint(sim: Simulation, goal: TrenchGoal, width: float) -> tuple[n
 
 def episode_result(sim: Simulation, digs: list[DigMetrics], end: str, reason: str, *, mask: np.ndarray,
                    z_goal: np.ndarray, h0: np.ndarray, v0: float, wall_s: float) -> EpisodeResult:
-    """The trench against the goal on the true terrain (privileged), and the episode's totals."""
-    h = sim.soil.grid.heights
+    """The trench against the goal on the true terrain (privileged), and the episode's totals.
+
+    ``h0`` and the grid's heights are above the soil's floor (``grid.z0``), ``z_goal`` is a world height:
+    the comparison adds the floor (0 in the T3's box, the pit's floor below an excavator's ground)."""
+    z0 = sim.soil.grid.z0
+    h = sim.soil.grid.heights + z0
+    h0 = h0 + z0
     cell = sim.soil.grid.cell_area
     removed = float(np.clip(h0 - h, 0, None)[mask].sum() * cell)
     goal_m3 = float(np.clip(h0 - z_goal, 0, None)[mask].sum() * cell)

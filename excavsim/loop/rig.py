@@ -20,15 +20,20 @@ from excavsim import constants
 from excavsim.config import (ExecutorConfig, PlannerConfig, SensingConfig, SoilParams, TrenchGoal, get_soil,
                              load_executor_config, load_planner_config, load_sensing_config, load_trench_goal)
 from excavsim.execution.dig import DigExecutor
+from excavsim.execution.droop import DroopCompensation
 from excavsim.handoff.dig import ExecutionRecord
 from excavsim.handoff.maps import ElevationMap
+from excavsim.planning.constraints import PoseTorqueLimits
 from excavsim.planning.predictor import WedgePredictor
 from excavsim.planning.search import TrenchPlanner
 from excavsim.robot.extract import arm_from_model
+from excavsim.readouts import keyframe_qpos
 from excavsim.robot.kinematics import PlanarArm
-from excavsim.robot.reachability import load_or_build
+from excavsim.robot.machine import T3, Machine
+from excavsim.robot.reachability import TableSpec, load_or_build
 from excavsim.sensing.elevation import MapAccuracy, map_accuracy, scan_map
 from excavsim.sensing.ft import ForceSensor
+from excavsim.sensing.pressure import CylinderForceReading
 from excavsim.world.scanner import LaserScanner
 from excavsim.world.simulation import Simulation
 
@@ -39,9 +44,10 @@ class Rig:
     the scanner, the planner with its nominal force predictor, the executor and the keyframes.
 
     Attributes:
-        home, park: (6,) joint angles of the model's ``home`` (over the box) and ``park`` (out of
-            the scanner's view) keyframes [rad].
+        home, park: joint angles of the ``home`` (over the box) and ``park`` (out of the scanner's view)
+            poses in the machine's joint order [rad]: the model's keyframes, or the machine's own.
         width, capacity: the bucket's width [m] and struck capacity [m^3], from the model.
+        machine: the machine's description (its joints, planar chain, poses and torque limits).
     """
 
     goal: TrenchGoal
@@ -56,6 +62,7 @@ class Rig:
     capacity: float
     home: np.ndarray
     park: np.ndarray
+    machine: Machine = T3
     # Table 7's timing hooks (read by excavsim.tasks.trench.timing.Table7Timer; nothing else reads them): the
     # last scan's wall seconds of range acquisition and of map building, the last moves' simulated
     # and wall seconds (the dig tool's set-up).
@@ -64,33 +71,57 @@ class Rig:
 
 def make_rig(sim: Simulation, *, seed: int = 0, goal: TrenchGoal | None = None,
              planner_cfg: PlannerConfig | None = None, executor_cfg: ExecutorConfig | None = None,
-             sensing_cfg: SensingConfig | None = None) -> Rig:
+             sensing_cfg: SensingConfig | None = None, machine: Machine = T3) -> Rig:
     """Build the loop's pieces with the defaults from ``configs/`` where none are given.
 
     Args:
-        sim: the world.
+        sim: the world (the T3's :class:`Simulation`, or an excavator's
+            :class:`~excavsim.world.hydraulics.ExcavatorWorld`).
         seed: the episode seed; the scanner's noise and drift come from it.
         goal: the trench (default ``configs/trenches/straight.yaml``).
+        machine: the machine ``sim`` steps (default the T3): its planar chain is read from the model with
+            its joint names, its reachability table covers its reach, the planner's torque limits are its
+            (:func:`planner_limits`), and the executor runs on its joints.
     """
     goal = goal or load_trench_goal(constants.TRENCHES_DIR / "straight.yaml")
     planner_cfg = planner_cfg or load_planner_config()
     sensing_cfg = sensing_cfg or load_sensing_config()
     executor_cfg = executor_cfg or load_executor_config()
-    arm = arm_from_model(sim.model)
+    arm = arm_from_model(sim.model, joints=machine.chain_joints)
     scanner = LaserScanner(sim.model, sim.soil.grid, sensing_cfg.scanner, np.random.default_rng((seed, 7)))
     nominal = get_soil(sim.scene.soil)
     width = float(sim.model.numeric(constants.BUCKET_WIDTH_NUMERIC).data[0])
     capacity = float(sim.model.numeric(constants.BUCKET_CAPACITY_NUMERIC).data[0])
-    planner = make_planner(arm, sim.torque_limit[1:4], width, capacity, goal, planner_cfg, nominal)
-    home, park_q = sim.index.home, sim.index.park
-    executor = DigExecutor(sim, arm, executor_cfg, ForceSensor.from_config(sim.model, sensing_cfg.force_sensor),
-                           park_q)
+    planner = make_planner(arm, planner_limits(sim, machine), width, capacity, goal, planner_cfg, nominal,
+                           table_spec=machine.table)
+    home, park_q = (np.asarray(p, dtype=float) if p is not None else keyframe_qpos(sim.model, key, machine.joints)
+                    for p, key in ((machine.home, "home"), (machine.park, "park")))
+    ft = (CylinderForceReading(arm, machine, rate_hz=sensing_cfg.force_sensor.rate_hz)
+          if machine.force_reading == "cylinders"
+          else ForceSensor.from_config(sim.model, sensing_cfg.force_sensor, joints=machine.joints))
+    # an excavator's cylinders droop under the arm's weight: its servos get the droop fed forward
+    servos = DroopCompensation(sim, arm, machine) if machine.hydraulics is not None else sim
+    executor = DigExecutor(servos, arm, executor_cfg, ft, park_q, machine=machine)
     return Rig(goal, planner_cfg, executor_cfg, sensing_cfg, arm, scanner, planner, executor, width, capacity,
-               home, park_q)
+               home, park_q, machine)
+
+
+def planner_limits(sim: Simulation, machine: Machine = T3) -> np.ndarray | PoseTorqueLimits:
+    """The planar joints' torque limits the planner's force constraint holds the predicted torques to
+    (Singh 1995 §5.3.3): the T3's relief torques, constants of its model's actuators; for a machine with
+    cylinders, Singh's joint-torque limits become the relief pressure x the piston (pushing) or annulus
+    (pulling) area x the moment arm ``dL/dq``, which varies with the pose
+    (:meth:`~excavsim.robot.machine.Machine.torque_limits`): a
+    :class:`~excavsim.planning.constraints.PoseTorqueLimits` that the force constraint evaluates at each
+    sample's joint angles, in the direction of each predicted torque."""
+    if machine.hydraulics is None:
+        return sim.torque_limit[1:4]
+    return PoseTorqueLimits(machine.torque_limits, machine.hydraulics.planner_torque_limits())
 
 
 def make_planner(arm: PlanarArm, torque_limits: np.ndarray, width: float, capacity: float, goal: TrenchGoal,
-                 planner_cfg: PlannerConfig, soil: SoilParams, table=None) -> TrenchPlanner:
+                 planner_cfg: PlannerConfig, soil: SoilParams, table=None, table_spec: TableSpec = TableSpec()
+                 ) -> TrenchPlanner:
     """The trenching planner with its nominal force predictor (the static wedge model of ``soil``).
 
     Args:
@@ -100,9 +131,9 @@ def make_planner(arm: PlanarArm, torque_limits: np.ndarray, width: float, capaci
         goal: the trench.
         planner_cfg: the planner's configuration.
         soil: the soil the predictor assumes.
-        table: the arm's reachability table (default: loaded from the cache, or built).
+        table: the arm's reachability table (default: loaded from the cache, or built to ``table_spec``).
     """
-    table = load_or_build(arm) if table is None else table
+    table = load_or_build(arm, table_spec) if table is None else table
     return TrenchPlanner(arm, table, torque_limits, width, capacity, goal, planner_cfg,
                          WedgePredictor(soil, width, capacity_m3=planner_cfg.heaped_capacity_factor * capacity),
                          soil.density_kg_m3)
@@ -120,7 +151,7 @@ def go_to(sim: Simulation, q: np.ndarray, cfg: ExecutorConfig) -> None:
 def _timed_move(sim: Simulation, rig: Rig, q: np.ndarray, name: str) -> None:
     """:func:`go_to` ``q``, its simulated and wall seconds kept in ``rig.timings[name + "_sim_s"/"_wall_s"]``."""
     t_sim, t_wall = sim.time, time.perf_counter()
-    go_to(sim, q, rig.executor_cfg)
+    go_to(rig.executor.sim, q, rig.executor_cfg)  # the executor's servos: the world's, or fed forward
     rig.timings[name + "_sim_s"] = float(sim.time - t_sim)
     rig.timings[name + "_wall_s"] = time.perf_counter() - t_wall
 

@@ -33,12 +33,15 @@ from excavsim.config import (ConfigError, ExecutorConfig, PlannerConfig, RobotCo
                              StrictModel, TrenchGoal, get_soil, load_config, load_executor_config, load_planner_config,
                              load_robot_config, load_scene_config, load_sensing_config, load_trench_goal,
                              parse_config)
+from excavsim.config.machines import load_machine_config, machine_box, machine_scene, machine_trenches_dir
 from excavsim.config.semantic import check_goal
 from excavsim.errors import UsageError, shorten
+from excavsim.robot.machine import MACHINES as TRENCH_MACHINES
 
-
-TASK_MACHINES = {"trench": ("t3",), "load": ("loader", "shovel"), "truck": ("t3",), "truck_loading": ("excavator_25t",)}
-"""The tasks an episode specification can name, each with the machines that do it (the first is the default)."""
+TASK_MACHINES = {"trench": tuple(TRENCH_MACHINES), "load": ("loader", "shovel"), "truck": ("t3",),
+                 "truck_loading": ("excavator_25t",)}
+"""The tasks an episode specification can name, each with the machines that do it (the first is the default).
+Trenching's are the machines of :mod:`excavsim.robot.machine`: the T3 and the hydraulic excavators."""
 TRENCH_ONLY = ("goal", "done_fraction", "tolerance_m", "robot", "scene", "planner", "executor", "sensing", "memory",
                "predictor")
 """Fields of :class:`EpisodeSpec` that configure the trenching task only."""
@@ -56,13 +59,16 @@ class EpisodeSpec(StrictModel):
     """One episode: its task and machine, soil, seed, stopping rules and configuration overrides."""
 
     name: str = Field(default="episode", description="label for logs and result files")
-    task: str = Field(default="trench", description="the task: trench (dig a trench goal with the T3), load "
-                                                    "(load from a pile in MuJoCo: excavsim.tasks.load.in_mujoco) or "
+    task: str = Field(default="trench", description="the task: trench (dig a trench goal with the T3 or a "
+                                                    "hydraulic excavator), load "
+                                                    "(load from a pile in MuJoCo: excavsim.tasks.load.task) or "
                                                     "truck (one truck-loading trial of the mass-excavation script "
                                                     "on the T3, Rowe 1997 §6.2: excavsim.tasks.truck) or "
                                                     "truck_loading (a truck loaded to full, pass after pass, by the "
                                                     "25 t excavator, Rowe 1997 §4, §6: excavsim.tasks.truck_loading)")
-    machine: str | None = Field(default=None, description="the machine: t3 (tasks trench and truck); loader or "
+    machine: str | None = Field(default=None, description="the machine: t3 (tasks trench and truck), tb035 or "
+                                                          "excavator_25t (task trench: a hydraulic excavator in its "
+                                                          "pit, its goals in configs/trenches/<machine>/); loader or "
                                                           "shovel (task load); excavator_25t (task truck_loading); "
                                                           "default the task's first")
     loading: dict[str, Any] = Field(default_factory=dict,
@@ -154,23 +160,27 @@ def load_spec(path: str | pathlib.Path) -> EpisodeSpec:
     return load_config(path, EpisodeSpec)
 
 
-def resolve_goal(goal: str | TrenchGoal) -> TrenchGoal:
-    """A goal given by name (configs/trenches/NAME.yaml), by path, or inline."""
+def resolve_goal(goal: str | TrenchGoal, machine: str = "t3") -> TrenchGoal:
+    """A goal given by name (the T3's configs/trenches/NAME.yaml, another machine's
+    configs/trenches/<machine>/NAME.yaml, in its own pit's coordinates), by path, or inline."""
     if isinstance(goal, TrenchGoal):
         return goal
     path = pathlib.Path(goal)
     if path.suffix not in (".yaml", ".yml"):
-        path = constants.TRENCHES_DIR / f"{goal}.yaml"
+        folder = machine_trenches_dir(machine)
+        path = folder / f"{goal}.yaml"
         if not re.fullmatch(r"[A-Za-z0-9_.-]{1,100}", goal) or not path.is_file():
-            names = sorted(p.stem for p in constants.TRENCHES_DIR.glob("*.yaml"))
-            raise ConfigError(f"unknown trench goal {shorten(repr(goal))}; give a YAML path or one of: "
+            names = sorted(p.stem for p in folder.glob("*.yaml"))
+            of = "" if machine == "t3" else f" of machine {machine}"
+            raise ConfigError(f"unknown trench goal{of} {shorten(repr(goal))}; give a YAML path or one of: "
                               f"{', '.join(names)}")
     return load_trench_goal(path)
 
 
 class ResolvedSpec:
     """The configurations an :class:`EpisodeSpec` stands for, with every override applied: for task
-    trench the goal and the robot, scene, planner, executor and sensing configurations; for task load
+    trench the machine, the goal (in the machine's pit) and the robot, scene, planner, executor and sensing
+    configurations (the machine's own overrides first, ``configs/machines/<machine>.yaml``); for task load
     ``loading`` (configs/loading_mujoco.yaml with the spec's soil and overrides; its ``max_digs`` is
     the CLI's, an episode of a spec digs at most the spec's ``dig_budget``); for task truck ``truck``
     (configs/truck.yaml with the spec's overrides, a :class:`~excavsim.config.truck.TruckFile`)."""
@@ -195,19 +205,30 @@ class ResolvedSpec:
             self.truck_loading: TruckLoadingFile = _override(load_truck_loading_file(), spec.truck_loading,
                                                              TruckLoadingFile, f"{spec.name}: truck_loading")
             return
-        self.goal: TrenchGoal = resolve_goal(spec.goal)
+        machine = self.machine = spec.machine_name
+        if machine != "t3" and spec.robot:
+            raise ConfigError(f"{spec.name}: robot: overrides configs/robot.yaml, the T3's servos; machine {machine} "
+                              f"drives its joints through its cylinders (models/{machine})")
+        self.goal: TrenchGoal = resolve_goal(spec.goal, machine)
         self.robot: RobotConfig = _override(load_robot_config(robot_path), spec.robot, RobotConfig,
                                             f"{spec.name}: robot")
         scene = _override(load_scene_config(scene_path), spec.scene, SceneConfig, f"{spec.name}: scene")
+        scene = machine_scene(scene, machine)  # an excavator's pit starts full to the ground
         self.scene: SceneConfig = scene.model_copy(update={"soil": spec.soil}) if spec.soil else scene
         named = f" {shorten(spec.goal, 200)}" if isinstance(spec.goal, str) else ""
-        check_goal(self.goal, self.scene, source=f"{spec.name}: goal{named}")
-        self.planner: PlannerConfig = _override(load_planner_config(), spec.planner, PlannerConfig,
-                                                f"{spec.name}: planner")
-        self.executor: ExecutorConfig = _override(load_executor_config(), spec.executor, ExecutorConfig,
-                                                  f"{spec.name}: executor")
-        self.sensing: SensingConfig = _override(load_sensing_config(), spec.sensing, SensingConfig,
-                                                f"{spec.name}: sensing")
+        check_goal(self.goal, self.scene, source=f"{spec.name}: goal{named}",
+                   box=None if machine == "t3" else machine_box(machine))
+        # the machine's own numbers (configs/machines/<machine>.yaml; the T3 has none), then the spec's
+        own = load_machine_config(machine)
+        self.planner: PlannerConfig = _override(
+            _override(load_planner_config(), own.planner, PlannerConfig, f"machine {machine}: planner"),
+            spec.planner, PlannerConfig, f"{spec.name}: planner")
+        self.executor: ExecutorConfig = _override(
+            _override(load_executor_config(), own.executor, ExecutorConfig, f"machine {machine}: executor"),
+            spec.executor, ExecutorConfig, f"{spec.name}: executor")
+        self.sensing: SensingConfig = _override(
+            _override(load_sensing_config(), own.sensing, SensingConfig, f"machine {machine}: sensing"),
+            spec.sensing, SensingConfig, f"{spec.name}: sensing")
 
 
 def spec_episode(spec: EpisodeSpec, resolved: ResolvedSpec | None = None, *,
@@ -254,7 +275,7 @@ def run_spec(spec: EpisodeSpec, *, progress: Callable[[str], None] | None = None
              robot_path: str | pathlib.Path | None = None, scene_path: str | pathlib.Path | None = None):
     """Build the world of ``spec`` and run its episode; returns the task's result (for trench an
     :class:`~excavsim.handoff.episode.EpisodeResult`, for load a
-    :class:`~excavsim.tasks.load.in_mujoco.MujocoRun`, for truck a :class:`~excavsim.tasks.truck.trial.Trial`).
+    :class:`~excavsim.tasks.load.task.MujocoRun`, for truck a :class:`~excavsim.tasks.truck.trial.Trial`).
 
     Args:
         robot_path, scene_path: base configuration files the spec's overrides apply to (default
@@ -349,7 +370,8 @@ def run_with_outputs(spec: EpisodeSpec, *, robot_path: str | None = None, scene_
         timer = task_module("trench").episode_timer()
         observer = ObserverGroup(observer, timer)
     goal = spec.goal if isinstance(spec.goal, str) else (spec.goal.name or "inline goal")
-    say(f"excavsim {command}: {goal} trench, {spec.dig_budget} digs at most, soil {spec.soil or 'of the scene'}, "
+    by = "" if spec.machine_name == "t3" else f" with the {spec.machine_name}"
+    say(f"excavsim {command}: {goal} trench{by}, {spec.dig_budget} digs at most, soil {spec.soil or 'of the scene'}, "
         f"seed {spec.seed}")
     result = run_spec(spec, progress=say, observer=observer, robot_path=robot_path, scene_path=scene_path)
     say(format_episode(result))
@@ -393,7 +415,7 @@ def episode_summary(res) -> dict[str, Any]:
     (``done``, ``no_dig``, ``budget``, ``diverged`` or ``timeout``), ``reason`` its full text;
     ``diverged_digs`` counts the digs in which the simulation diverged (at most one: the episode ends there).
     A loading episode's and a truck trial's keep the same keys where they mean the same
-    (:func:`excavsim.tasks.load.in_mujoco.summary`, :func:`excavsim.tasks.truck.episode.summary`); a truck
+    (:func:`excavsim.tasks.load.task.summary`, :func:`excavsim.tasks.truck.episode.summary`); a truck
     loaded by the excavator, :func:`excavsim.tasks.truck_loading.task.summary`.
     """
     from excavsim.loop.catalog import task_module

@@ -52,7 +52,7 @@ from excavsim.errors import ConfigError
 from excavsim.handoff.dig import TrenchAction
 from excavsim.handoff.maps import ElevationMap
 from excavsim.planning import kernel
-from excavsim.planning.constraints import shaping
+from excavsim.planning.constraints import PoseTorqueLimits, shaping
 from excavsim.planning.feasibility import prune_along_d1
 from excavsim.planning.objectives import OBJECTIVES, choose
 # TrenchPlanner (excavsim.planning.search) appears in annotations only: search imports this module for
@@ -150,7 +150,8 @@ class CellEvaluator:
     def __init__(self, planner: TrenchPlanner, emap: ElevationMap, *, limits: np.ndarray | None = None,
                  exclude: np.ndarray | None = None):
         self.planner = planner
-        self.limits = planner.limits if limits is None else np.asarray(limits, dtype=float)
+        self.limits = planner.limits if limits is None else (
+            limits if isinstance(limits, PoseTorqueLimits) else np.asarray(limits, dtype=float))
         cfg = planner.cfg
         self.surface = planner.surface(emap)
         self.shape = planner.grid_shape

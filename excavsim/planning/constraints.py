@@ -15,13 +15,18 @@ every sample passes; the searches also count the leading samples that pass, to b
   and the touch-down below the entry (:func:`touchdown`, §7.1.3);
 * **force** (§5.3, eq. 28): predicted soil forces (any :class:`~excavsim.handoff.forces.ForcePredictor`)
   and the swept soil's weight turned into joint torques ``tau = tau_grav - J^T F`` (eqs. 28-31,
-  App. 2) within the relief limits at every sample (§5.3.3).
+  App. 2) within the relief limits at every sample (§5.3.3). The T3's limits are one torque per joint;
+  a hydraulic excavator's are its cylinders' (:class:`PoseTorqueLimits`): relief pressure x piston (or
+  annulus) area x moment arm, a different limit at every pose and in each direction.
 
 The searches evaluate them cheapest first (§6.2.2); unreachable poses have no torques, so force
 is only tested where reachability passes.
 """
 
 from __future__ import annotations
+
+import dataclasses
+from collections.abc import Callable
 
 import numpy as np
 
@@ -33,6 +38,48 @@ from excavsim.robot.kinematics import PlanarArm
 from excavsim.robot.reachability import ReachabilityTable
 
 CONSTRAINTS = ("shaping", "sensible", "volume", "reachability", "force")
+
+
+@dataclasses.dataclass(frozen=True, eq=False)
+class PoseTorqueLimits:
+    """Joint-torque limits that vary with the pose: Singh 1995 §5.3's force constraint for cylinders.
+
+    §5.3.3 holds the predicted joint torques within the relief limits, one torque per joint (the T3's
+    hydraulic rotary actuators). A cylinder's force is limited by the relief pressure times its piston
+    area (pushing) or annulus area (pulling); the torque it gives its joint is that force times its moment
+    arm ``dL/dq``, which changes with the joint's angle. So the limit is ``p_relief A |dL/dq(q)|``,
+    another at every pose and in each direction: the constraint compares each predicted torque with the
+    limit at the sample's own joint angles, in the direction of that torque.
+
+    Attributes:
+        at: ``(q (..., 3)) -> (..., 3, 2)`` the (lower, upper) limits at planar joint angles ``q`` [N m]
+            (:meth:`excavsim.robot.machine.Machine.torque_limits`, numpy only).
+        nominal: (3,) a constant stand-in [N m] where one number per joint is needed (annealing's cost
+            scale, the loop's wrist limit in its failure report): the weakest limit over the joint ranges.
+        scale: the limits are ``at(q) * scale`` (dividing by a torque margin scales them).
+    """
+
+    at: Callable[[np.ndarray], np.ndarray] = dataclasses.field(repr=False)
+    nominal: np.ndarray
+    scale: float = 1.0
+
+    def __truediv__(self, factor: float) -> PoseTorqueLimits:
+        return dataclasses.replace(self, scale=self.scale / float(factor))
+
+    def __getitem__(self, j):
+        return self.nominal[j] * self.scale
+
+    def sum(self) -> float:
+        return float(np.sum(self.nominal) * self.scale)
+
+    def magnitude(self, q: np.ndarray, tau: np.ndarray) -> np.ndarray:
+        """(..., 3) each joint's limit at angles ``q`` (..., 3) in the direction of torques ``tau`` (..., 3) [N m]."""
+        lim = self.at(np.asarray(q, dtype=float)) * self.scale
+        return np.where(np.asarray(tau) >= 0.0, lim[..., 1], -lim[..., 0])
+
+    def ratio(self, q: np.ndarray, tau: np.ndarray) -> np.ndarray:
+        """(...,) the largest ``|tau| / limit`` over the joints (NaN propagated as ``np.max`` does)."""
+        return np.max(np.abs(tau) / self.magnitude(q, tau), axis=-1)
 
 
 def shaping(poses: np.ndarray, goal: TrenchGoal, tolerance_m: float) -> np.ndarray:
@@ -143,7 +190,8 @@ def torque_ratio(poses: np.ndarray, depth: np.ndarray, load_m3: np.ndarray, *, s
         poses: (..., 3) tip poses; depth: (...,) their depth below the mapped surface [m].
         load_m3: (...,) soil swept so far [m^3]: the predictor's surcharge and, at ``density`` [kg/m^3],
             the load's weight.
-        statics: the arm; predictor: the force model; limits: (3,) torque limits [N m].
+        statics: the arm; predictor: the force model; limits: (3,) torque limits [N m], or
+            :class:`PoseTorqueLimits` (a cylinder machine's, at each sample's joint angles).
         progress, surface: reach the predictor in its :class:`~excavsim.handoff.forces.DigContext`
             (see :func:`~excavsim.handoff.forces.trajectory_progress`).
 
@@ -153,8 +201,12 @@ def torque_ratio(poses: np.ndarray, depth: np.ndarray, load_m3: np.ndarray, *, s
     f = predictor.predict(depth, poses[..., 2], load_m3, DigContext(poses, progress, surface))
     shape = poses.shape[:-1]
     wrench = np.concatenate([f.reshape(-1, 2), np.zeros((f[..., 0].size, 1))], axis=-1)
-    _, ok, tau = statics.solve(poses.reshape(-1, 3), wrench, (density * load_m3).reshape(-1))
-    ratio = np.where(ok, np.max(np.abs(tau) / limits, axis=-1), np.inf)
+    q, ok, tau = statics.solve(poses.reshape(-1, 3), wrench, (density * load_m3).reshape(-1))
+    if isinstance(limits, PoseTorqueLimits):
+        with np.errstate(invalid="ignore"):
+            ratio = np.where(ok, limits.ratio(np.where(ok[:, None], q, 0.0), tau), np.inf)
+    else:
+        ratio = np.where(ok, np.max(np.abs(tau) / limits, axis=-1), np.inf)
     return f, tau.reshape(shape + (3,)), ratio.reshape(shape)
 
 

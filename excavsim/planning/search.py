@@ -33,8 +33,8 @@ from excavsim.handoff.goal import SurfaceProfile
 from excavsim.handoff.maps import ElevationMap
 from excavsim.planning import action as geometry
 from excavsim.planning import kernel as compiled
-from excavsim.planning.constraints import (CONSTRAINTS, ArmStatics, force, reachability, sensible, sensible_curl,
-                                           shaping, torque_ratio, touchdown, volume)
+from excavsim.planning.constraints import (CONSTRAINTS, ArmStatics, PoseTorqueLimits, force, reachability, sensible,
+                                           sensible_curl, shaping, torque_ratio, touchdown, volume)
 from excavsim.planning.feasibility import NO_DIG, CellVerdicts, Feasibility, prune_along_d1
 from excavsim.planning.objectives import choose
 from excavsim.robot.kinematics import PlanarArm
@@ -86,7 +86,9 @@ class TrenchPlanner:
     Args:
         arm: the planar chain.
         table: reachability table of ``arm``.
-        torque_limits: (3,) relief limits of shoulder, elbow, wrist pitch [N m].
+        torque_limits: (3,) relief limits of shoulder, elbow, wrist pitch [N m], or a cylinder machine's
+            :class:`~excavsim.planning.constraints.PoseTorqueLimits` (relief pressure x area x moment arm
+            at each sample's pose; the search then runs on the vectorized reference, not the kernel).
         bucket_width: [m]; bucket_capacity: struck capacity [m^3].
         goal: the trench.
         config: rules, grid and objective.
@@ -102,8 +104,10 @@ class TrenchPlanner:
                  bucket_capacity: float, goal: TrenchGoal, config: PlannerConfig, predictor: ForcePredictor,
                  density: float = 2000.0, *, kernel: bool = True):
         self.arm = arm
-        self.limits = np.asarray(torque_limits, dtype=float)
-        if self.limits.shape != (3,) or np.any(self.limits <= 0):
+        self.limits = (torque_limits if isinstance(torque_limits, PoseTorqueLimits)
+                       else np.asarray(torque_limits, dtype=float))
+        nominal = self.limits.nominal if isinstance(self.limits, PoseTorqueLimits) else self.limits
+        if nominal.shape != (3,) or np.any(nominal <= 0):
             raise ConfigError(f"torque_limits must be 3 positive values [N m]; given {torque_limits!r}")
         self.width = float(bucket_width)
         self.capacity = float(bucket_capacity)
@@ -203,8 +207,12 @@ class TrenchPlanner:
     def feasibility(self, surface: SurfaceProfile, vmax: float, *, limits: np.ndarray | None = None) -> Feasibility:
         """The constraints and the d2 rule on ``surface`` with volume limit ``vmax`` [m^3], the force
         constraint within ``limits`` (default: the planner's torque limits)."""
-        return Feasibility(self.cfg, self.goal, surface, self.statics, self.predictor, self.density,
-                           self.limits if limits is None else np.asarray(limits, dtype=float), self.width, vmax)
+        if limits is None:
+            limits = self.limits
+        elif not isinstance(limits, PoseTorqueLimits):
+            limits = np.asarray(limits, dtype=float)
+        return Feasibility(self.cfg, self.goal, surface, self.statics, self.predictor, self.density, limits,
+                           self.width, vmax)
 
     def evaluate_cells(self, pen: np.ndarray, drag: np.ndarray, surface: SurfaceProfile, vmax: float, *,
                        prune: bool = True, limits: np.ndarray | None = None) -> CellVerdicts:
@@ -216,7 +224,7 @@ class TrenchPlanner:
     def uses_kernel(self, *, prune: bool = True, classify_limits: bool = False, kernel: bool | None = None) -> bool:
         """Whether :meth:`plan` with these arguments searches with the compiled kernel."""
         return bool((self.kernel if kernel is None else kernel) and prune and not classify_limits
-                    and compiled.supports(self.predictor))
+                    and compiled.supports(self.predictor) and not isinstance(self.limits, PoseTorqueLimits))
 
     def plan(self, emap: ElevationMap, *, prune: bool = True, classify_limits: bool = False,
              exclude: np.ndarray | None = None, torque_margin: float = 1.0, kernel: bool | None = None) -> PlanResult:

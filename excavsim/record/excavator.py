@@ -67,13 +67,13 @@ class ExcavatorRecorder:
             raise UsageError(f"an ExcavatorRecorder records one run; make a new one for {self.path}")
         m = world.model
         self.machine = world.spec.name
-        config = f"machine: {self.machine}\nseed: {self.seed}\n"
-        rec = rr.RecordingStream("excavsim", recording_id=recording_id_for(self.path.name, self.seed, config),
+        rec = rr.RecordingStream("excavsim", recording_id=recording_id_for(self.path.name, self.seed,
+                                                                           self._config_text(world)),
                                  send_properties=False)
         rec.set_log_time_enabled(False)
         rec.set_log_tick_enabled(False)
         self.path.parent.mkdir(parents=True, exist_ok=True)
-        rec.set_sinks(rr.FileSink(str(self.path)))
+        self._open(rec)
         rec.send_recording_name(self.path.stem)
         self.rec = rec
         rec.log("world", rr.ViewCoordinates.RIGHT_HAND_Z_UP, static=True)
@@ -102,6 +102,14 @@ class ExcavatorRecorder:
                 static=True)
         self._next_t = self._next_soil = float(d.time)
         self.stepped(world)
+
+    def _config_text(self, world) -> str:
+        """What makes the run (part of the recording id)."""
+        return f"machine: {self.machine}\nseed: {self.seed}\n"
+
+    def _open(self, rec: rr.RecordingStream) -> None:
+        """Point the stream at the file."""
+        rec.set_sinks(rr.FileSink(str(self.path)))
 
     @staticmethod
     def _moves(m, b: int) -> bool:

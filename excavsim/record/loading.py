@@ -1,6 +1,6 @@
 """Rerun recording of a MuJoCo loading episode (excavsim load --mujoco --record FILE.rrd).
 
-An observer of :func:`excavsim.tasks.load.in_mujoco.run_episode` (the loop never imports it). Entities:
+An observer of :func:`excavsim.tasks.load.task.run_episode` (the loop never imports it). Entities:
 ``world`` (right-handed, z up, static); ``world/<machine>/<body>`` the machine's visual geoms, static in
 their body frames, and a ``Transform3D`` per sample; ``world/box`` the lane's kerbs; ``world/soil/truth``
 (the true terrain, a ``Mesh3D`` grid whose indices are logged once) after every scan and dig;

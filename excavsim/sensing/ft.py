@@ -263,13 +263,15 @@ class ForceSensor:
     Args:
         model: the compiled scene (the robot's kinematic model; read, never stepped).
         rate_hz: sample rate of :meth:`sample` [Hz] (the testbed's process ran at about 10 Hz).
+        joints: the joints an observation's ``q`` lists, in its order (default the T3's six; an
+            excavator's swing, boom, stick and bucket).
 
     Raises:
         ExcavsimError: ``rate_hz`` is not a positive finite number.
         ModelError: the model lacks the bucket, its sites or an arm joint.
     """
 
-    def __init__(self, model: mujoco.MjModel, *, rate_hz: float = 10.0):
+    def __init__(self, model: mujoco.MjModel, *, rate_hz: float = 10.0, joints: tuple[str, ...] = constants.JOINTS):
         try:
             rate = float(rate_hz)
         except (TypeError, ValueError):
@@ -283,7 +285,7 @@ class ForceSensor:
         self._bucket = element_id(model, "body", constants.BUCKET_BODY)
         self._ft_site = element_id(model, "site", constants.FT_SITE)
         self._tip_site = element_id(model, "site", constants.BUCKET_TIP_SITE)
-        joints = [element_id(model, "joint", j) for j in constants.JOINTS]
+        joints = [element_id(model, "joint", j) for j in joints]
         self._qadr = np.array([model.jnt_qposadr[j] for j in joints])
         if model.site_bodyid[self._ft_site] != self._bucket:
             raise ModelError(f"site {constants.FT_SITE!r} must be on body {constants.BUCKET_BODY!r} "
@@ -299,10 +301,12 @@ class ForceSensor:
         self.reset()
 
     @classmethod
-    def from_config(cls, model: mujoco.MjModel, config: ForceSensorConfig | None = None) -> ForceSensor:
-        """A sensor with the rate of ``config`` (the ``force_sensor`` section of ``configs/sensing.yaml``)."""
+    def from_config(cls, model: mujoco.MjModel, config: ForceSensorConfig | None = None, *,
+                    joints: tuple[str, ...] = constants.JOINTS) -> ForceSensor:
+        """A sensor with the rate of ``config`` (the ``force_sensor`` section of ``configs/sensing.yaml``) on a
+        machine whose observations list ``joints`` (default the T3's)."""
         config = config or ForceSensorConfig()
-        return cls(model, rate_hz=config.rate_hz)
+        return cls(model, rate_hz=config.rate_hz, joints=joints)
 
     # -- conversion -----------------------------------------------------------------------------
     def frames(self, q: np.ndarray) -> dict[str, np.ndarray]:

@@ -25,9 +25,24 @@ and the pumps deliver their rated flow at any pressure (no power limit).
 at a fixed control rate, as :class:`~excavsim.world.loading_scene.LoadingWorld` does for the loading
 machines: the soil model reads the bucket, cuts and fills, and its wrench on the bucket is applied through
 ``xfrc_applied``; the cylinder force sensors and the F/T at the bucket pin read the result.
+
+To the trenching loop an :class:`ExcavatorWorld` is what :class:`~excavsim.world.simulation.Simulation` is
+for the T3: a :class:`~excavsim.world.facade.World` (``step_hooks``, ``time``, ``settle_soil``, ``volumes``,
+the watchdog's ``Diverged`` and the episode's ``OutOfTime``) and the executor's
+:class:`~excavsim.handoff.observation.Servos`: :meth:`ExcavatorWorld.track` steps towards joint targets
+through :class:`HydraulicDrive`, :meth:`ExcavatorWorld.observe` reads the encoders, the joint torques the
+cylinders apply (cylinder force x moment arm) and the F/T at the bucket pin with Gaussian noise
+(``truth.ft_force_noise_n``, ``ft_torque_noise_nm``; the T3 testbed's digging vibration,
+``ft_dig_noise_share``, is the T3 arm's and is not added here), and :attr:`ExcavatorWorld.torque_limit`
+is each joint's relief torque at the present pose in the direction it pushes now (relief pressure x
+piston or annulus area x moment arm), so ``actuator_force / torque_limit`` is the share of the relief
+pressure a cylinder works at.
 """
 
 from __future__ import annotations
+
+import time
+from collections.abc import Callable
 
 import mujoco
 import numpy as np
@@ -35,10 +50,11 @@ import numpy as np
 from excavsim import constants
 from excavsim.config import SceneConfig, SoilParams, get_soil, load_scene_config
 from excavsim.errors import ExcavsimError
-from excavsim.handoff.observation import Diverged
+from excavsim.handoff.observation import Diverged, Observation, OutOfTime
 from excavsim.readouts import element_id
 from excavsim.robot.cylinders import share_pump_flow
 from excavsim.robot.excavators import CHAIN_JOINTS, FUNCTIONS, PUMPS, ExcavatorSpec, get_machine
+from excavsim.world.simulation import Truth
 from excavsim.world.soil import SoilModel
 
 # The excavators' joints in the spec's order; the actuators carry the function's name.
@@ -137,6 +153,20 @@ class ExcavatorWorld:
         self.contact = None
         self.steps = 0
         self._warnings = np.array(self.data.warning.number, dtype=np.int64)
+        self.seed = seed
+        # the F/T's noise: a stream of its own (the soil's draws are those of the seed itself)
+        self._noise_rng = np.random.default_rng((seed, 11))
+        ft = (element_id(self.model, "sensor", constants.FT_FORCE_SENSOR),
+              element_id(self.model, "sensor", constants.FT_TORQUE_SENSOR))
+        fa, ta = (int(self.model.sensor_adr[i]) for i in ft)
+        self._ft_idx = np.r_[fa:fa + 3, ta:ta + 3]
+        self._ft_sigma = np.repeat([self.scene.truth.ft_force_noise_n, self.scene.truth.ft_torque_noise_nm], 3)
+        self._dof = np.array([self.model.jnt_dofadr[j] for j in jids])
+        # Called with the world after every control step (recorders, accounts); read-only use.
+        self.step_hooks: list[Callable[[ExcavatorWorld], None]] = []
+        self.wall_deadline: float | None = None  # time.perf_counter() after which a step raises OutOfTime
+        self.diverged: str | None = None
+        self._clock = float(self.data.time)
 
     def _compile(self) -> mujoco.MjModel:
         """The world's MuJoCo model: the machine's scene (a world with more in it adds its bodies here)."""
@@ -150,12 +180,60 @@ class ExcavatorWorld:
         """(4,) the swing torque [N m] and the boom, stick and bucket cylinder forces [N] (positive pushes)."""
         return self.data.sensordata[self._sensors].copy()
 
+    @property
+    def time(self) -> float:
+        """Simulated time of the last good control step [s]."""
+        return self._clock
+
+    def joint_torques(self) -> np.ndarray:
+        """(4,) the torque each function applies to its joint [N m]: the swing motor's, and each cylinder's
+        force times its moment arm ``dL/dq`` at the present angle (the closed forms of
+        :mod:`excavsim.robot.cylinders`)."""
+        f = self.cylinder_forces()
+        q = self.joint_angles()
+        return np.array([f[0]] + [f[j] * float(self.spec.moment_arm(fn, q[j]))
+                                  for j, fn in enumerate(FUNCTIONS) if j > 0])
+
+    @property
+    def torque_limit(self) -> np.ndarray:
+        """(4,) each joint's relief torque at the present pose in the direction its function pushes now
+        [N m] (relief pressure x piston or annulus area x moment arm; the swing motor's relief torque)."""
+        lim = self.spec.joint_torque_limits(self.joint_angles())
+        return np.where(self.joint_torques() >= 0.0, lim[:, 1], -lim[:, 0])
+
+    def observe(self) -> Observation:
+        """The sensor-level observation now: encoders, joint velocities, the functions' joint torques and
+        the F/T at the bucket pin with its noise (see the module docstring)."""
+        d = self.data
+        ft = d.sensordata[self._ft_idx] + self._noise_rng.standard_normal(6) * self._ft_sigma
+        return Observation(self._clock, self.joint_angles(), d.qvel[self._dof].copy(), self.joint_torques(),
+                           ft[:3], ft[3:])
+
+    def track(self, target: np.ndarray) -> Observation:
+        """One control step towards joint angles ``target`` (4,) [rad] through the hydraulic drive; the observation."""
+        self.step(target)
+        return self.observe()
+
+    def settle_soil(self) -> None:
+        """Settle the whole terrain now (after a dig or a dump)."""
+        self.soil.settle_all()
+
+    def volumes(self):
+        """Privileged truth: soil in the pit, in the bucket and in spoil [m^3]."""
+        return self.soil.volumes()
+
+    @property
+    def truth(self):
+        """Privileged world state (true terrain, soil volumes, the last soil contact), as the T3's world gives."""
+        return Truth(self.soil.grid.heights.copy(), self.soil.volumes(), self.contact)
+
     def step(self, target: np.ndarray) -> np.ndarray:
         """One control step towards joint angles ``target`` (4,) [rad]; the joint encoders after it.
 
         Raises:
             ExcavsimError: ``target`` is not 4 finite angles within the limits.
-            Diverged: MuJoCo warned, or the state is not finite.
+            Diverged: MuJoCo warned, or the state is not finite (now or in an earlier step).
+            OutOfTime: the step came after :attr:`wall_deadline`.
         """
         return self.step_rates(self.drive.rates(target, self.drive.setpoints(self.data)))
 
@@ -166,9 +244,14 @@ class ExcavatorWorld:
         The joint encoders after it.
 
         Raises:
-            Diverged: MuJoCo warned, or the state is not finite.
+            Diverged: MuJoCo warned, or the state is not finite (now or in an earlier step).
+            OutOfTime: the step came after :attr:`wall_deadline`.
         """
         d = self.data
+        if self.diverged is not None:
+            raise Diverged(f"the excavator world diverged earlier and cannot go on: {self.diverged}")
+        if self.wall_deadline is not None and time.perf_counter() > self.wall_deadline:
+            raise OutOfTime(f"the episode's wall-clock limit passed at t = {self._clock:.2f} s simulated")
         d.ctrl[self.drive.act] = rates
         self.contact = self.soil.step(d, self.control_dt)
         d.xfrc_applied[self._bucket] = self.contact.wrench
@@ -177,5 +260,9 @@ class ExcavatorWorld:
         counts = np.array(d.warning.number, dtype=np.int64)
         if (counts > self._warnings).any() or not np.all(np.isfinite(d.qpos)):
             self._warnings = counts
+            self.diverged = f"step {self.steps} (t = {d.time:.2f} s)"
             raise Diverged(f"the excavator world diverged at step {self.steps} (t = {d.time:.2f} s)")
+        self._clock = float(d.time)
+        for hook in self.step_hooks:
+            hook(self)
         return self.joint_angles()

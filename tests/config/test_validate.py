@@ -45,6 +45,8 @@ CASES = {
     "loading_campaign": ("campaigns/loading_mujoco.yaml", "campaigns/bad.yaml", ("seeds", [-1]),
                          ("machines", "loader")),
     "truck": ("truck.yaml", "truck.yaml", ("target.r_m", -1.0), ("learning.expected_cost", "maybe")),
+    "machine": ("machines/tb035.yaml", "machines/bad.yaml", ("executor.touch_force_n", -1.0),
+                ("planner.d2_max_m", "long")),
     "truck_loading": ("truck_loading.yaml", "truck_loading.yaml", ("truck.payload_t", -1.0),
                       ("tuning.tune", "maybe")),
 }
@@ -140,7 +142,8 @@ def test_the_cli_checks_every_file_and_reports_the_refused_ones_together(tmp_pat
     bad = _write(tmp_path, "truck", _set(_good("truck"), "target.r_m", -1.0))
     assert main(["validate", str(constants.ROBOT_YAML), str(bad), str(constants.TRENCHES_DIR)]) == 2
     out, err = capsys.readouterr()
-    assert "robot.yaml: valid RobotConfig; kind robot" in out and out.count("kind goal") == 3, out
+    goals = len(list(constants.TRENCHES_DIR.rglob("*.yaml")))  # the T3's and each machine's (trenches/<machine>/)
+    assert "robot.yaml: valid RobotConfig; kind robot" in out and out.count("kind goal") == goals, out
     assert err.startswith(f"excavsim: error: {bad}") and "target.r_m" in err, err
     assert main(["validate", str(constants.CONFIGS_DIR)]) == 0
     assert capsys.readouterr().out.count(": valid ") == len(CONFIG_FILES)

@@ -25,7 +25,7 @@ from excavsim.envs.render import offscreen_error
 from excavsim.loop.episode import Episode
 from excavsim.loop.scenario import EpisodeSpec, ResolvedSpec
 from excavsim.tasks.load import planar as ld
-from excavsim.tasks.load.in_mujoco import LoadTask
+from excavsim.tasks.load.task import LoadTask
 
 TINY = {
     "name": "tiny", "dig_budget": 2, "seed": 0,

@@ -40,6 +40,8 @@ from excavsim.mechanics.wedge import G_M_S2
 from excavsim.planning.experience import DigExperience, failure_kind
 from excavsim.robot.kinematics import PlanarArm
 from excavsim.tasks.trench.digs import PlannedDigs, RandomFeasibleDigs, ScriptedDigs
+from excavsim.robot.machine import get_machine
+from excavsim.world.machines import make_world
 from excavsim.world.simulation import Simulation
 
 MIN_USEFUL_M3 = 0.001  # a dig that brings up less than 1 l failed (the measure campaigns report)
@@ -62,7 +64,8 @@ def map_done(emap: ElevationMap, goal: TrenchGoal, arm: PlanarArm, width: float,
 
 
 class TrenchTask:
-    """Trenching (§7.2, Fig. 107): the T3 digs a trench goal out of its soil box.
+    """Trenching (§7.2, Fig. 107): the T3 digs a trench goal out of its soil box, or a hydraulic excavator
+    (``machine``: ``tb035``, ``excavator_25t``) out of its pit, in the same loop.
 
     Its world is a :class:`~excavsim.world.simulation.Simulation`, its pieces the loop's
     :class:`~excavsim.loop.rig.Rig`; it parks the arm out of the scanner's view before each scan,
@@ -78,6 +81,10 @@ class TrenchTask:
             never stops early: digging for data).
         planner_cfg, executor_cfg, sensing_cfg, robot_cfg, scene_cfg: configurations (default
             ``configs/``), the world's used when :meth:`reset` is given none.
+        machine: the trenching machine (:mod:`excavsim.robot.machine`; default the T3): its world
+            (:func:`~excavsim.world.machines.make_world`) and the rig on its joints, planar chain, reach and
+            torque limits (:func:`~excavsim.loop.rig.make_rig`). The configurations and the goal must be the
+            machine's (:class:`~excavsim.loop.scenario.ResolvedSpec` merges ``configs/machines/<machine>.yaml``).
     """
 
     final_scan = True
@@ -85,18 +92,19 @@ class TrenchTask:
     def __init__(self, *, goal: TrenchGoal | None = None, done_fraction: float | None = 0.95,
                  tolerance_m: float = 0.03, planner_cfg: PlannerConfig | None = None,
                  executor_cfg: ExecutorConfig | None = None, sensing_cfg: SensingConfig | None = None,
-                 robot_cfg: RobotConfig | None = None, scene_cfg: SceneConfig | None = None):
+                 robot_cfg: RobotConfig | None = None, scene_cfg: SceneConfig | None = None, machine: str = "t3"):
         self.goal, self.done_fraction, self.tolerance_m = goal, done_fraction, tolerance_m
         self.planner_cfg, self.executor_cfg, self.sensing_cfg = planner_cfg, executor_cfg, sensing_cfg
         self.robot_cfg, self.scene_cfg = robot_cfg, scene_cfg
+        self.machine = get_machine(machine)
         self.wall_limit_s = math.inf
 
     def reset(self, seed: int, world: Simulation | None = None, digs: DigSource | None = None) -> tuple:
-        sim = world if world is not None else Simulation(self.robot_cfg, self.scene_cfg, seed=seed)
+        sim = world if world is not None else make_world(self.machine.name, self.robot_cfg, self.scene_cfg, seed=seed)
         self.sim = sim
         self.source = digs or PlannedDigs(DigExperience())
         self.rig = rig = make_rig(sim, seed=seed, goal=self.goal, planner_cfg=self.planner_cfg,
-                                  executor_cfg=self.executor_cfg, sensing_cfg=self.sensing_cfg)
+                                  executor_cfg=self.executor_cfg, sensing_cfg=self.sensing_cfg, machine=self.machine)
         self.wall_limit_s = rig.executor_cfg.episode_wall_limit_s
         self.mask, self.z_goal = trench_footprint(sim, rig.goal, rig.width)
         self._h0 = sim.soil.grid.heights.copy()
@@ -236,7 +244,7 @@ def spec_episode(spec, resolved, *, progress: Callable[[str], None] | None = Non
     r = resolved
     task = TrenchTask(goal=r.goal, done_fraction=spec.done_fraction, tolerance_m=spec.tolerance_m,
                       planner_cfg=r.planner, executor_cfg=r.executor, sensing_cfg=r.sensing, robot_cfg=r.robot,
-                      scene_cfg=r.scene)
+                      scene_cfg=r.scene, machine=r.machine)
     return Episode(task, dig_budget=spec.dig_budget, progress=progress, observer=observer)
 
 

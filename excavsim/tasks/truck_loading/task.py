@@ -391,6 +391,15 @@ class TruckLoadingTask:
 
 
 # -- the platform's views of a result ------------------------------------------------------------------------
+def episode_recorder(path: str):
+    """The Rerun recorder of a truck-loading episode, the platform's hook for ``excavsim run SPEC --record
+    FILE.rrd``: the machine moving, the truck, its bed's fill after each pass, the pit and the per-pass
+    metrics (:class:`~excavsim.record.truck_loading.TruckLoadingRecorder`)."""
+    from excavsim.record.truck_loading import TruckLoadingRecorder
+
+    return TruckLoadingRecorder(path)
+
+
 def summary(res: TruckLoad) -> dict[str, Any]:
     """A truck's metrics as a flat dict (a campaign row, ``regress``'s sample): ``end``/``reason``, ``digs``
     (passes), ``bucket_l_per_pass`` (in the bucket after the dig), ``truck_l`` and ``truck_t`` (in the bed,

@@ -17,6 +17,7 @@ from excavsim.handoff.maps import ElevationMap
 from excavsim.learning import identify
 from excavsim.learning.wedge_fit import LEAD_M, RecordWedge, advance_speed, load_profile, touchdown_samples
 from excavsim.apps.calibrate import fit as cal
+from excavsim.apps.calibrate import run as calrun
 from excavsim.apps.calibrate import digs as cd
 from excavsim.mechanics.wedge import wedge_force
 from excavsim.mechanics.wedge_inertia import inertial_force
@@ -57,7 +58,7 @@ def check_recovered(fit, soil, *, c_abs_pa: float, c_rel: float, phi_deg: float 
 def test_calibrate_recovers_the_testbed_sand_from_a_record(sand, tmp_path):
     """Measured (2 digs): c 0, phi 31.4, delta 28.4 deg, gamma 19.41 kN/m^3 (true 0, 30, 30, 19.62)."""
     path, _, _ = sand
-    fits = cal.calibrate(path, "wedge", tmp_path, rerun_digs=False, cross_model=False, say=lambda s: None)
+    fits = calrun.calibrate(path, "wedge", tmp_path, rerun_digs=False, cross_model=False, say=lambda s: None)
     check_recovered(fits["wedge"], get_soil("testbed_sand"), c_abs_pa=1000.0, c_rel=0.0, phi_deg=None)
     assert fits["wedge"].r2 > 0.95
     from excavsim.config import SoilsFile, load_config
@@ -70,7 +71,7 @@ def test_calibrate_recovers_a_cohesive_soil_from_a_record(clay, tmp_path):
     """Lean clay (c 17.2 kPa, phi = delta 17.2 deg, 17.66 kN/m^3): c within 10 %. Measured (2 digs): c 17.20 kPa,
     phi 18.0, delta 16.9 deg, gamma 18.12 kN/m^3."""
     path, _ = clay
-    fits = cal.calibrate(path, "wedge", tmp_path, rerun_digs=False, cross_model=False, say=lambda s: None)
+    fits = calrun.calibrate(path, "wedge", tmp_path, rerun_digs=False, cross_model=False, say=lambda s: None)
     check_recovered(fits["wedge"], get_soil("lean_clay"), c_abs_pa=1000.0, c_rel=0.10, phi_deg=3.5)
 
 
@@ -316,9 +317,9 @@ def test_calibrate_command_errors_name_the_fix(sand, tmp_path, capsys):
     assert main(["calibrate", str(npz), "--record-digs", "1", "--rrd", "x.txt", "--out", str(tmp_path)]) == 2
     assert "ends in .rrd" in capsys.readouterr().err
     with pytest.raises(ExcavsimError, match="read by the command line"):
-        cal.calibrate(rrd, "wedge", tmp_path)
+        calrun.calibrate(rrd, "wedge", tmp_path)
     with pytest.raises(ExcavsimError, match="allowed: wedge, dimaio"):
-        cal.calibrate(npz, "mohr", tmp_path)
+        calrun.calibrate(npz, "mohr", tmp_path)
 
 
 @pytest.fixture(scope="module")
@@ -369,7 +370,7 @@ def test_holding_cohesion_at_zero_recovers_the_sands_phi(sand_seed7):
     no standard error, and the rest stay within the stated tolerances."""
     _, data = sand_seed7
     soil = get_soil("testbed_sand")
-    width = cal._bucket_width()
+    width = calrun._bucket_width()
     held = cal.fit_wedge(data, soil, width, fixed={"c_pa": 0.0})
     assert held.params["c_pa"] == 0.0 and held.errors["c_pa"] == 0.0 and held.fixed == {"c_pa": 0.0}
     assert abs(held.params["phi_deg"] - 30.0) < 3.0

@@ -16,6 +16,7 @@ from excavsim.config import get_soil
 from excavsim.learning import identify
 from excavsim.learning.wedge_fit import RecordWedge, advance_speed, residual_autocorrelation, residual_inflation
 from excavsim.apps.calibrate import fit as cal
+from excavsim.apps.calibrate import run as calrun
 from excavsim.apps.calibrate import digs as cd
 
 
@@ -37,7 +38,7 @@ def test_the_failure_cycles_mean_scales_the_blade_force_only(noisy_sand):
     """With I_B the blade force is (1 - I_B / 2) of eq. 8's (the saw-tooth from (1 - I_B) of the crest
     to it); the load's weight is not cut soil and is unchanged; I_B outside [0, 1) is refused."""
     _, data = noisy_sand
-    width = cal._bucket_width()
+    width = calrun._bucket_width()
     x = _inputs(data, width)
     theta = _theta(get_soil("testbed_sand"))
     plain, cycled = RecordWedge(width).forces(theta, x), RecordWedge(width, brittleness=0.2).forces(theta, x)
@@ -55,7 +56,7 @@ def test_the_rate_effect_scales_the_cohesive_force_only(noisy_sand):
     hand from the record model's own forces with c and with c = 0; a cohesionless soil is unchanged;
     at or below the reference speed nothing changes; a negative ``a`` is refused."""
     _, data = noisy_sand
-    width = cal._bucket_width()
+    width = calrun._bucket_width()
     x = _inputs(data, width)
     clay = _theta(get_soil("lean_clay"))
     no_c = clay.copy()
@@ -124,7 +125,7 @@ def test_the_range_holds_phi_in_synthetic_records_of_known_noise(noisy_sand):
     smooth share below 0.2), and the range is informative (narrower than the bounds' 35 deg)."""
     _, data = noisy_sand
     soil = get_soil("testbed_sand")
-    width = cal._bucket_width()
+    width = calrun._bucket_width()
     rw = RecordWedge(width, brittleness=0.2, load_capacity_m3=cal._heaped_capacity())  # as fit_wedge's
     clean = rw.forces(_theta(soil), _inputs(data, width))
     inside, widths = 0, []
@@ -152,7 +153,7 @@ def test_a_record_of_the_full_world_is_recovered_within_the_noisy_tolerances(noi
 
     path, data = noisy_sand
     soil = get_soil("testbed_sand")
-    width = cal._bucket_width()
+    width = calrun._bucket_width()
     fit = cal.fit_wedge(data, soil, width, brittleness=0.2)
     lo, hi = fit.phi_range_deg
     assert lo <= 30.0 <= hi
@@ -183,7 +184,7 @@ def test_a_record_of_the_full_world_is_recovered_within_the_noisy_tolerances(noi
         assert main(["calibrate", str(path), *extra, "--out", str(tmp_path)]) == 2
         assert msg in capsys.readouterr().err
     with pytest.raises(Exception, match="brittleness must be a number in"):
-        cal.calibrate(path, "wedge", tmp_path, brittleness=1.2, say=lambda s: None)
+        calrun.calibrate(path, "wedge", tmp_path, brittleness=1.2, say=lambda s: None)
     with pytest.raises(Exception, match="rate_per_decade must be a number in"):
-        cal.calibrate(path, "wedge", tmp_path, rate_per_decade=-1.0, say=lambda s: None)
+        calrun.calibrate(path, "wedge", tmp_path, rate_per_decade=-1.0, say=lambda s: None)
 

@@ -9,6 +9,7 @@ import pytest
 
 from excavsim.learning import identify
 from excavsim.apps.calibrate import fit as cal
+from excavsim.apps.calibrate import table53
 from excavsim.world import dimaio, soil_records
 
 TRUE = cal.TABLE_5_3
@@ -60,7 +61,7 @@ def test_with_the_ft_noise_the_output_error_fit_is_within_its_bound(generated):
 
 
 def test_table_5_3_command_writes_the_table_and_fig_5_40(tmp_path):
-    res = cal.table_5_3(tmp_path, noise_n=5.0, say=lambda s: None)
+    res = table53.table_5_3(tmp_path, noise_n=5.0, say=lambda s: None)
     assert res["batch LS, no noise"]["k"] == pytest.approx(TRUE["k"], rel=1e-6)
     assert (tmp_path / "fig_5_40.png").stat().st_size > 10_000
     assert "T_rn" in (tmp_path / "table_5_3.txt").read_text()

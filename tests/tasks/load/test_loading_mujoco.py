@@ -14,7 +14,8 @@ from dm_control import mjcf
 from excavsim import cli, constants
 from excavsim.errors import ExcavsimError
 from excavsim.tasks.load import planar as ld
-from excavsim.tasks.load import in_mujoco as lm
+from excavsim.tasks.load import task as lm
+from excavsim.tasks.load.campaign import load_campaign
 from excavsim.planning import loading as lp
 from excavsim.world import loading_scene as ls
 from excavsim.world.pile2d import trapezoid_pile
@@ -239,10 +240,10 @@ def test_bad_machine_config_and_arguments_are_refused(tmp_path, capsys):
     camp.write_text("machines: [loader]\nseeds: [0, 0]\n")
     assert cli.main(["load", "--campaign", str(camp)]) == 2
     assert "distinct" in capsys.readouterr().err
-    assert cli.main(["load", "--campaign", str(lm.constants.CONFIGS_DIR / "campaigns" / "loading_mujoco.yaml"),
+    assert cli.main(["load", "--campaign", str(constants.CONFIGS_DIR / "campaigns" / "loading_mujoco.yaml"),
                      "--machine", "loader"]) == 2
     assert "--campaign runs the machines" in capsys.readouterr().err
-    assert lm.load_campaign(lm.constants.CONFIGS_DIR / "campaigns" / "loading_mujoco.yaml").seeds == list(range(8))
+    assert load_campaign(constants.CONFIGS_DIR / "campaigns" / "loading_mujoco.yaml").seeds == list(range(8))
 
 
 def test_a_recorded_loading_episode_passes_rerun_verify_and_holds_its_entities(tmp_path):
