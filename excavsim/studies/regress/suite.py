@@ -223,6 +223,9 @@ def _episode_line(prefix: str, name: str, seed: int, r: dict) -> str:
     if r.get("task") == "truck":
         what = (f"{num('dumped_l', fmt='.1f')} l dumped, {num('missed_l', fmt='.1f')} l missed, cycle "
                 f"{num('cycle_s', fmt='.2f')} s")
+    elif r.get("task") == "truck_loading":
+        what = (f"{num('digs')} passes, {num('truck_t', fmt='.1f')} t in the truck, {num('spill_l')} l spilled, "
+                f"{num('cycle_s', fmt='.1f')} s a bucket")
     elif r.get("task") == "load":
         what = f"{num('digs')} digs, {num('removed_fraction', 100)} % of the pile removed, {num('delivered_l')} l delivered"
     else:

@@ -1,0 +1,16 @@
+"""regress's progress line speaks each task's measures (a truck-loading episode has no '% removed')."""
+
+from excavsim.studies.regress.suite import _episode_line
+
+
+def test_truck_loading_line_names_passes_truck_and_spill():
+    r = {"task": "truck_loading", "digs": 7, "truck_t": 11.32, "spill_l": 2.4, "cycle_s": 26.04, "end": "done",
+         "wall_s": 4.0}
+    line = _episode_line("[1/4] ", "truck_loading_25t", 0, r)
+    assert line == ("[1/4] truck_loading_25t seed 0: 7 passes, 11.3 t in the truck, 2 l spilled, 26.0 s a bucket, "
+                    "ended done (4.0 s wall)")
+
+
+def test_trench_line_and_a_missing_key():
+    line = _episode_line("", "small_sand", 3, {"digs": 5, "removed_fraction": 0.96, "end": "done", "wall_s": 9.0})
+    assert line == "small_sand seed 3: 5 digs, 96 % removed, ? stalls, ended done (9.0 s wall)"
