@@ -207,19 +207,9 @@ def play(demo: Demonstration, soil: SoilParams, label: str, law, seed: int = 0) 
 
 def t3_play(demo: Demonstration, soil: SoilParams, label: str, law, seed: int = 0) -> tuple[PlaybackRun, float]:
     """The T3's playback (:func:`excavsim.apps.playback.play.play`) with the soil in its bucket at the end."""
-    from excavsim.apps.playback.play import make_world
-    from excavsim.loop.rig import go_home, go_to, make_rig
+    from excavsim.apps.playback.play import play_in_world
 
-    sim = make_world(soil, seed)
-    rig = make_rig(sim, seed=seed)
-    go_home(sim, rig)
-    q = rig.home.copy()
-    q[0] = demo.waist
-    q[1:4], ok = rig.arm.inverse(demo.pose[0])
-    if not ok:
-        raise GoalError("playback: the demonstration's first pose is out of the T3's reach")
-    go_to(sim, q, rig.executor_cfg)
-    run = ImpedancePlayback(sim, rig.arm, rig.executor.ft, law).run(demo, soil=label)
+    run, sim = play_in_world(demo, soil, label, law, seed)
     return run, float(sim.truth.volumes.bucket)
 
 

@@ -122,6 +122,11 @@ def record_demonstration(seed: int = 0, soil: str = DEMO_SOIL) -> Demonstration:
 
 def play(demo: Demonstration, soil: SoilParams, label: str, law, seed: int = 0) -> PlaybackRun:
     """One playback of ``demo`` in a fresh world of ``soil`` with impedance ``law``."""
+    return play_in_world(demo, soil, label, law, seed)[0]
+
+
+def play_in_world(demo: Demonstration, soil: SoilParams, label: str, law, seed: int = 0) -> tuple[PlaybackRun, Simulation]:
+    """:func:`play`, and the world it played in (for its privileged end state, e.g. the soil in the bucket)."""
     sim = make_world(soil, seed)
     rig = make_rig(sim, seed=seed)
     go_home(sim, rig)
@@ -132,7 +137,7 @@ def play(demo: Demonstration, soil: SoilParams, label: str, law, seed: int = 0) 
         raise GoalError(f"playback: the demonstration's first pose {np.round(demo.pose[0], 3).tolist()} (x, z [m], "
                         "pitch [rad]) is out of the arm's reach")
     go_to(sim, q, rig.executor_cfg)
-    return ImpedancePlayback(sim, rig.arm, rig.executor.ft, law).run(demo, soil=label)
+    return ImpedancePlayback(sim, rig.arm, rig.executor.ft, law).run(demo, soil=label), sim
 
 
 def demonstration_from_signals(joint_times: np.ndarray, joints: np.ndarray, ft_times: np.ndarray,
