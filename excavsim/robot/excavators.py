@@ -28,7 +28,7 @@ import math
 import numpy as np
 
 from excavsim import constants
-from excavsim.errors import ExcavsimError
+from excavsim.errors import ConfigError, ModelError
 from excavsim.robot.cylinders import BucketLinkage, Cylinder, ExcavatorArm, PinTriangle, SwingMotor
 
 MPA = 1e6
@@ -164,7 +164,7 @@ class ExcavatorSpec:
     def _geometry(self, function: str):
         geometry = {"boom": self.boom_pins, "stick": self.stick_pins, "bucket": self.linkage}
         if function not in geometry:
-            raise ExcavsimError(f"unknown cylinder {function!r}; allowed: {', '.join(geometry)}")
+            raise ConfigError(f"unknown cylinder {function!r}; allowed: {', '.join(geometry)}")
         return geometry[function]
 
     def cylinder(self, function: str) -> Cylinder:
@@ -195,7 +195,7 @@ class ExcavatorSpec:
         hi = np.asarray(self.arm.upper[1:] if upper is None else upper, dtype=float)
         if lo.shape != (3,) or hi.shape != (3,) or np.any(lo > hi) or np.any(lo < np.asarray(self.arm.lower[1:])) \
                 or np.any(hi > np.asarray(self.arm.upper[1:])):
-            raise ExcavsimError(f"{self.name}: the sub-range must be 3 intervals within the joint limits "
+            raise ConfigError(f"{self.name}: the sub-range must be 3 intervals within the joint limits "
                                 f"{self.arm.lower[1:]} .. {self.arm.upper[1:]} rad; given {lower!r} .. {upper!r}")
         out = np.empty(3)
         for j in range(3):
@@ -235,20 +235,20 @@ class ExcavatorSpec:
         its sign and stays away from zero) and buildable (extended / retracted below 1.8).
 
         Raises:
-            ExcavsimError: naming the cylinder and what is wrong.
+            ModelError: naming the cylinder and what is wrong.
         """
         for j, f in enumerate(("boom", "stick", "bucket"), start=1):
             q = np.linspace(self.arm.lower[j], self.arm.upper[j], 721)
             m = self.moment_arm(f, q)
             if not (np.all(m > 0) or np.all(m < 0)):
-                raise ExcavsimError(f"{self.name}: the {f} cylinder's moment arm changes sign over the joint range")
+                raise ModelError(f"{self.name}: the {f} cylinder's moment arm changes sign over the joint range")
             lo, hi = self.stroke_ends(f)
             if hi / lo >= 1.8:
-                raise ExcavsimError(f"{self.name}: the {f} cylinder's extended/retracted length {hi / lo:.2f} >= 1.8")
+                raise ModelError(f"{self.name}: the {f} cylinder's extended/retracted length {hi / lo:.2f} >= 1.8")
         t1, t2 = self.linkage.transmission_angles(np.linspace(self.arm.lower[3], self.arm.upper[3], 721))
         worst = min(t1.min(), t2.min(), math.pi - t1.max(), math.pi - t2.max())
         if worst < math.radians(20):
-            raise ExcavsimError(f"{self.name}: the bucket linkage's transmission angle falls to "
+            raise ModelError(f"{self.name}: the bucket linkage's transmission angle falls to "
                                 f"{math.degrees(worst):.0f} deg (at least 20 deg needed)")
 
 
@@ -327,8 +327,8 @@ def get_machine(name: str) -> ExcavatorSpec:
     """The excavator spec called ``name``.
 
     Raises:
-        ExcavsimError: no such machine; the message lists the known ones.
+        ConfigError: no such machine; the message lists the known ones.
     """
     if name not in MACHINES:
-        raise ExcavsimError(f"unknown excavator {name!r}; allowed: {', '.join(MACHINES)}")
+        raise ConfigError(f"unknown excavator {name!r}; allowed: {', '.join(MACHINES)}")
     return MACHINES[name]
