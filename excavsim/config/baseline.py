@@ -46,7 +46,7 @@ class ScenarioBaseline(StrictModel):
     """One golden scenario's sample: its seeds, each seed's end and simulated time [s], its metrics."""
 
     seeds: list[int] = Field(min_length=1, description="the seeds run, distinct, >= 0")
-    task: Literal["trench", "load", "truck"] = Field(
+    task: Literal["trench", "load", "truck", "truck_loading"] = Field(
         default="trench", description="the scenario's task, whose metrics are judged (absent: trench)")
     end: list[str | None] | None = Field(default=None, description="each seed's end (done, budget, ...)")
     sim_s: list[float | None] | None = Field(default=None, description="each seed's simulated time [s]")

@@ -14,3 +14,13 @@ def test_truck_loading_line_names_passes_truck_and_spill():
 def test_trench_line_and_a_missing_key():
     line = _episode_line("", "small_sand", 3, {"digs": 5, "removed_fraction": 0.96, "end": "done", "wall_s": 9.0})
     assert line == "small_sand seed 3: 5 digs, 96 % removed, ? stalls, ended done (9.0 s wall)"
+
+
+def test_the_baseline_schema_knows_every_registered_task():
+    """A golden scenario of any task can enter the baseline (truck_loading's was refused by validate)."""
+    from typing import get_args
+
+    from excavsim.config.baseline import ScenarioBaseline
+    from excavsim.loop.catalog import TASKS
+
+    assert set(get_args(ScenarioBaseline.model_fields["task"].annotation)) == {"trench", *TASKS}
