@@ -120,7 +120,8 @@ class LWR:
         then sees a matrix of subnormals, ``1 / s`` overflows and the fit is NaN (or all weights are 0 and
         the fit is silently 0). The common factor is taken out (Atkeson, Moore & Schaal 1997 on the
         conditioning of the weighted fit): by an exact power of two while the largest weight is a normal
-        number (the fit is then bit for bit that of the absolute weights), else in the log domain."""
+        number (an exact scaling: in the runs measured the fit was bit for bit that of the absolute
+        weights), else in the log domain."""
         xn, y = (self.xn, self.y) if idx is None else (self.xn[idx], self.y[idx])
         w = self.weights(qn, width, xn)
         wmax = float(w.max()) if w.size else 0.0
