@@ -14,7 +14,9 @@
   its *support*, the sum of the kernel weights at the query (how many data points' worth of
   evidence it rests on), and a standard error per output: the root mean squared leave-one-out
   residual at the chosen width, grown by the query's leverage in the weighted fit (the sandwich
-  ``(Z^T Z)^+ X^T W^4 X (Z^T Z)^+``). :func:`select_action` minimizes the cost (its expectation under those
+  ``(Z^T Z)^+ X^T W^4 X (Z^T Z)^+``); below ``MIN_SUPPORT`` the standard error is infinite: the data
+  cannot support the prediction, whose value (the fit of the nearest points, the weights rescaled by their
+  common factor so that they cannot underflow) stays finite. :func:`select_action` minimizes the cost (its expectation under those
   errors when ``Objective.uncertainty``; the truck loop turns that off, configs/truck.yaml's
   ``learning.expected_cost``: on a handful of trials the errors are those of an under-determined 7-input
   fit and held the learner at its best early trial), adds ``support_penalty`` per missing unit of
@@ -40,6 +42,10 @@ import numpy as np
 from scipy.optimize import minimize
 
 WIDTHS = tuple(2.0 ** -k for k in range(1, 9))  # 2^-1 ... 2^-8 (§6.2)
+# below this kernel support (the sum of the weights: a millionth of one data point's worth of evidence at
+# the query) a prediction's standard error is infinite, "unknown" (Atkeson, Moore & Schaal 1997: too few
+# effective points to support a local fit; the value assumed)
+MIN_SUPPORT = 1e-6
 
 
 def placement_cost(t, r, theta, r_d: float, theta_d: float, w1: float, w2: float):
@@ -50,7 +56,9 @@ def placement_cost(t, r, theta, r_d: float, theta_d: float, w1: float, w2: float
 def svd_solve(z: np.ndarray, v: np.ndarray, rcond: float = 1e-8) -> np.ndarray:
     """The least-squares (minimum-norm) solution of ``Z beta = v`` by the SVD; ``v`` may be (n,) or (n, k)."""
     u, s, vt = np.linalg.svd(z, full_matrices=False)
-    keep = s > rcond * (s[0] if s.size else 0.0)
+    # drop the singular values below rcond times the largest, and any whose reciprocal would overflow (a
+    # matrix of subnormal entries: 1 / s is inf and inf * 0 is NaN)
+    keep = (s > rcond * (s[0] if s.size else 0.0)) & (s > 1.0 / np.finfo(float).max)
     inv = np.zeros_like(s)
     inv[keep] = 1.0 / s[keep]
     uv = u.T @ v
@@ -72,10 +80,13 @@ class LWR:
     Args:
         x: (n, m) inputs. y: (n, k) outputs.
         width: the kernel width W; chosen by leave-one-out among ``widths`` when None.
+        min_support: below this support at a query the prediction's standard error is infinite (unknown).
     """
 
     def __init__(self, x: np.ndarray, y: np.ndarray, *, width: float | None = None,
-                 widths: tuple[float, ...] = WIDTHS, rcond: float = 1e-8, width_outputs: int | None = None):
+                 widths: tuple[float, ...] = WIDTHS, rcond: float = 1e-8, width_outputs: int | None = None,
+                 min_support: float = MIN_SUPPORT):
+        self.min_support = min_support
         self.x = np.atleast_2d(np.asarray(x, dtype=float))
         y = np.asarray(y, dtype=float)
         self.y = y.reshape(len(y), -1)
@@ -101,10 +112,28 @@ class LWR:
         return np.exp(-np.sum((xn - qn) ** 2, axis=1) / width)
 
     def _fit(self, qn: np.ndarray, width: float, idx: np.ndarray | None = None):
+        """The weighted fit at ``qn``: beta, the kernel weights ``w`` (for the support), and ``Z``, ``v``
+        built from the weights rescaled so that the largest is of order 1.
+
+        Weighted least squares is unchanged by a common factor of the weights, but the absolute weights
+        of a query far from every point (``D^2 / W`` beyond ~700) underflow to subnormals or zero: the SVD
+        then sees a matrix of subnormals, ``1 / s`` overflows and the fit is NaN (or all weights are 0 and
+        the fit is silently 0). The common factor is taken out (Atkeson, Moore & Schaal 1997 on the
+        conditioning of the weighted fit): by an exact power of two while the largest weight is a normal
+        number (an exact scaling: in the runs measured the fit was bit for bit that of the absolute
+        weights), else in the log domain."""
         xn, y = (self.xn, self.y) if idx is None else (self.xn[idx], self.y[idx])
         w = self.weights(qn, width, xn)
+        wmax = float(w.max()) if w.size else 0.0
+        if wmax >= np.finfo(float).tiny:
+            wf = np.ldexp(w, -np.frexp(wmax)[1])
+        elif w.size:
+            d2 = np.sum((xn - qn) ** 2, axis=1)
+            wf = np.exp(-(d2 - d2.min()) / width)
+        else:
+            wf = w
         xa = np.hstack([xn, np.ones((len(xn), 1))])
-        z, v = w[:, None] * xa, w[:, None] * y
+        z, v = wf[:, None] * xa, wf[:, None] * y
         return svd_solve(z, v, self.rcond), w, z, v
 
     def predict_normalized(self, qn: np.ndarray, width: float | None = None) -> Prediction:
@@ -113,12 +142,17 @@ class LWR:
         beta, w, z, v = self._fit(qn, width)
         qa = np.append(qn, 1.0)
         yhat = qa @ beta
-        # var(beta) of the weighted fit (sandwich): (Z^T Z)^+ X^T W^4 X (Z^T Z)^+ per unit noise variance
+        support = float(w.sum())
+        if not support >= self.min_support:  # too little data near the query: the error is unknown
+            return Prediction(yhat, np.full(self.y.shape[1], np.inf), support)
+        # var(beta) of the weighted fit (sandwich): (Z^T Z)^+ X^T W^4 X (Z^T Z)^+ per unit noise variance;
+        # with the rescaled weights of Z (the sandwich is unchanged by a common factor of the weights)
         xa = np.hstack([self.xn, np.ones((len(self.xn), 1))])
+        wf = z[:, -1]
         zz = np.linalg.pinv(z.T @ z, rcond=self.rcond)
-        meat = (xa * (w ** 4)[:, None]).T @ xa
-        leverage = float(qa @ zz @ meat @ zz @ qa)
-        return Prediction(yhat, np.sqrt(self.loo_mse * (1.0 + leverage)), float(w.sum()))
+        meat = (xa * (wf ** 4)[:, None]).T @ xa
+        leverage = max(float(qa @ zz @ meat @ zz @ qa), 0.0)
+        return Prediction(yhat, np.sqrt(self.loo_mse * (1.0 + leverage)), support)
 
     def predict(self, q: np.ndarray) -> Prediction:
         """The prediction at a query in the original units."""
