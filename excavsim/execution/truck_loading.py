@@ -34,7 +34,7 @@ eases off): the swing's set-point follows a trapezoidal profile of ``accel`` and
 script's command; the other joints get the script's commands as steps, as Rowe's PD controller did (§4.0).
 
 Everything here reads sensor-level data (joint angles, cylinder pressures, time) through a
-:class:`Machine` (the world's :class:`~excavsim.world.truck.TruckWorld` is one) and the robot's own
+:class:`ExcavatorServos` (the world's :class:`~excavsim.world.truck.TruckWorld` is one) and the robot's own
 kinematics; nothing reads the world's truth.
 """
 
@@ -55,7 +55,7 @@ from excavsim.robot.kinematics import PlanarArm
 SWING, BOOM, STICK, BUCKET = CHAIN_JOINTS
 
 
-class Machine(Protocol):
+class ExcavatorServos(Protocol):
     """What the excavator's executor reads and commands (sensor level)."""
 
     control_dt: float
@@ -245,7 +245,7 @@ class _Filtered:
     makes the raw readings swing by tens of MPa from one control step to the next (measured), so thresholds
     act on the filtered pressure, as a real controller's would (assumed time constant)."""
 
-    def __init__(self, machine: Machine, tau: float):
+    def __init__(self, machine: ExcavatorServos, tau: float):
         self.machine, self.k = machine, min(1.0, machine.control_dt / tau)
         self.value = np.asarray(machine.cylinder_pressures(), float)
 
@@ -254,7 +254,7 @@ class _Filtered:
         return self.value
 
 
-def autodig(machine: Machine, arm: PlanarArm, swing: float, start_r: float, surface, cfg: AutoDigConfig, *,
+def autodig(machine: ExcavatorServos, arm: PlanarArm, swing: float, start_r: float, surface, cfg: AutoDigConfig, *,
             min_r: float = 4.0) -> DigRun:
     """Dig one bucket load at swing angle ``swing`` [rad] from radius ``start_r`` [m] towards the machine
     (module docstring). ``surface(r)`` is the scanned ground's height [m] at radius ``r`` along the dig's line
@@ -340,7 +340,7 @@ def autodig(machine: Machine, arm: PlanarArm, swing: float, start_r: float, surf
     return DigRun(t, why_pen, why_drag, float(x0 - x), peak, machine.joint_angles(), phases, np.array(trace))
 
 
-def approach(machine: Machine, target: np.ndarray, profile: SwingProfile, *, tol: float = 0.03,
+def approach(machine: ExcavatorServos, target: np.ndarray, profile: SwingProfile, *, tol: float = 0.03,
              timeout_s: float = 20.0) -> float:
     """Move to joint angles ``target`` (4,) [rad] (the swing through ``profile``) until every joint is within
     ``tol`` [rad]; returns the time it took [s]."""
@@ -507,7 +507,7 @@ class ScriptRun:
     boom_at_swing: float
 
 
-def run_script(machine: Machine, script: Script, profile: SwingProfile) -> ScriptRun:
+def run_script(machine: ExcavatorServos, script: Script, profile: SwingProfile) -> ScriptRun:
     """Run ``script`` tick by tick on ``machine``: the swing through ``profile``, the others as steps."""
     engine = ScriptEngine(script)
     q = machine.joint_angles()
