@@ -22,10 +22,25 @@ TASKS: dict[str, str] = {
 }
 
 
+def summary_number(s: dict):
+    """``num(key, scale=1, fmt=".0f")``: the summary's ``key`` times ``scale`` in ``fmt``, or ``?`` when it is
+    missing or not a number (a task's ``progress_text`` uses it; an older summary may lack a key)."""
+    def num(key: str, scale: float = 1.0, fmt: str = ".0f") -> str:
+        v = s.get(key)
+        return format(scale * v, fmt) if isinstance(v, int | float) else "?"
+    return num
+
+
+def progress_text(summary: dict) -> str:
+    """An episode's summary in a few words, by its task's module (``task`` absent: trench)."""
+    return task_module(summary.get("task") or "trench").progress_text(summary)
+
+
 def task_module(name: str):
     """The module of the task registered as ``name`` (it also defines ``format_run``, the task's table, and
     may define ``summary`` and ``dig_rows``, its campaign row and per-dig rows, ``episode_recorder``, its
-    Rerun recorder, and ``DIG_SOURCES``, its dig sources by name: :func:`dig_source`).
+    Rerun recorder, and ``DIG_SOURCES``, its dig sources by name: :func:`dig_source`, and ``progress_text``, its summary in a
+    few words).
 
     Raises:
         ConfigError: ``name`` is not a registered task (the message lists them).

@@ -66,6 +66,7 @@ from excavsim.studies.campaign.grid import (OVERRIDE_SECTIONS, CampaignSpec, Epi
 from excavsim.studies.campaign.report import (format_table, group_table, plot_campaign, summary_rows, write_atomic,
                                            write_tables)
 from excavsim.loop.scenario import EpisodeSpec, dig_rows, episode_summary, run_spec
+from excavsim.loop.catalog import progress_text
 
 __all__ = ["OVERRIDE_SECTIONS", "CampaignReport", "CampaignSpec", "Episode", "check_campaign", "episode_id",
            "expand_grid", "load_campaign", "parse_campaign", "result_problem", "run_campaign", "run_episode_task"]
@@ -438,23 +439,7 @@ def _progress_line(count: int, total: int, rec: dict, eta_s: float) -> str:
         text = f"{head} {str(rec['status']).upper()} {str(rec['error']).splitlines()[0][:200]}"
     else:
         s = rec["summary"]
-
-        def num(key: str, scale: float = 1.0, fmt: str = ".1f") -> str:  # None: not finite in the episode
-            return "?" if s.get(key) is None else format(scale * s[key], fmt)
-
-        if s.get("task") == "truck" and s.get("tuning"):  # a tuning run: its first and last windows
-            text = (f"{head} {s['end']}: {s['tuning']}, {s['trials']} trials, cost {num('first_cost', fmt='.2f')} "
-                    f"(first) -> {num('last_cost', fmt='.2f')} (last), cycle {num('cycle_s', fmt='.2f')} s "
-                    f"({rec['wall_s']:.0f} s)")
-        elif s.get("task") == "truck":
-            text = (f"{head} {s['end']}: {num('dumped_l')} l dumped, {num('missed_l')} l missed, cycle "
-                    f"{num('cycle_s', fmt='.2f')} s ({rec['wall_s']:.0f} s)")
-        elif s.get("task") == "truck_loading":
-            text = (f"{head} {s['end']} after {s['digs']} passes, {num('truck_t')} t in the truck, "
-                    f"{num('spill_l', fmt='.0f')} l spilled, {num('cycle_s')} s a bucket ({rec['wall_s']:.0f} s)")
-        else:
-            text = (f"{head} {s['end']} after {s['digs']} digs, {num('dug_l_per_dig')} l/dig, "
-                    f"{num('removed_fraction', 100.0, '.0f')} % removed ({rec['wall_s']:.0f} s)")
+        text = f"{head} {s['end']}: {progress_text(s)} ({rec['wall_s']:.0f} s)"
     return f"{text}; ETA {_duration(eta_s)}" if count < total else text
 
 

@@ -45,6 +45,7 @@ from excavsim.config import load_config, read_text_file
 from excavsim.errors import ConfigError, DataFileError, ExcavsimError, UsageError, shorten
 from excavsim.studies.regress import stats as rs
 from excavsim.loop.scenario import EpisodeSpec, episode_summary, run_spec
+from excavsim.loop.catalog import progress_text
 
 REGRESS_DIR = constants.CONFIGS_DIR / "regress"
 BASELINE_NAME = "baseline.json"
@@ -216,21 +217,9 @@ class Sample:
 
 
 def _episode_line(prefix: str, name: str, seed: int, r: dict) -> str:
-    def num(key: str, scale: float = 1.0, fmt: str = ".0f") -> str:  # an older REF's summary may lack a key
-        v = r.get(key)
-        return format(scale * v, fmt) if isinstance(v, int | float) else "?"
-
-    if r.get("task") == "truck":
-        what = (f"{num('dumped_l', fmt='.1f')} l dumped, {num('missed_l', fmt='.1f')} l missed, cycle "
-                f"{num('cycle_s', fmt='.2f')} s")
-    elif r.get("task") == "truck_loading":
-        what = (f"{num('digs')} passes, {num('truck_t', fmt='.1f')} t in the truck, {num('spill_l')} l spilled, "
-                f"{num('cycle_s', fmt='.1f')} s a bucket")
-    elif r.get("task") == "load":
-        what = f"{num('digs')} digs, {num('removed_fraction', 100)} % of the pile removed, {num('delivered_l')} l delivered"
-    else:
-        what = f"{num('digs')} digs, {num('removed_fraction', 100)} % removed, {num('stalls')} stalls"
-    return f"{prefix}{name} seed {seed}: {what}, ended {r.get('end', '?')} ({num('wall_s', fmt='.1f')} s wall)"
+    wall = r.get("wall_s")
+    wall_text = f"{wall:.1f}" if isinstance(wall, int | float) else "?"
+    return f"{prefix}{name} seed {seed}: {progress_text(r)}, ended {r.get('end', '?')} ({wall_text} s wall)"
 
 
 def run_goldens(goldens: dict[str, Golden], *, seeds_of: dict[str, Golden] | None = None, label: str = "",

@@ -52,6 +52,7 @@ from excavsim.config.loading_mujoco import LOADING_MUJOCO_YAML, LoadingMujocoCon
 from excavsim.errors import ConfigError, Diverged, ExcavsimError, GoalError, UsageError
 from excavsim.execution import loading_script as ls
 from excavsim.handoff.maps import ElevationMap
+from excavsim.loop.catalog import summary_number
 from excavsim.loop.digs import Choice
 from excavsim.loop.episode import Episode
 from excavsim.tasks.load import planar as ld
@@ -514,6 +515,12 @@ def format_run(run: MujocoRun) -> str:
 
 
 # -- what the platform's specification and campaigns ask of a task (excavsim.loop.scenario) ----------
+
+def progress_text(s: dict[str, Any]) -> str:
+    """One episode's :func:`summary` in a few words, for the progress lines of ``campaign`` and ``regress``
+    (a key missing or not finite prints ``?``)."""
+    num = summary_number(s)
+    return f"{num('digs')} digs, {num('removed_fraction', 100)} % of the pile removed, {num('delivered_l')} l delivered"
 
 def summary(run: MujocoRun) -> dict[str, Any]:
     """A loading episode's metrics (a :class:`MujocoRun`) as the flat dict of

@@ -32,6 +32,7 @@ from excavsim.handoff.episode import DigMetrics, EpisodeObserver, EpisodeResult,
 from excavsim.handoff.goal import goal_profile
 from excavsim.handoff.maps import ElevationMap
 from excavsim.handoff.observation import Diverged, OutOfTime
+from excavsim.loop.catalog import summary_number
 from excavsim.loop.digs import Choice, DigSource
 from excavsim.loop.episode import Episode, world_failed
 from excavsim.loop.measures import episode_result, trench_footprint
@@ -273,6 +274,13 @@ def dig_rows(res: EpisodeResult) -> list[dict[str, Any]]:
                      "wrist_measured_nm": float(d.peak_torque_nm[3])})
     return rows
 
+
+def progress_text(s: dict[str, Any]) -> str:
+    """One episode's :func:`summary` in a few words, for the progress lines of ``campaign`` and ``regress``
+    (a key missing or not finite prints ``?``)."""
+    num = summary_number(s)
+    return (f"{num('digs')} digs, {num('dug_l_per_dig', fmt='.1f')} l/dig, {num('removed_fraction', 100)} % removed, "
+            f"{num('stalls')} stalls")
 
 def summary(res: EpisodeResult) -> dict[str, Any]:
     """A trenching episode's metrics as a flat dict of JSON numbers and strings (its campaign row; see

@@ -22,6 +22,7 @@ from typing import Any
 
 from excavsim.config.truck import TruckFile
 from excavsim.errors import ConfigError
+from excavsim.loop.catalog import summary_number
 from excavsim.loop.episode import Episode
 from excavsim.tasks.truck.trial import Trial, TruckTask, placement_error2, trial_cost, truck_config
 from excavsim.tasks.truck.tuning import Tuner, TuningRun, TuningTask, windows
@@ -117,6 +118,15 @@ def trial_end(trial: Trial) -> tuple[str, str]:
                           f"(a failure: more than {100 * (1 - trial.min_dumped_fraction):.0f} %, §5.4.1)")
     return "done", f"the script ended and dumped {100 * (1 - kept):.0f} % of the load"
 
+
+def progress_text(s: dict[str, Any]) -> str:
+    """One episode's :func:`summary` in a few words, for the progress lines of ``campaign`` and ``regress``
+    (a key missing or not finite prints ``?``)."""
+    num = summary_number(s)
+    if s.get("tuning"):  # a tuning run: its first and last windows
+        return (f"{s['tuning']}, {num('trials')} trials, cost {num('first_cost', fmt='.2f')} (first) -> "
+                f"{num('last_cost', fmt='.2f')} (last), cycle {num('cycle_s', fmt='.2f')} s")
+    return f"{num('dumped_l', fmt='.1f')} l dumped, {num('missed_l', fmt='.1f')} l missed, cycle {num('cycle_s', fmt='.2f')} s"
 
 def summary(trial: Trial | TuningRun) -> dict[str, Any]:
     """A trial's metrics as a flat dict of JSON numbers and strings (a campaign row; ``regress``'s

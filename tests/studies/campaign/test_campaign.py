@@ -280,7 +280,7 @@ def test_a_campaign_runs_on_ray(tmp_path):
 def test_progress_lines_count_and_tolerate_numbers_that_were_not_finite():
     rec = {"id": "a", "status": "ok", "wall_s": 3.0,
            "summary": {"end": "budget", "digs": 12, "dug_l_per_dig": None, "removed_fraction": 0.85}}
-    assert cmp._progress_line(2, 8, rec, 75.0) == "[2/8] a: budget after 12 digs, ? l/dig, 85 % removed (3 s); " \
+    assert cmp._progress_line(2, 8, rec, 75.0) == "[2/8] a: budget: 12 digs, ? l/dig, 85 % removed, ? stalls (3 s); " \
                                                  "ETA 1 min 15 s"
     err = {"id": "b", "status": "error", "error": "ExcavsimError: diverged\ntraceback", "wall_s": 1.0}
     assert cmp._progress_line(8, 8, err, 0.0) == "[8/8] b: ERROR ExcavsimError: diverged"

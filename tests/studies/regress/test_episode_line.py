@@ -1,4 +1,5 @@
-"""regress's progress line speaks each task's measures (a truck-loading episode has no '% removed')."""
+"""The progress lines of regress and campaign speak each task's measures, by the task's own ``progress_text``
+(a truck-loading episode has no '% removed')."""
 
 from excavsim.studies.regress.suite import _episode_line
 
@@ -13,7 +14,7 @@ def test_truck_loading_line_names_passes_truck_and_spill():
 
 def test_trench_line_and_a_missing_key():
     line = _episode_line("", "small_sand", 3, {"digs": 5, "removed_fraction": 0.96, "end": "done", "wall_s": 9.0})
-    assert line == "small_sand seed 3: 5 digs, 96 % removed, ? stalls, ended done (9.0 s wall)"
+    assert line == "small_sand seed 3: 5 digs, ? l/dig, 96 % removed, ? stalls, ended done (9.0 s wall)"
 
 
 def test_the_baseline_schema_knows_every_registered_task():
@@ -24,3 +25,17 @@ def test_the_baseline_schema_knows_every_registered_task():
     from excavsim.loop.catalog import TASKS
 
     assert set(get_args(ScenarioBaseline.model_fields["task"].annotation)) == {"trench", *TASKS}
+
+
+def test_campaign_and_regress_lines_say_the_same_of_an_episode():
+    from excavsim.studies.campaign.runner import _progress_line
+
+    for summary in ({"task": "truck_loading", "end": "done", "digs": 7, "truck_t": 11.3, "spill_l": 2.0, "cycle_s": 26.0},
+                    {"task": "load", "end": "budget", "digs": 2, "removed_fraction": 0.2, "delivered_l": 912.0},
+                    {"task": "truck", "end": "done", "dumped_l": 10.0, "missed_l": 0.5, "cycle_s": 3.7},
+                    {"task": "truck", "end": "done", "tuning": "learn", "trials": 12, "first_cost": 64.5,
+                     "last_cost": 25.7, "cycle_s": 3.7}):
+        campaign = _progress_line(1, 1, {"id": "x", "status": "ok", "wall_s": 1.0, "summary": summary}, 0.0)
+        regress = _episode_line("", "x", 0, {**summary, "wall_s": 1.0})
+        what = campaign.split(": ", 1)[1].removeprefix(summary["end"] + ": ").rsplit(" (", 1)[0]
+        assert what and what in regress and "?" not in what, (campaign, regress)
