@@ -45,6 +45,11 @@ RUNS = {  # output file -> arguments of the excavsim command
     "cycle.txt": ["cycle"],
     "demo.txt": ["demo"],
     "campaign_tiny.txt": ["campaign", "configs/campaigns/tiny.yaml", "--out", "{dir}/campaign_tiny", "--workers", "1"],
+    # every task and machine: the campaign over tasks (its JSON results compared exactly) and every shipped spec
+    "campaign_tasks.txt": ["campaign", "configs/campaigns/tasks.yaml", "--out", "{dir}/campaign_tasks", "--workers",
+                           "1"],
+    **{f"spec_{p.stem}.txt": ["run", f"configs/specs/{p.name}"]
+       for p in sorted((REPO / "configs" / "specs").glob("*.yaml"))},
 }
 # keys of JSON results that differ run to run (wall-clock times, versions, dates, paths) or checkout to checkout
 # (a campaign result's inputs: the digest of the code, models and configurations it ran with)
@@ -130,6 +135,38 @@ def record_envs(out: pathlib.Path) -> None:
     (out / "dm_mid_3.json").write_text(json.dumps(_jsonable(steps), indent=0, sort_keys=True))
     print("dm_mid_3", len(steps) - 1, "steps")
     dm.close()
+    # loading from a pile, one step per dig, the loading planner's action
+    env = gym.make("excavsim/LoadDig-v0", spec={"machine": "loader", "dig_budget": 2}).unwrapped
+    obs, info = env.reset(seed=0)
+    steps = [{"obs": obs, "info": info}]
+    done = False
+    while not done:
+        action = info.get("planner_action")
+        if action is None:
+            action = (env.action_space.low + env.action_space.high) / 2
+        obs, reward, terminated, truncated, info = env.step(action)
+        steps.append({"action": action, "obs": obs, "reward": reward, "info": info})
+        done = terminated or truncated
+    (out / "load_planner_0.json").write_text(json.dumps(_jsonable(steps), indent=0, sort_keys=True))
+    print("load_planner_0", len(steps) - 1, "steps")
+    env.close()
+    # the joint-level environments (the T3's single dig, the TB035's valves): seeded random rates, 60 steps
+    for name, env_id, kwargs in (("joint_dig_random_4", "excavsim/TrenchJointDig-v0", {}),
+                                 ("excavator_random_5", "excavsim/ExcavatorJoint-v0", {})):
+        env = gym.make(env_id, **kwargs).unwrapped
+        seed = int(name.rsplit("_", 1)[1])
+        rng = np.random.default_rng(seed)
+        obs, info = env.reset(seed=seed)
+        steps = [{"obs": obs, "info": info}]
+        for _ in range(60):
+            action = rng.uniform(env.action_space.low, env.action_space.high).astype(np.float32)
+            obs, reward, terminated, truncated, info = env.step(action)
+            steps.append({"action": action, "obs": obs, "reward": reward, "info": info})
+            if terminated or truncated:
+                break
+        (out / f"{name}.json").write_text(json.dumps(_jsonable(steps), indent=0, sort_keys=True))
+        print(name, len(steps) - 1, "steps")
+        env.close()
 
 
 # fields added to the episode specification whose defaults change no episode (issue 32: the task and
@@ -195,7 +232,7 @@ def compare(a: pathlib.Path, b: pathlib.Path) -> int:
         bad += len(differ)
         detail = ", ".join(differ) if differ else "bit for bit"
         print(f"{'DIFF ' if differ else 'same '} {maps.name}: {len(files)} maps, {detail}")
-    for folder in ("campaign_tiny/episodes", "envs"):
+    for folder in ("campaign_tiny/episodes", "campaign_tasks/episodes", "envs"):
         files = sorted((a / folder).glob("*.json"))
         other = sorted((b / folder).glob("*.json"))
         if not files or [f.name for f in files] != [f.name for f in other]:
