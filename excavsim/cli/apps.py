@@ -6,7 +6,7 @@ from __future__ import annotations
 import argparse
 import pathlib
 
-from excavsim.cli.options import float_in, int_in, out_dir, out_file, seed_type
+from excavsim.config.arguments import float_in, int_in, out_dir, out_file, seed_type
 from excavsim.errors import ConfigError, UsageError, shorten
 
 

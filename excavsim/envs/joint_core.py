@@ -23,7 +23,7 @@ from excavsim.handoff.goal import goal_profile
 from excavsim.handoff.observation import Diverged, OutOfTime
 from excavsim.loop.measures import trench_footprint
 from excavsim.loop.rig import go_home, make_rig, scan
-from excavsim.loop.scenario import ResolvedSpec
+from excavsim.loop.scenario import resolve
 from excavsim.robot.fast import arm_params, forward_pose
 from excavsim.robot.servo import setpoint_rates
 from excavsim.sensing.ft import ForceSensor
@@ -110,7 +110,7 @@ class JointCore:
                  scan_period_s: float = 1.0, patch_size: int = 9, patch_spacing_m: float = 0.1,
                  start: str = "home", robot_path=None, scene_path=None):
         self.spec = as_spec(spec)
-        self.resolved = ResolvedSpec(self.spec, robot_path=robot_path, scene_path=scene_path)
+        self.resolved = resolve(self.spec, robot_path=robot_path, scene_path=scene_path)
         self.weights = check_weights(weights, JOINT_WEIGHTS, "joint")
         for name, v in (("max_time_s", max_time_s), ("scan_period_s", scan_period_s),
                         ("patch_spacing_m", patch_spacing_m)):
@@ -233,7 +233,7 @@ class JointCore:
         self.emap, _ = scan(self.sim, self.rig)
         self._scanned_at = self.sim.time
         self._done, self._frac = map_done(self.emap, r.goal, self.rig.arm, self.rig.width,
-                                          done_fraction=self.spec.done_fraction, tolerance_m=self.spec.tolerance_m,
+                                          done_fraction=self.spec.options.done_fraction, tolerance_m=self.spec.options.tolerance_m,
                                           initial_z=r.goal.surface_z_m)
         self._frac = float(self._frac)
 

@@ -34,7 +34,7 @@ from excavsim.envs.core import DigLevelCore, Field, check_weights
 from excavsim.errors import ConfigError, EnvError
 from excavsim.loop.digs import Choice
 from excavsim.loop.episode import Episode
-from excavsim.loop.scenario import EpisodeSpec, ResolvedSpec, load_spec
+from excavsim.loop.scenario import EpisodeSpec, load_spec, resolve
 from excavsim.planning import loading as lp
 from excavsim.tasks.load import planar as ld
 from excavsim.tasks.load.task import SECTIONS, LoadTask, map_sections
@@ -50,7 +50,7 @@ LOAD_WEIGHTS = {"delivered_per_l": 0.01, "spilled_per_l": 0.01, "dig": 1.0}
 """The loading environment's default reward weights: per litre delivered at the truck, per litre spilled
 off the lane, per dig executed (a cycle's time: the cost of 100 l delivered)."""
 TIMING_KEYS = ("wall_s",)  # wall-clock numbers left out of ``info`` (they differ run to run)
-DEFAULT_SPEC = {"name": "load", "task": "load"}
+DEFAULT_SPEC = {"name": "load", "task": "pile_loading"}
 
 
 def as_load_spec(spec: EpisodeSpec | Mapping | str | pathlib.Path | None) -> EpisodeSpec:
@@ -65,7 +65,7 @@ def as_load_spec(spec: EpisodeSpec | Mapping | str | pathlib.Path | None) -> Epi
         if spec is None:
             spec = parse_config(dict(DEFAULT_SPEC), EpisodeSpec, source="the environment's spec")
         elif isinstance(spec, Mapping):
-            spec = parse_config({"task": "load", **dict(spec)}, EpisodeSpec, source="the environment's spec")
+            spec = parse_config({"task": "pile_loading", **dict(spec)}, EpisodeSpec, source="the environment's spec")
         elif isinstance(spec, (str, pathlib.Path)):
             spec = load_spec(spec)
     except ConfigError as exc:
@@ -73,8 +73,8 @@ def as_load_spec(spec: EpisodeSpec | Mapping | str | pathlib.Path | None) -> Epi
     if not isinstance(spec, EpisodeSpec):
         raise EnvError(f"LoadDig-v0: spec must be an EpisodeSpec, a mapping of its fields, a YAML path or None; "
                        f"given {type(spec).__name__}")
-    if spec.task != "load":
-        raise EnvError(f"LoadDig-v0 loads from a pile: its spec's task must be 'load' (machine loader or shovel); "
+    if spec.task != "pile_loading":
+        raise EnvError(f"LoadDig-v0 loads from a pile: its spec's task must be 'pile_loading' (machine loader or shovel); "
                        f"given task {spec.task!r} (use excavsim/TrenchDig-v0 for trenching)")
     return spec
 
@@ -115,7 +115,7 @@ class LoadCore(DigLevelCore):
     def __init__(self, spec=None, *, weights: Mapping[str, float] | None = None, observer=None,
                  loading_config: LoadingConfig | str | pathlib.Path | None = None):
         self.spec = as_load_spec(spec)
-        self.resolved = ResolvedSpec(self.spec)
+        self.resolved = resolve(self.spec)
         self.weights = check_weights(weights, LOAD_WEIGHTS, "loading")
         self.observer = observer
         if loading_config is None or isinstance(loading_config, (str, pathlib.Path)):
@@ -208,7 +208,7 @@ class LoadCore(DigLevelCore):
     # -- the caller's side ----------------------------------------------------------------------------------
     def _start(self, seed: int) -> None:
         spec = self.spec  # the episode of excavsim.loop.scenario.spec_episode, with this 2-D configuration
-        task = LoadTask(spec.machine_name, cfg=self.resolved.loading, cfg2d=self.cfg2d)
+        task = LoadTask(spec.machine_name, cfg=self.resolved, cfg2d=self.cfg2d)
         self._episode = ep = Episode(task, dig_budget=spec.dig_budget, observer=self.observer)
         ep.reset(seed)
         self._task = ep.task

@@ -139,6 +139,7 @@ class EpisodeResult:
     sim_time_s: float
     wall_time_s: float
     volume_change_m3: float
+    task: str = ""  # the task whose episode it is (its plug-in's name; empty when made outside a task)
 
     @property
     def removed_fraction(self) -> float:

@@ -473,8 +473,7 @@ def bench_episode(*, dig_budget: int = 20, seed: int = 0) -> list[Row]:
     import mujoco
 
     from excavsim.handoff.episode import EpisodeObserver
-    from excavsim.tasks.trench.task import run_episode
-    from excavsim.loop.scenario import EpisodeSpec, ResolvedSpec, run_spec
+    from excavsim.loop.scenario import EpisodeSpec, resolve, run_spec, spec_digs, spec_episode
     from excavsim.world.simulation import Simulation
 
     class Timed(Simulation):
@@ -509,13 +508,13 @@ def bench_episode(*, dig_budget: int = 20, seed: int = 0) -> list[Row]:
 
     run_spec(EpisodeSpec(goal="small", dig_budget=1, seed=seed))  # warm-up: numba caches, reachability table
     spec = EpisodeSpec(goal="sand", dig_budget=dig_budget, seed=seed)
-    r = ResolvedSpec(spec)
+    r = resolve(spec)
     sim = Timed(r.robot, r.scene, seed=seed)
     phases = Phases(sim)
     c0, w0 = time.process_time(), time.perf_counter()
-    res = run_episode(sim, seed=seed, goal=r.goal, dig_budget=spec.dig_budget, done_fraction=spec.done_fraction,
-                      tolerance_m=spec.tolerance_m, planner_cfg=r.planner, executor_cfg=r.executor,
-                      sensing_cfg=r.sensing, observer=phases)
+    episode = spec_episode(spec, r, observer=phases)
+    episode.reset(seed, sim=sim, digs=spec_digs(spec))
+    res = episode.run()
     cpu, wall = time.process_time() - c0, time.perf_counter() - w0
     n_ctrl = len(sim.ctrls)
     n_steps = n_ctrl * sim.substeps

@@ -37,7 +37,7 @@ SHORT = {  # each environment with a tiny spec and, at the joint level, 0.3 s ep
     JOINT_ENV_ID: {"spec": TINY, "max_time_s": 0.3, "scan_period_s": 0.2},
     JOINT_DIG_ENV_ID: {"spec": TINY, "max_time_s": 0.3},
     EXCAVATOR_JOINT_ENV_ID: {"max_time_s": 0.3},
-    LOAD_DIG_ENV_ID: {"spec": {"name": "tiny", "dig_budget": 1, "seed": 0, "loading": {  # a 0.6 m pile, one coarse scan
+    LOAD_DIG_ENV_ID: {"spec": {"name": "tiny", "dig_budget": 1, "seed": 0, "pile_loading": {  # a 0.6 m pile, one coarse scan
         "pile": {"height": 0.6, "top": 0.3, "foot": 1.5}, "n_scans": 1, "scanner": {"n_azimuth": 80, "n_elevation": 20}}},
         "loading_config": _LOADING.model_copy(update={"planner": _LOADING.planner.model_copy(  # a coarse planner grid
             update={"k_step": 0.2, "alpha_deg": [-30.0, 40.0, 10.0]})})},

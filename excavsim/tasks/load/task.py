@@ -43,7 +43,7 @@ from __future__ import annotations
 import dataclasses
 import math
 import pathlib
-from typing import Any, Protocol
+from typing import Any, ClassVar, Protocol
 
 import numpy as np
 
@@ -52,7 +52,6 @@ from excavsim.config.loading_mujoco import LOADING_MUJOCO_YAML, LoadingMujocoCon
 from excavsim.errors import ConfigError, Diverged, ExcavsimError, GoalError, UsageError
 from excavsim.execution import loading_script as ls
 from excavsim.handoff.maps import ElevationMap
-from excavsim.loop.catalog import summary_number
 from excavsim.loop.digs import Choice
 from excavsim.loop.episode import Episode
 from excavsim.tasks.load import planar as ld
@@ -117,6 +116,7 @@ class MujocoRun:
     account (lane + bucket + delivered + spilled minus the start's [m^3]), the bucket's heaped capacity [m^3] and
     width [m], and the soil the last map showed above the ground (the mind's view of what is left) [m^3]."""
 
+    task: ClassVar[str] = "pile_loading"  # the task whose episode result it is
     machine: str
     capacity_m3: float
     width_m: float
@@ -516,12 +516,6 @@ def format_run(run: MujocoRun) -> str:
 
 # -- what the platform's specification and campaigns ask of a task (excavsim.loop.scenario) ----------
 
-def progress_text(s: dict[str, Any]) -> str:
-    """One episode's :func:`summary` in a few words, for the progress lines of ``campaign`` and ``regress``
-    (a key missing or not finite prints ``?``)."""
-    num = summary_number(s)
-    return f"{num('digs')} digs, {num('removed_fraction', 100)} % of the pile removed, {num('delivered_l')} l delivered"
-
 def summary(run: MujocoRun) -> dict[str, Any]:
     """A loading episode's metrics (a :class:`MujocoRun`) as the flat dict of
     :func:`~excavsim.loop.scenario.episode_summary`: the same keys where they mean the same (``end``,
@@ -533,7 +527,7 @@ def summary(run: MujocoRun) -> dict[str, Any]:
     digs = run.digs
     n = len(digs)
     out: dict[str, Any] = {
-        "task": "load", "machine": run.machine, "end": run.end, "reason": run.reason, "digs": n,
+        "task": "pile_loading", "machine": run.machine, "end": run.end, "reason": run.reason, "digs": n,
         "removed_fraction": run.removed_fraction, "pile_removed": bool(run.done),
         "failed_digs": sum(d.delivered_m3 < 0.1 * run.capacity_m3 for d in digs),
         "dug_l_per_dig": 1000 * sum(d.bucket_m3 for d in digs) / n if n else 0.0,

@@ -21,7 +21,7 @@ from excavsim.errors import shorten
 from excavsim.handoff.goal import SurfaceProfile
 from excavsim.handoff.maps import ElevationMap
 from excavsim.loop.rig import make_planner
-from excavsim.loop.scenario import resolve_goal
+from excavsim.tasks.trench.spec import resolve_goal
 from excavsim.robot.extract import arm_from_model
 from excavsim.robot import reachability
 

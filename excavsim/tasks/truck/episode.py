@@ -27,8 +27,6 @@ from excavsim.loop.episode import Episode
 from excavsim.tasks.truck.trial import Trial, TruckTask, placement_error2, trial_cost, truck_config
 from excavsim.tasks.truck.tuning import Tuner, TuningRun, TuningTask, windows
 
-DIG_SOURCES = {"tuner": Tuner}
-"""The truck task's dig sources by name (:func:`excavsim.loop.catalog.dig_source`): Rowe's self-tuning."""
 
 
 class TruckTrial(TruckTask):
@@ -51,15 +49,16 @@ class TruckTrial(TruckTask):
 
 
 def spec_episode(spec, resolved, *, progress=None, observer=None) -> Episode:
-    """The :class:`~excavsim.loop.episode.Episode` of a truck specification (not yet reset): one trial with
-    the computed parameters (one cycle), or with ``truck.tuning`` a tuning run of its trials."""
-    tuning = resolved.truck.tuning
+    """The :class:`~excavsim.loop.episode.Episode` of a dump-trial specification (not yet reset): one trial with
+    the computed parameters (one cycle), or with ``dump_trial.tuning`` a tuning run of its trials (``resolved``:
+    configs/truck.yaml with the spec's overrides)."""
+    tuning = resolved.tuning
     if tuning is None:
-        return Episode(TruckTrial(spec.machine_name, cfg=resolved.truck, soil=spec.soil), dig_budget=1,
+        return Episode(TruckTrial(spec.machine_name, cfg=resolved, soil=spec.soil), dig_budget=1,
                        progress=progress, observer=observer)
     if spec.machine_name != "t3":
         raise ConfigError(f"machine {spec.machine_name!r} does not do task truck; allowed: t3")
-    return Episode(TuningTask(truck_config(resolved.truck), learn=tuning.learn, soil=spec.soil),
+    return Episode(TuningTask(truck_config(resolved), learn=tuning.learn, soil=spec.soil),
                    dig_budget=tuning.trials, progress=progress, observer=observer)
 
 
@@ -146,7 +145,7 @@ def summary(trial: Trial | TuningRun) -> dict[str, Any]:
     err2 = (o.r_d - r) ** 2 + o.r_d ** 2 * (o.theta_d - theta) ** 2 if o is not None else math.nan
     cost = float(o.cost(trial.time_s, r, theta, float(trial.failed))) if o is not None else math.nan
     return {
-        "task": "truck", "machine": "t3", "end": end, "reason": reason, "digs": 1,
+        "task": "dump_trial", "machine": "t3", "end": end, "reason": reason, "digs": 1,
         "dug_l_per_dig": 1000 * loaded, "loaded_l": 1000 * loaded, "dumped_l": 1000 * dumped,
         "dumped_fraction": dumped / loaded if loaded > 0 else 0.0, "kept_l": 1000 * (loaded - dumped),
         "missed_l": 1000 * trial.missed_m3, "cycle_s": trial.time_s, "pile_r_m": trial.pile.r,
@@ -174,7 +173,7 @@ def run_summary(run: TuningRun) -> dict[str, Any]:
     mean = {k: float(sum(r[k] for r in last) / len(last)) if last else math.nan
             for k in ("loaded_l", "dumped_l", "dumped_fraction", "kept_l", "missed_l", "cycle_s", "pile_r_m",
                       "pile_theta_deg", "placement_error_cm", "cost")}
-    return {"task": "truck", "machine": "t3", "tuning": kind, "end": end, "reason": reason, "digs": len(ts),
+    return {"task": "dump_trial", "machine": "t3", "tuning": kind, "end": end, "reason": reason, "digs": len(ts),
             "trials": len(ts), "dug_l_per_dig": mean["loaded_l"], **mean, **w,
             "failed": int(sum(t.failed for t in ts)), "sim_s": float(sum(t.sim_s for t in ts)), "wall_s": run.wall_s}
 

@@ -21,6 +21,7 @@ configuration, the dig, the scans and the pile, the task, the cost of §6.2 and 
 from __future__ import annotations
 
 import dataclasses
+from typing import ClassVar
 import math
 from pathlib import Path
 
@@ -189,6 +190,7 @@ class Scanner:
 class Trial:
     """One trial's action and outcomes."""
 
+    task: ClassVar[str] = "dump_trial"  # the task whose episode result it is
     index: int
     params: MassParams
     time_s: float

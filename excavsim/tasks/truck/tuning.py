@@ -16,6 +16,7 @@ from __future__ import annotations
 
 import csv
 import dataclasses
+from typing import ClassVar
 import math
 from collections.abc import Callable
 from pathlib import Path
@@ -97,6 +98,7 @@ class Tuner(DigSource):
 class TuningRun:
     """A tuning run's trials in order, whether it learned, its configuration and its wall time [s]."""
 
+    task: ClassVar[str] = "dump_trial"  # the task whose episode result it is
     tuning_trials: list[Trial]
     learn: bool
     cfg: TruckConfig

@@ -44,7 +44,6 @@ from excavsim.errors import ConfigError, GoalError
 from excavsim.execution import truck_loading as tl
 from excavsim.handoff.maps import ElevationMap
 from excavsim.learning.lwr_tuning import Memory, Objective, select_action
-from excavsim.loop.catalog import summary_number
 from excavsim.loop.digs import Choice
 from excavsim.planning import truck_loading as plan
 from excavsim.robot.extract import arm_from_model
@@ -400,13 +399,6 @@ def episode_recorder(path: str):
 
     return TruckLoadingRecorder(path)
 
-
-def progress_text(s: dict[str, Any]) -> str:
-    """One episode's :func:`summary` in a few words, for the progress lines of ``campaign`` and ``regress``
-    (a key missing or not finite prints ``?``)."""
-    num = summary_number(s)
-    return (f"{num('digs')} passes, {num('truck_t', fmt='.1f')} t in the truck, {num('spill_l')} l spilled, "
-            f"{num('cycle_s', fmt='.1f')} s a bucket")
 
 def summary(res: TruckLoad) -> dict[str, Any]:
     """A truck's metrics as a flat dict (a campaign row, ``regress``'s sample): ``end``/``reason``, ``digs``

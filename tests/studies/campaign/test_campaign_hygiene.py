@@ -29,8 +29,8 @@ class KillsItsWorker(EpisodeObserver):
 
 
 def doomed_recorder(path: pathlib.Path) -> EpisodeObserver:
-    """The campaign's recorder factory (picklable, it travels to the workers): the seed-0 episode's
-    worker is killed mid-episode, every time; the others record nothing."""
+    """The campaign's extra observer factory (picklable, it travels to the workers): the seed-0 episode's
+    worker is killed mid-episode, every time; the others observe nothing."""
     return KillsItsWorker() if path.stem.startswith("seed0-") else EpisodeObserver()
 
 
@@ -148,7 +148,7 @@ def test_a_resumed_campaign_reruns_corrupt_results_and_survives_a_worker_killed_
     """Two episodes, resumed over a result file ``{}`` (seed 0) and a truncated one (seed 1): both are
     moved aside and run again; the seed-0 episode's worker is killed mid-episode on both attempts, so
     it is recorded ``failed`` while seed 1 completes; no worker is left."""
-    spec = cmp.parse_campaign({"name": "doomed", "base": TINY_BASE, "record": True, "grid": {"seed": [0, 1]}})
+    spec = cmp.parse_campaign({"name": "doomed", "base": TINY_BASE, "grid": {"seed": [0, 1]}})
     episodes = cmp.expand_grid(spec)
     ep_dir = tmp_path / "episodes"
     ep_dir.mkdir()
@@ -158,7 +158,7 @@ def test_a_resumed_campaign_reruns_corrupt_results_and_survives_a_worker_killed_
     (ep_dir / "corrupt").mkdir()
     (ep_dir / "corrupt" / f"{episodes[0].id}.json").write_text("an earlier one")  # never replaced
     lines = []
-    report = cmp.run_campaign(spec, tmp_path, workers=2, resume=True, recorder=doomed_recorder,
+    report = cmp.run_campaign(spec, tmp_path, workers=2, resume=True, observer=doomed_recorder,
                               progress=lines.append)
     # the corrupt files: moved aside, named, their episodes run again
     assert (ep_dir / "corrupt" / f"{episodes[0].id}.json").read_text() == "an earlier one"

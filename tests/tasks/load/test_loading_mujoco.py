@@ -295,24 +295,27 @@ def test_a_divergence_ends_the_episode_with_its_reason_instead_of_a_crash():
 
 def test_loading_is_a_task_of_the_episode_spec_and_the_stepped_episode():
     from excavsim.config import ConfigError
-    from excavsim.loop.scenario import TASK_MACHINES, EpisodeSpec, dig_rows, episode_summary, run_spec, spec_episode
+    from excavsim.loop.catalog import plugin
+    from excavsim.loop.scenario import EpisodeSpec, dig_rows, episode_summary, run_spec, spec_episode
 
-    assert TASK_MACHINES["load"] == tuple(MACHINES)
-    with pytest.raises(ConfigError, match="unknown task 'dig'; allowed: trench, load"):
+    assert plugin("pile_loading").machines == tuple(MACHINES)
+    with pytest.raises(ConfigError, match="unknown task 'dig'; registered here: trench, pile_loading"):
         EpisodeSpec(task="dig")
     with pytest.raises(ConfigError, match="machine 'loader' does not do task trench; allowed: t3"):
         EpisodeSpec(machine="loader")
-    with pytest.raises(ConfigError, match="task load does not use goal, planner"):
-        EpisodeSpec(task="load", goal="small", planner={"objective": "volume"})
-    with pytest.raises(ConfigError, match="loading: overrides configs/loading_mujoco.yaml for task load"):
-        EpisodeSpec(loading={"n_scans": 2})
+    with pytest.raises(ConfigError, match="task pile_loading does not use goal .a field of task trench"):
+        EpisodeSpec(task="pile_loading", goal="small", planner={"objective": "volume"})
+    with pytest.raises(ConfigError, match="task trench does not use pile_loading .a field of task pile_loading"):
+        EpisodeSpec(pile_loading={"n_scans": 2})
+    with pytest.raises(ConfigError, match="loading: task pile_loading calls it pile_loading now"):
+        EpisodeSpec(task="pile_loading", loading={"n_scans": 2})
     with pytest.raises(ConfigError, match="n_scans"):
-        run_spec(EpisodeSpec(task="load", loading={"n_scans": 0}))
+        run_spec(EpisodeSpec(task="pile_loading", pile_loading={"n_scans": 0}))
 
-    fields = {"task": "load", "machine": "shovel", "seed": 1, "dig_budget": 2,
-              "loading": {"pile": {"height": 0.6, "top": 0.3, "foot": 1.5}, "n_scans": 2}}
+    fields = {"task": "pile_loading", "machine": "shovel", "seed": 1, "dig_budget": 2,
+              "pile_loading": {"pile": {"height": 0.6, "top": 0.3, "foot": 1.5}, "n_scans": 2}}
     spec = EpisodeSpec.model_validate(EpisodeSpec(**fields).model_dump(mode="json"))  # a campaign's round trip
-    assert spec.machine_name == "shovel" and EpisodeSpec(task="load").machine_name == "loader"
+    assert spec.machine_name == "shovel" and EpisodeSpec(task="pile_loading").machine_name == "loader"
     class Hooks:  # one observer protocol: the episode's six hooks, with the loading task's arguments
         def __init__(self):
             self.calls = []
@@ -357,7 +360,7 @@ def test_loading_is_a_task_of_the_episode_spec_and_the_stepped_episode():
     assert dig.bucket_m3 == whole.digs[0].bucket_m3
     result = ep.run()
     summary = episode_summary(result)
-    assert summary["task"] == "load" and summary["machine"] == "shovel" and summary["digs"] == len(whole.digs)
+    assert summary["task"] == "pile_loading" and summary["machine"] == "shovel" and summary["digs"] == len(whole.digs)
     assert summary["end"] == whole.end and abs(summary["volume_change_m3"]) < 1e-9
     assert 0 < summary["removed_fraction"] <= 1 and summary["wall_s"] > 0
     rows = dig_rows(result)
@@ -368,16 +371,16 @@ def test_excavsim_trench_runs_a_loading_spec(tmp_path, capsys):
     from excavsim.cli import main
 
     spec = tmp_path / "load.yaml"
-    spec.write_text("task: load\nmachine: loader\ndig_budget: 1\n"
-                    "loading: {pile: {height: 0.6, top: 0.3, foot: 1.5}, n_scans: 2}\n")
+    spec.write_text("task: pile_loading\nmachine: loader\ndig_budget: 1\n"
+                    "pile_loading: {pile: {height: 0.6, top: 0.3, foot: 1.5}, n_scans: 2}\n")
     assert main(["trench", "--spec", str(spec), "--save-maps", str(tmp_path / "maps")]) == 2
-    assert "task load takes only --record" in capsys.readouterr().err
+    assert "--save-maps: task pile_loading does not take it; it takes --record" in capsys.readouterr().err
     assert main(["trench", "--spec", str(spec), "--goal", "small"]) == 2
-    assert "task load does not use goal" in capsys.readouterr().err
+    assert "the specification's task is pile_loading, which has no trench goal" in capsys.readouterr().err
     rrd = tmp_path / "x.rrd"
     assert main(["trench", "--spec", str(spec), "--record", str(rrd)]) == 0
     out = capsys.readouterr().out
-    assert "task load, machine loader, 1 digs at most" in out and "1 digs spent" in out
+    assert "task pile_loading, machine loader, 1 digs at most" in out and "1 digs spent" in out
     assert f"recorded to {rrd}" in out
     from excavsim.record.replay import check_recording
 
@@ -388,13 +391,16 @@ def test_a_campaign_grid_varies_the_loading_machine_and_its_configuration():
     from excavsim.config import ConfigError
     from excavsim.studies.campaign.grid import expand_grid, parse_campaign
 
-    data = {"name": "loads", "base": {"task": "load", "dig_budget": 2, "loading": {"n_scans": 2}},
-            "grid": {"machine": ["loader", "shovel"], "loading.pile.height": [0.6, 0.8], "seed": [0]}}
+    data = {"name": "loads", "base": {"task": "pile_loading", "dig_budget": 2, "pile_loading": {"n_scans": 2}},
+            "grid": {"machine": ["loader", "shovel"], "pile_loading.pile.height": [0.6, 0.8], "seed": [0]}}
     episodes = expand_grid(parse_campaign(data))
     assert len({e.id for e in episodes}) == 4
-    assert {(e.spec.machine_name, e.spec.loading["pile"]["height"], e.spec.loading["n_scans"]) for e in episodes} == \
+    assert {(e.spec.machine_name, e.spec.options.pile_loading["pile"]["height"],
+             e.spec.options.pile_loading["n_scans"]) for e in episodes} == \
         {(m, h, 2) for m in ("loader", "shovel") for h in (0.6, 0.8)}
-    with pytest.raises(ConfigError, match=r"grid key 'loading.n_scans', value 0:(.|\n)*n_scans"):
+    with pytest.raises(ConfigError, match=r"grid key 'pile_loading.n_scans', value 0:(.|\n)*n_scans"):
+        parse_campaign({**data, "grid": {"pile_loading.n_scans": [0]}})
+    with pytest.raises(ConfigError, match="grid key 'loading.n_scans': loading is called pile_loading now"):
         parse_campaign({**data, "grid": {"loading.n_scans": [0]}})
-    with pytest.raises(ConfigError, match="machine 't3' does not do task load"):
+    with pytest.raises(ConfigError, match="machine 't3' does not do task pile_loading"):
         parse_campaign({**data, "grid": {"machine": ["t3"]}})

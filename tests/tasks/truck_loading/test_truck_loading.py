@@ -13,7 +13,7 @@ from excavsim.config.truck_loading import load_truck_loading_file
 from excavsim.errors import ConfigError
 from excavsim.execution import truck_loading as tl
 from excavsim.loop.episode import Episode
-from excavsim.loop.scenario import EpisodeSpec, ResolvedSpec, episode_summary, load_spec, run_spec
+from excavsim.loop.scenario import EpisodeSpec, resolve, episode_summary, load_spec, run_spec
 from excavsim.robot.excavators import EXCAVATOR_25T
 from excavsim.robot.extract import arm_from_model
 from excavsim.tasks.truck_loading.task import TruckLoadingTask, truck_spec
@@ -128,14 +128,14 @@ def test_one_pass_puts_soil_in_the_bed_and_the_account_closes():
 def test_the_spec_and_its_refusals():
     spec = load_spec(SPEC)
     assert spec.task == "truck_loading" and spec.machine_name == "excavator_25t"
-    assert ResolvedSpec(spec).truck_loading.truck.payload_t == pytest.approx(12.0)
+    assert resolve(spec).truck.payload_t == pytest.approx(12.0)
     with pytest.raises(ConfigError, match="does not do task truck_loading"):
         EpisodeSpec(task="truck_loading", machine="t3")
     with pytest.raises(ConfigError, match="truck_loading"):
         EpisodeSpec(task="trench", truck_loading={"truck": {"payload_t": 10.0}})
-    bad = spec.model_copy(update={"truck_loading": {"truck": {"payload_t": -1.0}}})
+    bad = EpisodeSpec.model_validate({**spec.model_dump(), "truck_loading": {"truck": {"payload_t": -1.0}}})
     with pytest.raises(ConfigError, match="payload_t"):
-        ResolvedSpec(bad)
+        resolve(bad)
     assert truck_spec(load_truck_loading_file()).payload_kg == pytest.approx(12000.0)
 
 

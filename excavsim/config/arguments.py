@@ -1,4 +1,5 @@
-"""The argument types and shared options of the ``excavsim`` command's subcommands.
+"""The argument types and shared options of the ``excavsim`` command's subcommands, the platform's and those
+the tasks contribute (:meth:`excavsim.loop.plugin.TaskPlugin.add_commands`).
 
 Ranges and paths are checked at parse time, so a wrong value exits with status 2 before any work.
 """
@@ -121,3 +122,25 @@ def world_options(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--seed", type=seed_type, default=0, help=f"episode seed (soil, sensor noise, scanner drift; "
                         f"0 to {MAX_SEED})")
 
+
+
+def episode_options(parser: argparse.ArgumentParser) -> None:
+    """The options of every command that runs an episode specification (``run``, and the tasks' own such
+    commands): fields of the specification, its outputs, base configurations. A task refuses the outputs it
+    does not support (:attr:`excavsim.loop.plugin.TaskPlugin.outputs`)."""
+    parser.add_argument("--soil", metavar="NAME", help="soil preset of configs/soils.yaml (default: the task's)")
+    parser.add_argument("--dig-budget", type=dig_budget_type, metavar="N",
+                        help=f"most digs to try (1 to {MAX_DIG_BUDGET}, default 20)")
+    parser.add_argument("--record", metavar="FILE.rrd", type=out_file(()),
+                        help="record the episode to a Rerun file (see `replay`)")
+    parser.add_argument("--live", nargs="?", const="", metavar="ADDRESS",
+                        help="stream the episode to a Rerun viewer as it runs: alone, spawn one (needs a display); "
+                             "with PORT, HOST:PORT or rerun+http://HOST:PORT/proxy, a running viewer (`rerun`)")
+    parser.add_argument("--timing", action="store_true",
+                        help="print Table 7 (§7.3): the mean per-cycle perception, feasible-set, selection, set-up "
+                             "and execution times beside the thesis' Sparc 10 numbers")
+    parser.add_argument("--save-maps", metavar="DIR", type=out_dir,
+                        help="save every scanned elevation map (for `plan --map`)")
+    parser.add_argument("--robot-config", metavar="YAML", help="servo configuration (default configs/robot.yaml)")
+    parser.add_argument("--scene-config", metavar="YAML", help="scene configuration (default configs/scene.yaml)")
+    parser.add_argument("--seed", type=seed_type, help=f"episode seed (0 to {MAX_SEED}, default 0)")
