@@ -53,8 +53,8 @@ SCRIPT_JOINTS = ScriptJoints(*constants.JOINTS[:4], level=constants.JOINTS[4:])
 #: The seven tuned parameters of §6.2, in the order of the learner's input vector; angles [rad] except the
 #: :data:`FRACTIONS` [-]. Which seven is not legible in the thesis' listing, so the choice here is
 #: **assumed** (the ones that set the time and where the soil lands). The bucket-open lead ``open_lead`` is
-#: computed, not tuned: the stick's trigger is the one that sets when the dump begins (see
-#: :mod:`~excavsim.execution.rowe_script.listing`), and it is tuned instead.
+#: computed, not tuned: on the T3 the stick's trigger (``stick_fraction``) is the one that sets when the
+#: dump begins (see :mod:`~excavsim.execution.rowe_script.listing`), and it is tuned instead.
 TUNED = ("boom_trigger", "swing_dump", "stick_fraction", "boom_dump", "stick_dump", "bucket_open", "return_fraction")
 #: The tuned parameters that are fractions of a motion [-] (the others are angles [rad]).
 FRACTIONS = ("stick_fraction", "return_fraction")
