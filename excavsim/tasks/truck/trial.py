@@ -3,7 +3,7 @@
 One **trial** (:func:`run_trial`) is the experiment of §6.2 on the T3: a fresh world (the same soil
 every trial, as the thesis' simulation ensured), the same dig every time (``dig_path`` of
 ``configs/truck.yaml``, followed through IK at the dig face), a scan of the box, then the
-mass-excavation script (:mod:`excavsim.execution.mass_script`) swings, dumps on the ground at the
+mass-excavation script (:mod:`excavsim.execution.rowe_script`) swings, dumps on the ground at the
 target (the truck moved away, §6.2) and swings back to the dig face; the soil settles and the box is
 scanned again. The outcomes are the script's execution time (from the end of digging until the
 swing is back at the dig face, §6.2) and the pile's position, measured by the mind from the two
@@ -15,7 +15,8 @@ load in the bucket, or whose script does not end, is a failure (§5.4.1) and cos
 The tuning over trials (:func:`~excavsim.tasks.truck.tuning.tune`, ``excavsim tune``) is
 :mod:`excavsim.tasks.truck.tuning`; the campaign over seeds and soils is
 :mod:`excavsim.tasks.truck.campaign`. This module keeps what a trial and its judging need: the
-configuration, the dig, the scans and the pile, the task, the cost of §6.2 and the tuner's bounds.
+configuration, the script's joints and heuristics on the T3, the dig, the scans and the pile, the task,
+the cost of §6.2, the tuned parameters and the tuner's bounds.
 """
 
 from __future__ import annotations
@@ -31,8 +32,12 @@ from excavsim import constants
 from excavsim.config import load_robot_config, load_sensing_config
 from excavsim.config.truck import TRUCK_YAML, TruckFile, load_truck_file
 from excavsim.errors import GoalError, UsageError
-from excavsim.execution.mass_script import (BOOM, BUCKET, FRACTIONS, STICK, SWING, TUNED, MassParams, TimingModel,
-                                            TruckSite, compute_params, follow_path, mass_script, run_joint_script)
+from excavsim.execution.paths import follow_path
+from excavsim.execution.rowe_script.geometry import HeightDump, TruckSite
+from excavsim.execution.rowe_script.listing import ScriptJoints, rowe_script
+from excavsim.execution.rowe_script.params import RoweParams, ScriptRules, compute_params
+from excavsim.execution.rowe_script.runner import run_script
+from excavsim.execution.rowe_script.timing import TimingModel
 from excavsim.handoff.maps import ElevationMap
 from excavsim.learning.lwr_tuning import Objective
 from excavsim.loop.digs import Choice
@@ -42,6 +47,19 @@ from excavsim.robot.extract import arm_from_model
 from excavsim.sensing.elevation import scan_map
 from excavsim.world.scanner import LaserScanner
 from excavsim.world.simulation import Simulation
+
+#: The script's joints on the T3 (Rowe 1997 §6.2's listing): swing = waist, boom = shoulder, stick = elbow,
+#: bucket = wrist pitch; the wrist's yaw and roll stay level.
+SCRIPT_JOINTS = ScriptJoints(*constants.JOINTS[:4], level=constants.JOINTS[4:])
+#: The seven tuned parameters of §6.2, in the order of the learner's input vector; angles [rad] except the
+#: :data:`FRACTIONS` [-]. Which seven is not legible in the thesis' listing, so the choice here is
+#: **assumed** (the ones that set the time and where the soil lands). The bucket-open lead ``open_lead`` is
+#: computed, not tuned: on the T3 the stick's trigger (``stick_fraction``) is the one that sets when the
+#: dump begins (see :mod:`~excavsim.execution.rowe_script.listing`), and it is tuned instead.
+TUNED = ("boom_trigger", "swing_dump", "stick_fraction", "boom_dump", "stick_dump", "bucket_open", "return_fraction")
+#: The tuned parameters that are fractions of a motion [-] (the others are angles [rad]).
+FRACTIONS = ("stick_fraction", "return_fraction")
+
 
 @dataclasses.dataclass(frozen=True)
 class TruckConfig:
@@ -96,11 +114,26 @@ def truck_config(f: TruckFile) -> TruckConfig:
 
 
 def timing_model(sim: Simulation, cfg: TruckConfig) -> TimingModel:
-    """The machine model of §4.2 from the servos' speed limits and gain (configs/robot.yaml)."""
+    """The machine model of §4.2 from the servos' speed limits and gain (configs/robot.yaml), by the joints'
+    roles in the script."""
     robot = load_robot_config()
     speed = dict(zip(constants.JOINTS, sim.rate_limit))
-    return TimingModel({j: float(speed[j]) for j in (SWING, BOOM, STICK, BUCKET)}, robot.setpoint_gain_per_s,
+    j = SCRIPT_JOINTS
+    roles = {"swing": j.swing, "boom": j.boom, "stick": j.stick, "bucket": j.bucket}
+    return TimingModel({role: float(speed[name]) for role, name in roles.items()}, robot.setpoint_gain_per_s,
                        cfg.latency)
+
+
+def script_rules(cfg: TruckConfig) -> ScriptRules:
+    """How the T3's parameters are computed (§4.2): the dump at the site's height with the bucket open at
+    ``open_pitch``, and the heuristics ("magic numbers" of §4.2, assumed): the stick goes out halfway
+    through the swing (``stick_fraction`` 0.5) and the dump waits for it to be 70 % out; boom and stick
+    continue when the bucket is 60 % open; the swing returns when the bucket is 80 % open
+    (``return_fraction`` 0.8); the arm goes back to the dig past 75 % of the swing's way back (clear of the
+    truck); the swing is back within 2 deg."""
+    return ScriptRules(HeightDump(open_pitch=cfg.open_pitch), stick_fraction=0.5, back_fraction=0.75,
+                       stop_tol=math.radians(2.0), return_fraction=0.8, stick_open_fraction=0.7,
+                       dumped_fraction=0.6)
 
 
 @dataclasses.dataclass(frozen=True)
@@ -192,7 +225,7 @@ class Trial:
 
     task: ClassVar[str] = "dump_trial"  # the task whose episode result it is
     index: int
-    params: MassParams
+    params: RoweParams
     time_s: float
     pile: Pile
     true: Pile
@@ -233,12 +266,12 @@ class _MoveCfg:
     move_timeout_s: float = 15.0
 
 
-def nominal_params(cfg: TruckConfig, *, seed: int = 0, soil: str | None = None) -> MassParams:
+def nominal_params(cfg: TruckConfig, *, seed: int = 0, soil: str | None = None) -> RoweParams:
     """The computed parameters (§4.2) for this site, on the dig's end pose (one dig to find it)."""
     sim = Simulation(soil=soil, seed=seed)
     arm = arm_from_model(sim.model)
     q = dig(sim, cfg, arm)
-    return compute_params(arm, cfg.site, timing_model(sim, cfg), q[1:4], cfg.dig_swing, open_pitch=cfg.open_pitch)
+    return compute_params(arm, cfg.site, script_rules(cfg), timing_model(sim, cfg), q[1:4], cfg.dig_swing)
 
 
 @dataclasses.dataclass(frozen=True)
@@ -299,7 +332,7 @@ class TruckTask:
     final_scan = False
     wall_limit_s = math.inf
 
-    def __init__(self, params: MassParams | None, cfg: TruckConfig, *, index: int = 0, source: str = "",
+    def __init__(self, params: RoweParams | None, cfg: TruckConfig, *, index: int = 0, source: str = "",
                  soil: str | None = None, trace: bool = False):
         self.params, self.cfg, self.index, self.source = params, cfg, index, source
         self.soil, self.trace = soil, trace
@@ -324,10 +357,10 @@ class TruckTask:
         self.loaded = sim.truth.volumes.bucket
         return q
 
-    def computed(self, q: np.ndarray) -> MassParams:
+    def computed(self, q: np.ndarray) -> RoweParams:
         """The parameters computed for the site (§4.2) from this world's dig, ended at joint angles ``q``."""
-        return compute_params(self.arm, self.cfg.site, timing_model(self.sim, self.cfg), q[1:4], self.cfg.dig_swing,
-                              open_pitch=self.cfg.open_pitch)
+        return compute_params(self.arm, self.cfg.site, script_rules(self.cfg), timing_model(self.sim, self.cfg),
+                              q[1:4], self.cfg.dig_swing)
 
     def budget_reason(self, budget: int) -> str:
         return "the trial's script ran"
@@ -344,13 +377,13 @@ class TruckTask:
         return scanned, None
 
     def choose(self, emap) -> Choice:
-        return Choice(mass_script(self.params))
+        return Choice(rowe_script(self.params, SCRIPT_JOINTS))
 
     def execute(self, index, choice):
         sim, cfg = self.sim, self.cfg
         servos = _Tracing(sim) if self.trace else sim
         script = choice.dig
-        run = run_joint_script(servos, script)
+        run = run_script(servos, script, SCRIPT_JOINTS)
         sim.settle_soil()
         after_map = self.scanner.map()
         min_theta = cfg.dig_swing + 0.5 * (cfg.site.theta_d - cfg.dig_swing)
@@ -383,7 +416,7 @@ class TruckTask:
         return self.trial
 
 
-def run_trial(params: MassParams, cfg: TruckConfig, *, seed: int = 0, index: int = 0, source: str = "",
+def run_trial(params: RoweParams, cfg: TruckConfig, *, seed: int = 0, index: int = 0, source: str = "",
               soil: str | None = None, trace: bool = False) -> Trial:
     """One dig-swing-dump trial (see the module docstring): the platform's
     :class:`~excavsim.loop.episode.Episode` of a :class:`TruckTask`, one cycle; ``trace`` keeps a
@@ -393,14 +426,14 @@ def run_trial(params: MassParams, cfg: TruckConfig, *, seed: int = 0, index: int
     return episode.run()
 
 
-def tuned_bounds(base: MassParams, cfg: TruckConfig | None = None) -> tuple[np.ndarray, np.ndarray]:
-    """Bounds of the seven tuned parameters (in :data:`~excavsim.execution.mass_script.TUNED` order): the
+def tuned_bounds(base: RoweParams, cfg: TruckConfig | None = None) -> tuple[np.ndarray, np.ndarray]:
+    """Bounds of the seven tuned parameters (in :data:`TUNED` order): the
     angles within ``ranges.angles_deg`` of the computed ones, the fractions in their ``ranges`` (assumed;
     configs/truck.yaml), and the boom at the dump never below its clearance angle over the truck's side
     (§5.4.1: bounds from the worksite's geometry; Fig. 3). With the truck moved away (§6.2) nothing stops a
     lower boom, and without this bound the learner lowered it 25 deg, into where the truck's side would be."""
     cfg = cfg or load_truck_config()
-    x = base.tuned()
+    x = base.values(TUNED)
     lo, hi = x - cfg.angle_range, x + cfg.angle_range
     k = TUNED.index("boom_dump")
     lo[k] = min(max(lo[k], base.boom_clear_dump), x[k])

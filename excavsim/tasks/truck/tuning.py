@@ -24,19 +24,20 @@ from pathlib import Path
 import numpy as np
 
 from excavsim.config import get_soil
-from excavsim.execution.mass_script import FRACTIONS, TUNED, MassParams, mass_script
+from excavsim.execution.rowe_script.listing import rowe_script
+from excavsim.execution.rowe_script.params import RoweParams
 from excavsim.learning.lwr_tuning import Memory, select_action
 from excavsim.loop.digs import Choice, DigSource
-from excavsim.tasks.truck.trial import (Trial, TruckConfig, TruckTask, load_truck_config, noise_scale,
-                                        nominal_params, placement_error2, retargeted, run_trial, trial_cost,
-                                        trial_objective, tuned_bounds)
+from excavsim.tasks.truck.trial import (FRACTIONS, SCRIPT_JOINTS, TUNED, Trial, TruckConfig, TruckTask,
+                                        load_truck_config, noise_scale, nominal_params, placement_error2, retargeted,
+                                        run_trial, trial_cost, trial_objective, tuned_bounds)
 
 
 @dataclasses.dataclass(frozen=True)
 class TunedAction:
     """A tuner's choice for one trial (what :class:`~excavsim.loop.digs.Choice` carries as its plan)."""
 
-    params: MassParams
+    params: RoweParams
     x: np.ndarray  # the tuned parameters (TUNED's order)
     source: str  # "computed + noise" or "learned"
     predicted_cost: float = math.nan
@@ -57,15 +58,15 @@ class Tuner(DigSource):
         self.rng = np.random.default_rng((seed, 12))
         self.memory = Memory(len(TUNED))
         self.scale = noise_scale(cfg)
-        self.base: MassParams | None = None
+        self.base: RoweParams | None = None
         self.computed_until = cfg.initial_trials  # trials before this one run the computed parameters plus noise
 
-    def bind(self, base: MassParams) -> None:
+    def bind(self, base: RoweParams) -> None:
         """The computed parameters of the run (§4.2) and the bounds of what the tuner may change about them."""
         self.base = base
         self.lo, self.hi = tuned_bounds(base, self.cfg)
 
-    def retarget(self, cfg: TruckConfig, base: MassParams, *, until: int) -> None:
+    def retarget(self, cfg: TruckConfig, base: RoweParams, *, until: int) -> None:
         """The target moved (§5.4.4): ``cfg``'s objective, the parameters ``base`` computed for it, and
         computed trials (plus noise) before trial ``until``; the memory is kept (it maps actions to
         outcomes, whatever the target)."""
@@ -76,12 +77,12 @@ class Tuner(DigSource):
     def choose(self, task, emap) -> Choice:
         k = len(self.memory)  # the trial's index
         if not self.learn or k < self.computed_until or k < 2:
-            x = np.clip(self.base.tuned() + self.rng.normal(0.0, 1.0, len(TUNED)) * self.scale, self.lo, self.hi)
-            action = TunedAction(self.base.with_tuned(x), x, "computed + noise")
+            x = np.clip(self.base.values(TUNED) + self.rng.normal(0.0, 1.0, len(TUNED)) * self.scale, self.lo, self.hi)
+            action = TunedAction(self.base.with_values(TUNED, x), x, "computed + noise")
         else:
             sel = select_action(self.memory, self.cfg.objective, lower=self.lo, upper=self.hi)
-            action = TunedAction(self.base.with_tuned(sel.x), sel.x, "learned", sel.predicted_cost, sel.width)
-        return Choice(mass_script(action.params), plan=action)
+            action = TunedAction(self.base.with_values(TUNED, sel.x), sel.x, "learned", sel.predicted_cost, sel.width)
+        return Choice(rowe_script(action.params, SCRIPT_JOINTS), plan=action)
 
     def remember(self, x: np.ndarray, trial: Trial) -> None:
         """How the trial of the tuned parameters ``x`` went: its time, its pile and whether it failed."""
@@ -188,7 +189,7 @@ def windows(run: TuningRun) -> dict[str, float]:
 def tune(trials: int, cfg: TruckConfig | None = None, *, seed: int = 0,
          progress: Callable[[Trial], None] | None = None, learn: bool = True,
          retarget: tuple[int, float, float] | None = None, soil: str | None = None, observer=None,
-         base: MassParams | None = None) -> list[Trial]:
+         base: RoweParams | None = None) -> list[Trial]:
     """Run ``trials`` trials online, each in a fresh world (:func:`~excavsim.tasks.truck.trial.run_trial`),
     their parameters chosen by a :class:`Tuner`; returns them in order.
 

@@ -1,4 +1,5 @@
-"""Truck loading (Rowe 1997 §4.3, §5, §6.2): LWR, the simplex, the coupled trigger, the pile."""
+"""Truck loading (Rowe 1997 §4.3, §5, §6.2): LWR, the simplex, the pile. The script itself (its coupled
+trigger, the timing model) is tested in tests/execution/test_rowe_script.py."""
 
 from __future__ import annotations
 
@@ -7,9 +8,6 @@ import math
 import numpy as np
 import pytest
 
-from excavsim.execution.conditions import always, joint_above
-from excavsim.execution.mass_script import BOOM, SWING, TimingModel, run_joint_script
-from excavsim.execution.script import Command, Script, Step, SubScript
 from excavsim.learning.lwr_tuning import (LWR, WIDTHS, Memory, Objective, placement_cost, select_action,
                                           starting_points, svd_solve)
 
@@ -81,44 +79,6 @@ def test_nelder_mead_finds_the_minimum_of_a_known_cost_through_the_model():
     assert sel.x[0] == pytest.approx(0.0, abs=0.02)
     assert sel.x[1] == pytest.approx(0.5, abs=0.01)
     assert sel.predicted_cost == pytest.approx(5.0 * 3.0, abs=0.2)
-
-
-def test_timing_model():
-    tm = TimingModel({"j": 0.5}, gain=8.0, latency=0.1)
-    assert tm.travel_time("j", 1.0) == pytest.approx(2.1)
-    # the remaining distance some time before arrival inverts the time to go
-    for d in (0.02, 0.5, 1.5):
-        t = tm.time_to("j", d, 0.01) - tm.latency
-        assert tm.remaining("j", t, 0.01) == pytest.approx(d, rel=1e-9)
-
-
-@pytest.fixture(scope="module")
-def sim():
-    from excavsim.world.simulation import Simulation
-    return Simulation(seed=0)
-
-
-def test_the_swing_starts_when_the_boom_passes_its_angle(sim):
-    q0 = sim.joint_angles()
-    trigger = q0[1] + math.radians(5.0)
-    script = Script("coupled", (
-        SubScript((SWING,), (Step("wait", always(), Command((q0[0],))),
-                             Step("swing", joint_above(BOOM, trigger), Command((q0[0] + 0.3,)), ends=always()))),
-        SubScript((BOOM,), (Step("raise", always(), Command((q0[1] + math.radians(15.0),))),)),
-    ), timeout_s=5.0)
-    seen = []
-    sim.step_hooks.append(lambda s: seen.append((s.time, s.joint_angles()[1])))
-    try:
-        run = run_joint_script(sim, script)
-    finally:
-        sim.step_hooks.clear()
-    assert run.outcome == "end"
-    t_swing = run.phase_starts()["swing"] + run.start
-    before = [b for t, b in seen if t < t_swing - 1e-9]
-    assert before and max(before) <= trigger  # the swing waited while the boom was below its angle
-    # it fired on the first tick after the boom passed (within a tick: the engine reads the last observation)
-    first_above = min(t for t, b in seen if b > trigger)
-    assert t_swing == pytest.approx(first_above, abs=1.5 * sim.control_dt)
 
 
 def test_the_measured_pile_is_the_true_peak_within_a_cell():

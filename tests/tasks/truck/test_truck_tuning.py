@@ -16,10 +16,10 @@ import pytest
 
 from excavsim import cli
 from excavsim.errors import ExcavsimError
-from excavsim.execution.mass_script import FRACTIONS, TUNED
 from excavsim.learning.lwr_tuning import Memory, Objective, select_action
 from excavsim.tasks.truck import trial as truck
 from excavsim.tasks.truck import tuning
+from excavsim.tasks.truck.trial import FRACTIONS, TUNED
 
 
 @pytest.fixture(scope="module")
@@ -39,9 +39,9 @@ def test_every_tuned_parameter_changes_the_trial(cfg, base):
     before, changed nothing: the stick's condition of the same rule held later.)"""
     ref = truck.run_trial(base, cfg, seed=0)
     for i, name in enumerate(TUNED):
-        x = base.tuned()
+        x = base.values(TUNED)
         x[i] -= 0.15 if name in FRACTIONS else math.radians(8.0)
-        t = truck.run_trial(base.with_tuned(x), cfg, seed=0)
+        t = truck.run_trial(base.with_values(TUNED, x), cfg, seed=0)
         moved = math.hypot(t.pile.x - ref.pile.x, t.pile.y - ref.pile.y)
         assert abs(t.time_s - ref.time_s) > 0.02 or moved > 0.01, name
 
