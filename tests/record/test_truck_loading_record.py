@@ -14,7 +14,7 @@ from rerun.chunk import RrdReader
 
 from excavsim.cli import main
 from excavsim.errors import ExcavsimError
-from excavsim.record.truck_loading import TruckLoadingRecorder
+from excavsim.tasks.truck_loading.recording import TruckLoadingRecorder
 from excavsim.tasks.truck_loading import task as truck_loading
 from tests.record.test_record import entities, rerun_cli
 

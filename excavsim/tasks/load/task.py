@@ -490,7 +490,7 @@ def episode_recorder(path: str):
     """The Rerun recorder of a loading episode, the platform's hook for ``trench --spec --record``.
 
     It records the lane, the scanned maps, the planned digs and the machine's motion, per dig."""
-    from excavsim.record.loading import LoadingRecorder
+    from excavsim.tasks.load.recording import LoadingRecorder
 
     return LoadingRecorder(path)
 

@@ -41,6 +41,7 @@ from excavsim.mechanics.wedge import G_M_S2
 from excavsim.planning.experience import DigExperience, failure_kind
 from excavsim.robot.kinematics import PlanarArm
 from excavsim.tasks.trench.digs import PlannedDigs, RandomFeasibleDigs, ScriptedDigs
+from excavsim.tasks.trench.recording import episode_recorder  # noqa: F401 (the task's recorder, for the catalog)
 from excavsim.robot.machine import get_machine
 from excavsim.world.machines import make_world
 from excavsim.world.simulation import Simulation

@@ -395,8 +395,8 @@ class TruckLoadingTask:
 def episode_recorder(path: str):
     """The Rerun recorder of a truck-loading episode, the platform's hook for ``excavsim run SPEC --record
     FILE.rrd``: the machine moving, the truck, its bed's fill after each pass, the pit and the per-pass
-    metrics (:class:`~excavsim.record.truck_loading.TruckLoadingRecorder`)."""
-    from excavsim.record.truck_loading import TruckLoadingRecorder
+    metrics (:class:`~excavsim.tasks.truck_loading.recording.TruckLoadingRecorder`)."""
+    from excavsim.tasks.truck_loading.recording import TruckLoadingRecorder
 
     return TruckLoadingRecorder(path)
 
