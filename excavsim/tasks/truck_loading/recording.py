@@ -86,6 +86,7 @@ class TruckLoadingRecorder(ExcavatorRecorder):
     Args:
         path: the ``.rrd`` file to write (parent folders are created; an existing file is replaced).
         rate_hz: how often the machine's pose and the signals are sampled [Hz of simulated time].
+        live: also stream the episode to the viewer at this gRPC URL.
 
     Raises:
         ExcavsimError: not an ``.rrd`` path or a rate that is not positive.
@@ -93,9 +94,9 @@ class TruckLoadingRecorder(ExcavatorRecorder):
 
     places = {constants.SOIL_BOX_BODY: "world/pit", "truck": "world/truck"}
 
-    def __init__(self, path: str | os.PathLike, *, rate_hz: float = 10.0):
+    def __init__(self, path: str | os.PathLike | None, *, rate_hz: float = 10.0, live: str | None = None):
         # the pit's terrain is logged per pass (dug), not on a period: a period longer than any episode
-        super().__init__(path, rate_hz=rate_hz, soil_period_s=1e12)
+        super().__init__(path, rate_hz=rate_hz, soil_period_s=1e12, live=live)
         self.cfg = None
         self._bed_m3: float | None = None  # the bed's volume at the last step [m^3] (a drop: a truck left)
 
@@ -191,6 +192,6 @@ class TruckLoadingRecorder(ExcavatorRecorder):
         bed = self.world.bed
         u, v = bed.centres_local()
         self.at(self.world.time)
-        self.grid_mesh("world/truck/fill", u, v, bed.fill, bed.cell, colours=FILL_RGB, z_offset=self.world.truck.floor_m,
-                       fixed=True)
+        self.grid_mesh("world/truck/fill", u, v, bed.fill, bed.cell, colours=FILL_RGB,
+                       z_offset=self.world.truck.floor_m, fixed=True)
         self._bed_m3 = bed.volume()
