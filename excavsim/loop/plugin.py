@@ -169,8 +169,8 @@ class TaskPlugin:
 
     # -- its other faces ---------------------------------------------------------------------------------
     def recorder(self, path: str | None, *, live: str | None = None) -> EpisodeObserver:
-        """The observer that records an episode of the task to the Rerun file ``path`` (and/or streams it
-        to a viewer: ``live`` "" spawns one, else its address; the observer's ``live_url`` says where).
+        """The observer that records an episode of the task to the Rerun file ``path`` and/or streams it to the
+        viewer at ``live`` (a gRPC URL: the caller starts or finds the viewer, excavsim.record.live).
 
         Raises:
             UsageError: the task cannot record (the default).

@@ -216,8 +216,8 @@ def run_with_outputs(spec: EpisodeSpec, *, robot_path: str | None = None, scene_
         spec: the episode.
         robot_path, scene_path: configuration files the spec's overrides apply to (default ``configs/``).
         record: a Rerun file to record the episode to (the task's recorder).
-        live: stream the episode to a Rerun viewer: "" spawns one, else its address (checked before
-            the episode starts, by the task's recorder); for tasks whose recorder streams.
+        live: stream the episode to the Rerun viewer at this gRPC URL (the caller started or found it:
+            :mod:`excavsim.record.live`); for tasks whose recorder streams.
         save_maps, timing: the task's optional outputs (:attr:`~excavsim.loop.plugin.TaskPlugin.outputs`).
         say: where the lines go.
         command: the command that runs it, for the first line.
@@ -232,15 +232,15 @@ def run_with_outputs(spec: EpisodeSpec, *, robot_path: str | None = None, scene_
 
     plugin = spec.plugin
     resolved = resolve(spec, robot_path=robot_path, scene_path=scene_path)  # every file checked first
-    asked = {"live": live is not None, "save_maps": bool(save_maps), "timing": timing}
+    asked = {"live": bool(live), "save_maps": bool(save_maps), "timing": timing}
     if missing := [k for k, on in asked.items() if on and k not in plugin.outputs]:
         options = ", ".join(f"--{k.replace('_', '-')}" for k in missing)
         can = ", ".join(f"--{k.replace('_', '-')}" for k in ("record", *sorted(plugin.outputs)))
         raise UsageError(f"{options}: task {spec.task} does not take {'it' if len(missing) == 1 else 'them'}; "
                          f"it takes {can}")
-    observer = plugin.recorder(record, live=live) if (record or live is not None) else None
-    if url := getattr(observer, "live_url", None):
-        say(f"streaming the episode live to {url}")
+    observer = plugin.recorder(record, live=live) if (record or live) else None
+    if live:
+        say(f"streaming the episode live to {live}")
     extra, after = plugin.run_outputs(spec, resolved, save_maps=save_maps, timing=timing)
     if extra is not None:
         observer = ObserverGroup(observer, extra)

@@ -17,7 +17,7 @@ from PIL import Image
 from excavsim.cli import main
 from excavsim.errors import ExcavsimError
 from excavsim.loop.scenario import EpisodeSpec, run_spec
-from excavsim.record import RerunRecorder
+from excavsim.record import TrenchRecorder
 from excavsim.record.geometry import SAND_RGB
 from excavsim.record.replay import HeadlessViewer
 
@@ -68,7 +68,7 @@ def text_rows(img: np.ndarray) -> int:
 @pytest.fixture(scope="module")
 def recording(tmp_path_factory):
     path = tmp_path_factory.mktemp("viewer") / "ep.rrd"
-    result = run_spec(SPEC, observer=RerunRecorder(path))
+    result = run_spec(SPEC, observer=TrenchRecorder(path))
     return path, result
 
 

@@ -159,7 +159,7 @@ def run_episodes(*, cfg2d: ld.LoadingConfig, machine: str | None = None, seed: i
         say(f"excavsim load --mujoco: front {name}, pile {mcfg.pile.height:g} m high, soil {mcfg.soil}, seed {seed}")
         observer = None
         if record:
-            from excavsim.record.loading import LoadingRecorder
+            from excavsim.tasks.load.recording import LoadingRecorder
 
             observer = LoadingRecorder(record)
         run = run_episode(name, seed=seed, cfg=mcfg, cfg2d=cfg2d, observer=observer, progress=say)

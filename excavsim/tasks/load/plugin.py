@@ -71,6 +71,8 @@ class PileLoading(TaskPlugin):
     )
     environments = (EnvEntry("excavsim/LoadDig-v0", "excavsim.envs.load_env:LoadDigEnv"),)
 
+    outputs = frozenset({"live"})
+
     def resolve(self, spec, *, robot_path=None, scene_path=None) -> LoadingMujocoConfig:
         from excavsim.config.loading_mujoco import load_loading_mujoco_config
         from excavsim.loop.scenario import override
@@ -109,10 +111,10 @@ class PileLoading(TaskPlugin):
 
         return format_run(result)
 
-    def recorder(self, path, *, live=None):  # no live stream ("live" is not among its outputs)
+    def recorder(self, path, *, live=None):
         from excavsim.tasks.load.task import episode_recorder
 
-        return episode_recorder(path)
+        return episode_recorder(path, live=live)
 
     def add_commands(self, sub) -> None:
         from excavsim.tasks.load.commands import add_commands

@@ -486,13 +486,12 @@ def machine_tip(machine, q: np.ndarray) -> np.ndarray:
     return machine.forward(q[1:], q[0])[:2]
 
 
-def episode_recorder(path: str):
-    """The Rerun recorder of a loading episode, the platform's hook for ``trench --spec --record``.
+def episode_recorder(path: str | None, *, live: str | None = None):
+    """The Rerun recorder of a loading episode to ``path`` and/or streamed to the viewer at ``live`` (a gRPC
+    URL): the lane, the scanned maps, the planned digs and the machine's motion, per dig."""
+    from excavsim.tasks.load.recording import LoadingRecorder
 
-    It records the lane, the scanned maps, the planned digs and the machine's motion, per dig."""
-    from excavsim.record.loading import LoadingRecorder
-
-    return LoadingRecorder(path)
+    return LoadingRecorder(path, live=live)
 
 
 def format_run(run: MujocoRun) -> str:

@@ -141,7 +141,7 @@ class Trench(TaskPlugin):
         return format_episode(result)
 
     def recorder(self, path, *, live=None):
-        from excavsim.tasks.trench.task import episode_recorder
+        from excavsim.tasks.trench.recording import episode_recorder
 
         return episode_recorder(path, live=live)
 

@@ -304,15 +304,3 @@ def summary(res: EpisodeResult) -> dict[str, Any]:
         out[f"peak_{name}_nm"] = max((float(p[j]) for p in peaks), default=0.0)
     out["dug_l"] = [round(1000 * d.bucket_m3, 3) for d in digs]
     return out
-
-
-def episode_recorder(path: str | None, *, live: str | None = None):
-    """The Rerun recorder of a trenching episode (:class:`~excavsim.record.RerunRecorder`): to the file
-    ``path`` and/or streamed to a viewer (``live``: "" spawns one, else its address)."""
-    from excavsim.record import RerunRecorder
-    from excavsim.record.live import viewer_url
-
-    url = viewer_url(live or None) if live is not None else None
-    recorder = RerunRecorder(path, live=url)
-    recorder.live_url = url
-    return recorder

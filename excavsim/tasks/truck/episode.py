@@ -24,7 +24,7 @@ from excavsim.config.truck import TruckFile
 from excavsim.errors import ConfigError
 from excavsim.loop.catalog import summary_number
 from excavsim.loop.episode import Episode
-from excavsim.tasks.truck.trial import Trial, TruckTask, placement_error2, trial_cost, truck_config
+from excavsim.tasks.truck.trial import Trial, TruckTask, truck_config
 from excavsim.tasks.truck.tuning import Tuner, TuningRun, TuningTask, windows
 
 
@@ -62,47 +62,12 @@ def spec_episode(spec, resolved, *, progress=None, observer=None) -> Episode:
                    dig_budget=tuning.trials, progress=progress, observer=observer)
 
 
-class TrialRecorder:
-    """A truck episode's hooks, recorded to Rerun by
-    :class:`~excavsim.record.truck.TruckRecorder` (the recording of ``excavsim tune --record``, here
-    of the episode's trial, or of every trial of a tuning run): the configuration and the computed parameters, the script's phases, the joints
-    and the tip, the scanned map after the dump, the pile measured and true, the cost.
+def episode_recorder(path: str | None, *, live: str | None = None):
+    """The Rerun recorder of a dump trial (or a tuning run's trials) to ``path`` and/or streamed to the viewer at
+    ``live`` (a gRPC URL)."""
+    from excavsim.tasks.truck.recording import TrialRecorder
 
-    Args:
-        path: the ``.rrd`` file to write.
-    """
-
-    def __init__(self, path: str):
-        from excavsim.record.truck import TruckRecorder
-
-        self.path = path
-        self._recorder_class = TruckRecorder
-        self.recorder = None
-        self.cfg = None
-
-    def started(self, sim, cfg) -> None:
-        self.cfg, self.seed = cfg, int(getattr(sim, "seed", 0))
-
-    def scanned(self, *args) -> None: ...
-    def planned(self, *args) -> None: ...
-    def stepped(self, *args) -> None: ...
-
-    def dug(self, index: int, trial: Trial) -> None:
-        if self.recorder is None:  # it starts with the first trial's parameters, known once the fixed dig is done
-            self.recorder = self._recorder_class(self.path, seed=self.seed)
-            self.recorder.started(self.cfg, trial.params)
-        self.recorder.trial(trial, self.cfg, cost=trial_cost(trial, self.cfg),
-                            sq_error=placement_error2(trial, self.cfg))
-
-    def finished(self, result: Trial | TuningRun | None) -> None:
-        if self.recorder is not None:
-            trials = [] if result is None else getattr(result, "tuning_trials", [result])
-            self.recorder.finished(trials, self.cfg)
-
-
-def episode_recorder(path: str) -> TrialRecorder:
-    """The Rerun recorder of a truck trial, the platform's hook for ``excavsim run SPEC --record FILE.rrd``."""
-    return TrialRecorder(path)
+    return TrialRecorder(path, live=live)
 
 
 def trial_end(trial: Trial) -> tuple[str, str]:

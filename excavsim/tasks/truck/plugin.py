@@ -50,6 +50,8 @@ class DumpTrial(TaskPlugin):
                                stem=True),)
     dig_sources = {"tuner": "excavsim.tasks.truck.tuning:Tuner"}
 
+    outputs = frozenset({"live"})
+
     def resolve(self, spec, *, robot_path=None, scene_path=None) -> TruckFile:
         from excavsim.config.truck import load_truck_file
         from excavsim.loop.scenario import override
@@ -91,7 +93,7 @@ class DumpTrial(TaskPlugin):
     def recorder(self, path, *, live=None):
         from excavsim.tasks.truck.episode import episode_recorder
 
-        return episode_recorder(path)
+        return episode_recorder(path, live=live)
 
     def add_commands(self, sub) -> None:
         from excavsim.tasks.truck.commands import add_commands

@@ -301,7 +301,7 @@ def tune_and_report(trials: int, cfg: TruckConfig, out: Path, *, seed: int = 0, 
 
     observer = None
     if record:
-        from excavsim.record.truck import TruckRecorder
+        from excavsim.tasks.truck.recording import TruckRecorder
         observer = TruckRecorder(record, seed=seed)
     done = tune(trials, cfg, seed=seed, progress=show, retarget=retarget, soil=soil, observer=observer)
     csv_path, png = write_results(done, cfg, Path(out))

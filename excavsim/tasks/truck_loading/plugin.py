@@ -48,6 +48,8 @@ class TruckLoading(TaskPlugin):
     config_kinds = (plain_kind("truck_loading", TruckLoadingFile,
                                "a truck loaded to full by the 25 t excavator (configs/truck_loading.yaml)", stem=True),)
 
+    outputs = frozenset({"live"})
+
     def resolve(self, spec, *, robot_path=None, scene_path=None) -> TruckLoadingFile:
         from excavsim.config.truck_loading import load_truck_loading_file
         from excavsim.loop.scenario import override
@@ -88,7 +90,7 @@ class TruckLoading(TaskPlugin):
     def recorder(self, path, *, live=None):
         from excavsim.tasks.truck_loading.task import episode_recorder
 
-        return episode_recorder(path)
+        return episode_recorder(path, live=live)
 
     def add_commands(self, sub) -> None:
         from excavsim.tasks.truck_loading.commands import add_commands

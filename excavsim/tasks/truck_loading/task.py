@@ -418,13 +418,13 @@ class TruckLoadingTask:
 
 
 # -- the platform's views of a result ------------------------------------------------------------------------
-def episode_recorder(path: str):
-    """The Rerun recorder of a truck-loading episode, the platform's hook for ``excavsim run SPEC --record
-    FILE.rrd``: the machine moving, the truck, its bed's fill after each pass, the pit and the per-pass
-    metrics (:class:`~excavsim.record.truck_loading.TruckLoadingRecorder`)."""
-    from excavsim.record.truck_loading import TruckLoadingRecorder
+def episode_recorder(path: str | None, *, live: str | None = None):
+    """The Rerun recorder of a truck-loading episode to ``path`` and/or streamed to the viewer at ``live`` (a
+    gRPC URL): the machine moving, the truck, its bed's fill after each pass, the pit and the per-pass metrics
+    (:class:`~excavsim.tasks.truck_loading.recording.TruckLoadingRecorder`)."""
+    from excavsim.tasks.truck_loading.recording import TruckLoadingRecorder
 
-    return TruckLoadingRecorder(path)
+    return TruckLoadingRecorder(path, live=live)
 
 
 def summary(res: TruckLoad) -> dict[str, Any]:

@@ -255,7 +255,7 @@ def test_a_recorded_loading_episode_passes_rerun_verify_and_holds_its_entities(t
 
     from rerun.chunk import RrdReader
 
-    from excavsim.record.loading import LoadingRecorder
+    from excavsim.tasks.load.recording import LoadingRecorder
 
     path = tmp_path / "load.rrd"
     run = lm.run_episode("loader", pile=lm.PileLane(height=0.6, top=0.3, foot=1.5), max_digs=1,

@@ -127,7 +127,7 @@ def _entities(path: pathlib.Path) -> dict[str, dict[str, int]]:
 
 
 def test_a_recorded_tuning_run_passes_rerun_verify_and_holds_its_entities(tmp_path, cfg):
-    from excavsim.record.truck import TruckRecorder
+    from excavsim.tasks.truck.recording import TruckRecorder
 
     path = tmp_path / "tune.rrd"
     small = dataclasses.replace(cfg, initial_trials=1)
