@@ -8,8 +8,8 @@ import argparse
 import math
 import pathlib
 
-from excavsim.cli.options import (MAX_DIG_BUDGET, MAX_SEED, dig_budget_type, name_or_path, out_dir, out_file, seed_type,
-                                  world_options)
+from excavsim.cli.options import (MAX_DIG_BUDGET, MAX_SEED, dig_budget_type, live_viewer, name_or_path, out_dir,
+                                  out_file, seed_type, world_options)
 from excavsim.errors import ConfigError, UsageError, shorten
 
 
@@ -42,8 +42,10 @@ def _cmd_trench(args: argparse.Namespace) -> int:
         raise ConfigError(f"--record must name an .rrd file; given {shorten(repr(args.record), 200)}")
     spec = parse_config({**spec.model_dump(), **{k: v for k, v in given.items() if v is not None}}, EpisodeSpec,
                         source="the command line")
-    run_with_outputs(spec, robot_path=args.robot_config, scene_path=args.scene_config, record=args.record,
-                     live=args.live, save_maps=args.save_maps, timing=args.timing, command=getattr(args, "command", "trench"))
+    with live_viewer(args.live) as live:  # a viewer window that --live spawns ends with the command
+        run_with_outputs(spec, robot_path=args.robot_config, scene_path=args.scene_config, record=args.record,
+                         live=live, save_maps=args.save_maps, timing=args.timing,
+                         command=getattr(args, "command", "trench"))
     return 0
 
 

@@ -6,6 +6,7 @@ Ranges and paths are checked at parse time, so a wrong value exits with status 2
 from __future__ import annotations
 
 import argparse
+import contextlib
 import math
 import pathlib
 import tempfile
@@ -121,3 +122,13 @@ def world_options(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--seed", type=seed_type, default=0, help=f"episode seed (soil, sensor noise, scanner drift; "
                         f"0 to {MAX_SEED})")
 
+
+def live_viewer(live: str | None) -> contextlib.AbstractContextManager[str | None]:
+    """``--live [ADDRESS]`` for as long as a command runs: the address to stream to, with a viewer window
+    that ``--live`` alone spawns owned by the ``with`` block (:func:`excavsim.record.live.live_address`);
+    the recorder is imported only when ``--live`` is given."""
+    if live is None:
+        return contextlib.nullcontext(None)
+    from excavsim.record.live import live_address
+
+    return live_address(live)

@@ -8,7 +8,8 @@ import argparse
 import pathlib
 import sys
 
-from excavsim.cli.options import MAX_DIG_BUDGET, dig_budget_type, float_in, int_in, out_dir, out_file, seed_type
+from excavsim.cli.options import (MAX_DIG_BUDGET, dig_budget_type, float_in, int_in, live_viewer, out_dir, out_file,
+                                  seed_type)
 from excavsim.errors import ConfigError, UsageError
 
 
@@ -78,24 +79,24 @@ def _cmd_campaign(args: argparse.Namespace) -> int:
         except argparse.ArgumentTypeError as exc:
             raise ConfigError(f"--out (default): {exc}") from None
     recorder = None
-    if args.live is not None:  # records every episode, streams the first of the grid
-        from excavsim.studies.campaign.runner import check_campaign
-        from excavsim.record.live import LiveRecorders, viewer_url
+    with live_viewer(args.live) as live:  # a viewer window that --live spawns ends with the command
+        if live is not None:  # records every episode, streams the first of the grid
+            from excavsim.studies.campaign.runner import check_campaign
+            from excavsim.record.live import LiveRecorders, viewer_url
 
-        first = check_campaign(spec, source=f"campaign {spec.name}")[0].id
-        url = viewer_url(args.live or None)
-        print(f"streaming episode {first} live to {url}; every episode is recorded (record: true)")
-        spec = spec.model_copy(update={"record": True})
-        recorder = LiveRecorders(url, first)
-    elif spec.record:
-        from excavsim.record import RerunRecorder as recorder
-    report = run_campaign(spec, out, workers=args.workers, resume=args.resume, ray_address=args.ray,
-                          recorder=recorder, progress=print)
-    if report.errors:
-        print(f"{report.errors} of {len(report.rows)} episodes failed: see their 'error' in {out}/episodes",
-              file=sys.stderr)
-        return 1
-    return 0
+            first = check_campaign(spec, source=f"campaign {spec.name}")[0].id
+            url = viewer_url(live)
+            print(f"streaming episode {first} live to {url}; every episode is recorded (record: true)")
+            spec = spec.model_copy(update={"record": True})
+            recorder = LiveRecorders(url, first)
+        elif spec.record:
+            from excavsim.record import RerunRecorder as recorder
+        report = run_campaign(spec, out, workers=args.workers, resume=args.resume, ray_address=args.ray,
+                              recorder=recorder, progress=print)
+        if report.errors:
+            print(f"{report.errors} of {len(report.rows)} episodes failed: see their 'error' in {out}/episodes",
+                  file=sys.stderr)
+    return 1 if report.errors else 0
 
 
 def _cmd_learn(args: argparse.Namespace) -> int:
