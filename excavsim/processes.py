@@ -124,6 +124,20 @@ class OwnedProcess(subprocess.Popen):
             super().__exit__(exc_type, value, traceback)
 
 
+def run(args, *, check: bool = False, **kwargs) -> subprocess.CompletedProcess:
+    """:func:`subprocess.run` for a process the command owns: run ``args`` to its end as an
+    :class:`OwnedProcess` (ended with its children on an error, a Ctrl-C or the death of this process).
+
+    Raises:
+        subprocess.CalledProcessError: ``check`` and it exited with a status other than 0.
+    """
+    with OwnedProcess(args, **kwargs) as proc:
+        out, err = proc.communicate()
+    if check and proc.returncode:
+        raise subprocess.CalledProcessError(proc.returncode, proc.command, out, err)
+    return subprocess.CompletedProcess(proc.command, proc.returncode, out, err)
+
+
 def exit_with_parent() -> None:
     """In a worker process started by :mod:`multiprocessing`: exit at once when the process that
     started it dies, however it dies (even by SIGKILL).

@@ -127,3 +127,13 @@ def test_the_command_dies_with_its_owner(sig):
             owner.kill()
             owner.wait()
         owner.stdout.close()
+
+
+def test_run_is_subprocess_run_for_an_owned_process():
+    from excavsim import processes
+
+    done = processes.run(["sh", "-c", "echo made"], stdout=subprocess.PIPE, text=True)
+    assert (done.returncode, done.stdout) == (0, "made\n")
+    with pytest.raises(subprocess.CalledProcessError) as info:
+        processes.run(["sh", "-c", "exit 4"], check=True)
+    assert info.value.returncode == 4

@@ -251,9 +251,8 @@ def test_a_spawned_live_viewer_stays_open_until_its_user_closes_it(fake_window):
     said = []
 
     def user_closes_the_window():
-        while not said:
+        while not (said and (window := [p for p, cmd in list(watch.seen.items()) if "create_server" in cmd])):
             threading.Event().wait(0.05)
-        window = [p for p, cmd in watch.seen.items() if "socket.create_server" in cmd]
         os.kill(window[0][0], signal.SIGTERM)
 
     with Watch() as watch:
