@@ -13,7 +13,8 @@ new process group: the command and every process it starts (the ``rerun`` on the
 that runs the real viewer as its child) are in that group, and the guard ends the whole group:
 
 - when the owner asks (:meth:`OwnedProcess.end`, and leaving a ``with`` block, on success, on an
-  exception or on KeyboardInterrupt): SIGTERM to the group, SIGKILL to what is left after a grace;
+  exception or on KeyboardInterrupt): SIGTERM to the group, SIGKILL to what is left after a grace
+  (:meth:`OwnedProcess.kill`: SIGKILL at once);
 - when the owner dies, however it dies (SIGTERM, SIGKILL, a crash): on Linux the kernel tells the guard
   at once (``prctl(PR_SET_PDEATHSIG)``), elsewhere the guard notices within a second that its parent
   changed; then it ends the group the same way;
@@ -31,6 +32,7 @@ Local campaign workers are started by :mod:`multiprocessing`, not here; each cal
 
 from __future__ import annotations
 
+import errno
 import os
 import shutil
 import signal
@@ -89,9 +91,8 @@ class OwnedProcess(subprocess.Popen):
         env = dict(os.environ if kwargs.get("env") is None else kwargs["env"])
         env[STARTED_BY] = str(os.getpid())
         kwargs["env"] = env
-        exe = command[0]
-        if shutil.which(exe, path=env.get("PATH")) is None and not (os.sep in exe and os.access(exe, os.X_OK)):
-            raise FileNotFoundError(2, "No such file or directory", exe)
+        if shutil.which(command[0], path=env.get("PATH", os.defpath)) is None:  # as Popen would say, not the guard
+            raise FileNotFoundError(errno.ENOENT, os.strerror(errno.ENOENT), command[0])
         if os.name != "posix":
             super().__init__(command, creationflags=subprocess.CREATE_NEW_PROCESS_GROUP, **kwargs)
             return
@@ -109,13 +110,20 @@ class OwnedProcess(subprocess.Popen):
                 self.terminate()
                 self.wait(self.grace_s + GUARD_MARGIN_S)
             except subprocess.TimeoutExpired:  # the guard itself does not answer
-                self.kill()
+                super().kill()
                 self.wait()
             except KeyboardInterrupt:
                 interrupted = True
         if interrupted:
             raise KeyboardInterrupt
         return self.returncode
+
+    def kill(self) -> None:
+        """End the process and every process it started at once (SIGKILL, no grace); :meth:`wait` for it."""
+        if os.name == "posix":
+            self.send_signal(signal.SIGUSR2)  # the guard kills the command's group, then exits
+        else:
+            super().kill()
 
     def __exit__(self, exc_type, value, traceback):
         try:
@@ -199,7 +207,7 @@ def _guard(argv: list[str]) -> None:
     os.set_blocking(wake_r, False)
     os.set_blocking(wake_w, False)
     signal.set_wakeup_fd(wake_w)
-    for signum in (signal.SIGTERM, signal.SIGINT, signal.SIGHUP):
+    for signum in (signal.SIGTERM, signal.SIGINT, signal.SIGHUP, signal.SIGUSR2):  # SIGUSR2: at once, no grace
         signal.signal(signum, lambda s, _frame: asked.append(s))
     signal.signal(signal.SIGCHLD, lambda *_: None)
     signal.signal(signal.SIGUSR1, lambda *_: None)  # the owner died, or only the owner's thread that started us
@@ -221,7 +229,7 @@ def _guard(argv: list[str]) -> None:
         sys.exit(127)
     while not _exited(child) and not asked and os.getppid() == owner:
         sleep(watch_s)
-    if not _exited(child):
+    if not _exited(child) and signal.SIGUSR2 not in asked:
         _signal_group(child.pid, signal.SIGTERM)
         deadline = time.monotonic() + grace_s
         while not _exited(child) and time.monotonic() < deadline:

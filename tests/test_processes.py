@@ -137,3 +137,15 @@ def test_run_is_subprocess_run_for_an_owned_process():
     with pytest.raises(subprocess.CalledProcessError) as info:
         processes.run(["sh", "-c", "exit 4"], check=True)
     assert info.value.returncode == 4
+
+
+def test_kill_ends_the_whole_group_at_once():
+    """A plain SIGKILL to the guard would leave the command's own child behind (as killing the rerun
+    shim left the viewer): kill() takes the group."""
+    with OwnedProcess(["sh", "-c", "trap '' TERM; sleep 300 & wait"], grace_s=300) as proc:
+        below = family(proc)
+        proc.kill()
+        assert proc.wait(timeout=60) is not None
+        left = wait_gone(below)
+    kill(left)
+    assert not left
