@@ -244,7 +244,7 @@ def stubbed(monkeypatch):
     monkeypatch.setattr(excavsim.robot.reachability, "load_or_build", would_run)
     monkeypatch.setattr(excavsim.loop.rig, "load_or_build", would_run)
     monkeypatch.setattr(excavsim.world.simulation, "Simulation", would_run)
-    monkeypatch.setattr(excavsim.record, "RerunRecorder", would_run)
+    monkeypatch.setattr(excavsim.record, "TrenchRecorder", would_run)
 
 
 ARG_VALUES = st.one_of(st.sampled_from(["-1", "0", "1", "2", "1000", "1001", "100000", str(2**32), str(2**64), "nan",

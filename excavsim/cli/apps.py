@@ -6,6 +6,7 @@ from __future__ import annotations
 import argparse
 import pathlib
 
+from excavsim.cli.live import live_viewer
 from excavsim.config.arguments import float_in, int_in, out_dir, out_file, seed_type
 from excavsim.errors import ConfigError, UsageError, shorten
 
@@ -83,8 +84,9 @@ def _cmd_playback(args: argparse.Namespace) -> int:
     if args.teleop:
         from excavsim.apps.playback.teleop import teleop_session
 
-        teleop_session(args.out, keys=args.keys, seed=seed, record=args.record, live=args.live,
-                       say=lambda line: print(line, flush=True))
+        with live_viewer(args.live) as live:  # a viewer window that --live spawns ends with the command
+            teleop_session(args.out, keys=args.keys, seed=seed, record=args.record, live=live,
+                           say=lambda line: print(line, flush=True))
     elif args.from_rrd:
         playback.demonstration_from_recording(args.from_rrd, args.dig or 1, args.out)
     else:

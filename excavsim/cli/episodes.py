@@ -7,6 +7,7 @@ import argparse
 import math
 import pathlib
 
+from excavsim.cli.live import live_stream
 from excavsim.config.arguments import episode_options, out_file
 from excavsim.errors import ConfigError, UsageError, shorten
 
@@ -22,8 +23,9 @@ def _cmd_run(args: argparse.Namespace) -> int:
         raise ConfigError(f"--record must name an .rrd file; given {shorten(repr(args.record), 200)}")
     spec = parse_config({**spec.model_dump(), **{k: v for k, v in given.items() if v is not None}}, EpisodeSpec,
                         source="the command line")
-    run_with_outputs(spec, robot_path=args.robot_config, scene_path=args.scene_config, record=args.record,
-                     live=args.live, save_maps=args.save_maps, timing=args.timing, command="run")
+    with live_stream(args.live) as live:  # a viewer window that --live spawns ends with the command
+        run_with_outputs(spec, robot_path=args.robot_config, scene_path=args.scene_config, record=args.record,
+                         live=live, save_maps=args.save_maps, timing=args.timing, command="run")
     return 0
 
 

@@ -7,6 +7,7 @@ Ranges and paths are checked at parse time, so a wrong value exits with status 2
 from __future__ import annotations
 
 import argparse
+import contextlib
 import math
 import pathlib
 import tempfile

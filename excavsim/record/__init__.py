@@ -4,11 +4,11 @@
 that owns a recording's lifecycle (the stream, the timelines, the world's static setup, the samples,
 the end); a task's recorder subclasses it and adds its entities with the base's drawing vocabulary
 (each task module's ``episode_recorder(path)`` makes one). :class:`TrenchRecorder` records trenching
-(also by its older name ``RerunRecorder``); :func:`replay` opens a recording.
+:func:`replay` opens a recording.
 """
 
 from excavsim.record.base import EpisodeRecorder
 from excavsim.record.replay import replay
-from excavsim.record.trench import RerunRecorder, TrenchRecorder
+from excavsim.record.trench import TrenchRecorder
 
-__all__ = ["EpisodeRecorder", "RerunRecorder", "TrenchRecorder", "replay"]
+__all__ = ["EpisodeRecorder", "TrenchRecorder", "replay"]

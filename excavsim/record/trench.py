@@ -408,4 +408,3 @@ class TrenchRecorder(EpisodeRecorder):
                            f"{1000 * plan.volume_m3:.1f} l"])
 
 
-RerunRecorder = TrenchRecorder  # the name the loop, the CLI and the applications know it by

@@ -15,7 +15,7 @@ from typing import NamedTuple
 
 import numpy as np
 
-from excavsim import constants
+from excavsim import constants, processes
 
 
 class Row(NamedTuple):
@@ -574,8 +574,8 @@ def bench_coldstart() -> list[Row]:
     def child_cpu(env: dict[str, str], *args: str) -> tuple[float, float]:
         before = resource.getrusage(resource.RUSAGE_CHILDREN)
         w0 = time.perf_counter()
-        subprocess.run([sys.executable, "-m", "excavsim.cli", *args], env=env, check=True,
-                       stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
+        processes.run([sys.executable, "-m", "excavsim.cli", *args], env=env, check=True,
+                      stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
         after = resource.getrusage(resource.RUSAGE_CHILDREN)
         return (after.ru_utime - before.ru_utime + after.ru_stime - before.ru_stime), time.perf_counter() - w0
 
@@ -617,9 +617,9 @@ def bench_campaign(*, episodes: int = 8) -> list[Row]:
 
     def run(cores: str, workers: int, folder: str) -> float:
         w0 = time.perf_counter()
-        subprocess.run(["taskset", "-c", cores, sys.executable, "-m", "excavsim.cli", "campaign", spec_path,
-                        "--workers", str(workers), "--out", os.path.join(folder, f"w{workers}")], check=True,
-                       stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
+        processes.run(["taskset", "-c", cores, sys.executable, "-m", "excavsim.cli", "campaign", spec_path,
+                       "--workers", str(workers), "--out", os.path.join(folder, f"w{workers}")], check=True,
+                      stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
         return time.perf_counter() - w0
 
     with tempfile.TemporaryDirectory(prefix="excavsim-bench-campaign-") as folder:

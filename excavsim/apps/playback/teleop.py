@@ -47,7 +47,7 @@ def teleoperate(keys: Iterable[str], *, seed: int = 0, soil: str = DEMO_SOIL,
         keys: one-character strings (a str works).
         on_key: called after each key with the key, the measured tip pose (3,) and force (2,) [N].
         observer: sees the session as an episode of no dig (``started``, ``stepped`` after every control
-            step, ``finished``): a :class:`~excavsim.record.recorder.RerunRecorder` handed in by the command
+            step, ``finished``): a :class:`~excavsim.record.trench.TrenchRecorder` handed in by the command
             records it or streams it live, so that the force is seen on the F/T plot while driving.
 
     Raises:
@@ -161,13 +161,13 @@ def teleop_session(out: str | Path, *, keys: Iterable[str] | None = None, seed: 
 
     observer = None
     if record or live is not None:
-        from excavsim.record import RerunRecorder
+        from excavsim.record import TrenchRecorder
         from excavsim.record.live import viewer_url
 
         url = viewer_url(live or None) if live is not None else None
         if url:
             say(f"streaming the session live to {url}")
-        observer = RerunRecorder(record, live=url)
+        observer = TrenchRecorder(record, live=url)
     keys = keys if keys is not None else tty_keys()
     say(f"excavsim playback --teleop: drive the bucket tip from 10 cm above the demonstration dig; {HELP}")
     demo = teleoperate(keys, seed=seed, observer=observer, on_key=lambda k, p, f: say(

@@ -60,6 +60,7 @@ import yaml
 
 from excavsim.handoff.episode import EpisodeObserver, ObserverGroup
 from excavsim.errors import ConfigError, DependencyError, ExcavsimError, UsageError
+from excavsim.processes import exit_with_parent
 from excavsim.studies.campaign import inputs
 from excavsim.studies.campaign.grid import (CampaignSpec, Episode, check_campaign, episode_id,
                                          expand_grid, load_campaign, parse_campaign)
@@ -191,19 +192,6 @@ def _failed_record(task: dict[str, Any], error: str) -> dict[str, Any]:
 
 
 # -- local worker processes ----------------------------------------------------------------------------
-def _exit_with_main() -> None:
-    """In a worker: exit at once when the main process dies (its sentinel closes, also on SIGKILL)."""
-    parent = multiprocessing.parent_process()
-    if parent is None:
-        return
-
-    def watch() -> None:
-        wait([parent.sentinel])
-        os._exit(1)
-
-    threading.Thread(target=watch, name="exit-with-main", daemon=True).start()
-
-
 def threads_per_worker(workers: int, tasks: int, cores: int | None = None) -> int:
     """numba threads for each of ``workers`` local workers running ``tasks`` episodes: the cores this
     process may use (its affinity, so ``taskset`` counts) shared out among the workers that will run."""
@@ -219,7 +207,7 @@ def _worker_main(conn, threads: int = 0) -> None:
     fill the machine would otherwise each start a thread per core and fight over them.
     """
     signal.signal(signal.SIGINT, signal.SIG_IGN)  # the main process decides; it ends its workers itself
-    _exit_with_main()
+    exit_with_parent()
     if threads > 0:
         import numba
 

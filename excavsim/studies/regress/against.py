@@ -26,6 +26,7 @@ from collections.abc import Callable, Iterator
 
 from excavsim import constants
 from excavsim.errors import ConfigError, DependencyError, ExcavsimError, UsageError
+from excavsim.processes import OwnedProcess
 
 # Runs in the worktree: reads jobs ({"name", "spec"} per line) from the file argv[2] and the renamings
 # ({"tasks": {new: old}, "fields": {new: old}}) from argv[3], prints one JSON line per finished episode.
@@ -120,7 +121,8 @@ class CheckoutRun:
 
     ``start()`` launches it; ``results()`` waits and returns ``{(name, seed): summary}``; each
     finished episode is also handed to ``on_result(name, seed, summary)`` as it arrives (from a
-    reader thread). Use it as a context manager: leaving kills a subprocess still running.
+    reader thread). Use it as a context manager: leaving ends a subprocess still running, and the
+    subprocess ends with this process however it ends (an :class:`~excavsim.processes.OwnedProcess`).
     """
 
     def __init__(self, checkout: pathlib.Path, jobs: list[dict], *, label: str,
@@ -129,7 +131,7 @@ class CheckoutRun:
         self.checkout = pathlib.Path(checkout).resolve()
         self.jobs, self.label, self.on_result = jobs, label, on_result
         self.aliases = aliases or {"tasks": {}, "fields": {}}
-        self.proc: subprocess.Popen | None = None
+        self.proc: OwnedProcess | None = None
         self._found: dict[tuple[str, int], dict] = {}
         self._imported: str | None = None
 
@@ -141,9 +143,9 @@ class CheckoutRun:
         alias_file.write_text(json.dumps(self.aliases))
         env = {**os.environ, "PYTHONPATH": str(self.checkout), "MUJOCO_GL": os.environ.get("MUJOCO_GL", "disable")}
         self._stderr = tempfile.TemporaryFile(mode="w+")
-        self.proc = subprocess.Popen([sys.executable, "-c", DRIVER, str(self.checkout), str(job_file), str(alias_file)],
-                                     cwd=self.checkout, env=env, stdout=subprocess.PIPE, stderr=self._stderr,
-                                     text=True)
+        self.proc = OwnedProcess([sys.executable, "-c", DRIVER, str(self.checkout), str(job_file), str(alias_file)],
+                                 cwd=self.checkout, env=env, stdin=subprocess.DEVNULL, stdout=subprocess.PIPE,
+                                 stderr=self._stderr, text=True)
         self._reader = threading.Thread(target=self._read, daemon=True)
         self._reader.start()
         return self
@@ -184,9 +186,9 @@ class CheckoutRun:
         return self.start()
 
     def __exit__(self, *exc) -> None:
-        if self.proc is not None and self.proc.poll() is None:
-            self.proc.kill()
-            self.proc.wait()
-        if self.proc is not None:
-            self.proc.stdout.close()
-        self._stderr.close()
+        try:
+            if self.proc is not None:
+                self.proc.end()
+                self.proc.stdout.close()
+        finally:
+            self._stderr.close()

@@ -8,6 +8,7 @@ each parses its arguments, makes one call and prints.
 from __future__ import annotations
 
 import argparse
+import contextlib
 
 from excavsim.config.arguments import episode_options, float_in, name_or_path, out_dir, world_options
 from excavsim.errors import ConfigError, shorten
@@ -45,9 +46,15 @@ def _cmd_trench(args: argparse.Namespace) -> int:
         raise ConfigError(f"--record must name an .rrd file; given {shorten(repr(args.record), 200)}")
     spec = parse_config({**spec.model_dump(), **{k: v for k, v in given.items() if v is not None}}, EpisodeSpec,
                         source="the command line")
-    run_with_outputs(spec, robot_path=args.robot_config, scene_path=args.scene_config, record=args.record,
-                     live=args.live, save_maps=args.save_maps, timing=args.timing,
-                     command="trench --spec" if spec.task != "trench" else "trench")
+    live = contextlib.nullcontext(None)
+    if args.live is not None:  # a viewer window that --live alone spawns ends with the command
+        from excavsim.record.live import live_url
+
+        live = live_url(args.live)
+    with live as url:
+        run_with_outputs(spec, robot_path=args.robot_config, scene_path=args.scene_config, record=args.record,
+                         live=url, save_maps=args.save_maps, timing=args.timing,
+                         command="trench --spec" if spec.task != "trench" else "trench")
     return 0
 
 

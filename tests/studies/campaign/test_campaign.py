@@ -20,6 +20,7 @@ from excavsim.errors import ConfigError, ExcavsimError
 from excavsim.studies.campaign import runner as cmp
 from excavsim.loop.scenario import resolve
 from excavsim.tasks.trench.spec import resolve_goal
+from tests.children import Watch, kill
 
 TINY_YAML = constants.CONFIGS_DIR / "campaigns" / "tiny.yaml"
 TINY_BASE = {
@@ -286,7 +287,12 @@ def test_a_campaign_runs_on_ray(tmp_path):
     if not hasattr(ray, "remote"):
         pytest.skip("a folder named ray shadows the package; Ray is not installed")
     spec = cmp.parse_campaign({"name": "ray", "base": TINY_BASE, "grid": {"seed": [0, 1]}})
-    report = cmp.run_campaign(spec, tmp_path, workers=2, ray_address="local", progress=None)
+    with Watch() as watch:
+        report = cmp.run_campaign(spec, tmp_path, workers=2, ray_address="local", progress=None)
+    assert watch.seen, "the campaign started no Ray process"
+    left = watch.left()  # the Ray runtime the campaign launched is shut down: its processes are gone
+    kill(left)
+    assert not left, [watch.seen[p] for p in left]
     assert report.ran == 2 and report.errors == 0
     assert _summary_ids(tmp_path) == [e.id for e in report.episodes]
     assert all(_strict_json(tmp_path / "episodes" / f"{e.id}.json")["summary"]["digs"] == 1
