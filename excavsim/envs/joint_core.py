@@ -38,7 +38,7 @@ from excavsim.config import parse_config
 from excavsim.envs.core import EnvError, Field, as_spec, check_seed, check_vector, check_weights
 from excavsim.envs.joint_region import JointRegion
 from excavsim.envs.joint_trench import JointTrench
-from excavsim.errors import ConfigError, ExcavsimError
+from excavsim.errors import ExcavsimError
 from excavsim.handoff.observation import Diverged, OutOfTime
 from excavsim.loop.scenario import EpisodeSpec, ResolvedSpec
 from excavsim.readouts import element_id, keyframe_qpos
@@ -90,8 +90,8 @@ class JointCore:
             ``start``; the region has none).
 
     Raises:
-        EnvError: an unknown goal, machine or goal setting, a bad weight or time, a machine the goal has no
-            place for.
+        EnvError: an unknown goal or goal setting, a bad weight or time, a machine the goal has no place for.
+        ConfigError: the spec (with the keywords) is not valid, e.g. an unknown machine.
     """
 
     def __init__(self, spec=None, *, goal: str = "trench", machine: str | None = None, soil: str | None = None,
@@ -102,10 +102,7 @@ class JointCore:
                            "to dig is the spec's goal field)")
         kind = JOINT_GOALS[goal]
         self.spec = _with_fields(as_spec(spec), kind, {"machine": machine, "soil": soil, "seed": seed})
-        try:
-            self.machine: Machine = get_machine(self.spec.machine_name)
-        except ConfigError as exc:
-            raise EnvError(str(exc)) from None
+        self.machine: Machine = get_machine(self.spec.machine_name)
         self.resolved = ResolvedSpec(self.spec, robot_path=robot_path, scene_path=scene_path)
         self.weights = check_weights(weights, kind.WEIGHTS, goal)
         max_time_s = kind.MAX_TIME_S if max_time_s is None else max_time_s

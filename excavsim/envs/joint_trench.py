@@ -61,7 +61,8 @@ class JointTrench:
     by the machine's inverse kinematics in the goal's arm plane ``start_height_m`` above the goal's surface
     at radial distance ``start_x_m`` with pitch ``start_pitch_deg``, each drawn from the episode's seed when
     not given (x uniform over the far 60 % of the trench's opening, height uniform in [0.01, 0.06] m, pitch
-    60 deg), the machine set there at rest (no simulated move; the world's ``place``).
+    60 deg), the machine set there at rest (no simulated move; the world's ``place``, with an excavator's
+    servos set to hold it against its droop).
 
     Reward per step, on the true terrain (privileged), the sum of these terms (``info["reward_terms"]``):
 
@@ -170,7 +171,7 @@ class JointTrench:
         if start is None:
             go_home(sim, rig)
         else:
-            self._place(sim, start)
+            self._place(start)
         self._arm_params = arm_params(rig.arm)
         self._scan()
         self.t0 = sim.time
@@ -181,9 +182,10 @@ class JointTrench:
                 "start": "home" if start is None else "near_soil",
                 "start_pose": None if start is None else np.array(start)}
 
-    def _place(self, sim, pose: tuple[float, float, float]) -> None:
+    def _place(self, pose: tuple[float, float, float]) -> None:
         """Set the machine at rest with its tip at ``pose`` (x, z, pitch) in the goal's arm plane, the held
-        joints at their home angles."""
+        joints at their home angles, the servos holding it there (an excavator's cylinders' set-points raised
+        by their droop under the arm's weight, :class:`~excavsim.execution.droop.DroopCompensation`)."""
         rig = self.rig
         q_arm, ok = rig.arm.inverse(np.asarray(pose, dtype=float))
         if not bool(np.all(ok)) or not np.all(np.isfinite(q_arm)):
@@ -193,7 +195,7 @@ class JointTrench:
         driven = self.core.driven
         q[driven[0]] = rig.arm.waist_sign * self._waist
         q[driven[1:]] = q_arm
-        sim.place(q)
+        rig.executor.sim.place(q)  # the executor's servos: the world's, or with an excavator's droop fed forward
 
     def _scan(self) -> None:
         core = self.core

@@ -217,13 +217,17 @@ class ExcavatorWorld:
         self.step(target)
         return self.observe()
 
-    def place(self, q: np.ndarray) -> None:
-        """Set the machine at rest at joint angles ``q`` (4,) (swing, boom, stick, bucket) [rad]: the bucket
-        linkage closed, the servos' set-points at the swing angle and the cylinders' lengths there, velocities
-        and valves zero (:meth:`~excavsim.robot.excavators.ExcavatorSpec.rest_state`, as the keyframes are
-        written), and the derived quantities recomputed (``mj_forward``): a start pose without a simulated move.
-        The cylinders then droop under the arm's weight as from a keyframe."""
-        qpos, act = self.spec.rest_state(q)
+    def place(self, q: np.ndarray, setpoints: np.ndarray | None = None) -> None:
+        """Set the machine still at joint angles ``q`` (4,) (swing, boom, stick, bucket) [rad], the bucket
+        linkage closed, velocities and valves zero, and the servos' set-points at the swing angle and the
+        cylinders' lengths of the angles ``setpoints`` (4,) (default ``q``) [rad]
+        (:meth:`~excavsim.robot.excavators.ExcavatorSpec.rest_state`, as the keyframes are written); the derived
+        quantities recomputed (``mj_forward``): a start pose without a simulated move. With the set-points at
+        ``q`` the cylinders then droop under the arm's weight, as from a keyframe; set-points above ``q`` by
+        that droop hold the arm where it is (:meth:`DroopCompensation.place
+        <excavsim.execution.droop.DroopCompensation.place>`)."""
+        qpos, _ = self.spec.rest_state(q)
+        _, act = self.spec.rest_state(q if setpoints is None else setpoints)
         d = self.data
         d.qpos[self._rest_qpos] = qpos
         d.qvel[:] = 0.0

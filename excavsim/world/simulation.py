@@ -248,14 +248,15 @@ class Simulation:
         for hook in self.step_hooks:
             hook(self)
 
-    def place(self, q: np.ndarray) -> None:
+    def place(self, q: np.ndarray, setpoints: np.ndarray | None = None) -> None:
         """Set the joints at angles ``q`` (6,) [rad] at rest, the servos' integrator states (their position
-        set-points) at the same angles and their rates zero, and recompute the derived quantities
-        (``mj_forward``): a start pose without a simulated move."""
+        set-points) at ``setpoints`` (default the same angles: the integrating servos hold them without
+        droop) and their rates zero, and recompute the derived quantities (``mj_forward``): a start pose
+        without a simulated move."""
         d = self.data
         d.qpos[self._joint_qpos] = q
         d.qvel[:] = 0.0
-        d.act[self.model.actuator_actadr[self._act]] = q
+        d.act[self.model.actuator_actadr[self._act]] = q if setpoints is None else setpoints
         d.ctrl[self._act] = 0.0
         mujoco.mj_forward(self.model, d)
 
