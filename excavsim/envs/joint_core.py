@@ -29,7 +29,7 @@ from __future__ import annotations
 
 import math
 from collections.abc import Mapping
-from typing import Any
+from typing import Any, NamedTuple
 
 import mujoco
 import numpy as np
@@ -55,6 +55,15 @@ JOINT_GOALS = {"trench": JointTrench, "region": JointRegion}
 ends on."""
 SPEC_KEYWORDS = ("machine", "soil", "seed")
 """The spec's fields :class:`JointCore` also takes as keywords (they override the spec's)."""
+
+
+class Encoders(NamedTuple):
+    """The joint encoders alone (every joint's angle [rad] and speed [rad/s]): what the core reads of the world
+    when neither the machine's force reading nor the goal needs its full sensor reading (an excavator's joint
+    torques cost more than its whole step without soil)."""
+
+    q: np.ndarray
+    qdot: np.ndarray
 
 
 class JointCore:
@@ -175,7 +184,7 @@ class JointCore:
         info = self.goal.reset(sim, seed, start)
         self.over = False
         self.steps = 0
-        self.reading = sim.observe()
+        self.reading = self.read()
         obs = self.observation(self.reading)
         self.goal.started()
         return obs, info
@@ -193,6 +202,8 @@ class JointCore:
         self._gain = float(sim.robot.setpoint_gain_per_s) if len(self.held) else 0.0
         self._flows = sim.drive.flows if m.hydraulics is not None else None
         self._rates = np.zeros(len(m.joints))
+        self._dof = model.jnt_dofadr[[element_id(model, "joint", j) for j in m.joints]]
+        self._observes = m.force_reading == "ft" or self.goal.READS_TORQUES
         if m.force_reading == "ft":
             self.ft = ForceSensor.from_config(model, self.resolved.sensing.force_sensor, joints=m.joints)
             self._ft_out = np.zeros((4, 3))
@@ -207,7 +218,7 @@ class JointCore:
         rates = self.rates(action)
         try:
             self.sim.step_rates(rates)
-            reading = self.sim.observe()
+            reading = self.read()
         except (Diverged, OutOfTime) as exc:
             return self.diverged(exc)
         return self.after_step(reading)
@@ -237,7 +248,7 @@ class JointCore:
     def diverged(self, exc: BaseException):
         """The step's result when the world diverged (or ran out of wall-clock time): terminated, reward 0."""
         self.over = True
-        self.reading = self.sim.observe()
+        self.reading = self.read()
         return (self.observation(self.reading), 0.0, True, False,
                 {"time_s": self.goal.elapsed(), "diverged": str(exc)})
 
@@ -264,8 +275,16 @@ class JointCore:
         return observation, float(sum(terms.values())), step["terminated"], step["truncated"], step["info"]
 
     # -- observation ----------------------------------------------------------------------------
+    def read(self):
+        """The world's reading now: its full sensor reading (:meth:`observe`: the F/T, the joints' torques)
+        where the machine's force reading or the goal needs it, else its :class:`Encoders`."""
+        sim = self.sim
+        if self._observes:
+            return sim.observe()
+        return Encoders(sim.joint_angles(), sim.data.qvel[self._dof].copy())
+
     def observation(self, reading) -> dict[str, np.ndarray]:
-        """The observation of the world's ``reading`` (an :class:`~excavsim.handoff.observation.Observation`)."""
+        """The observation of the world's ``reading`` (:meth:`read`)."""
         m = self.machine
         obs = {"q": np.clip(reading.q, -m.angle_bound_rad, m.angle_bound_rad).astype(np.float32),
                "qdot": np.clip(reading.qdot, -m.speed_bound_rad_s, m.speed_bound_rad_s).astype(np.float32)}

@@ -63,6 +63,7 @@ class JointRegion:
     MAX_TIME_S = 20.0
     SPEC_DEFAULTS = {"machine": "tb035", "soil": "dry_sand"}
     OPTIONS = ()
+    READS_TORQUES = False  # the relief term reads the cylinders' forces
 
     def __init__(self, core):
         name = core.machine.name

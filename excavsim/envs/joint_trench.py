@@ -94,6 +94,7 @@ class JointTrench:
     MAX_TIME_S = 60.0
     SPEC_DEFAULTS: dict[str, Any] = {}
     OPTIONS = ("scan_period_s", "patch_size", "patch_spacing_m", "start")
+    READS_TORQUES = True  # the saturation terms read the joints' torques
 
     def __init__(self, core, *, scan_period_s: float = 1.0, patch_size: int = 9, patch_spacing_m: float = 0.1,
                  start: str = "home"):
