@@ -134,6 +134,7 @@ class JointCore:
         machine_fields = self._machine_fields()
         self.goal = kind(self, **options)
         self.fields = {**machine_fields, **self.goal.fields()}
+        self._observes = m.force_reading == "ft" or kind.READS_TORQUES  # what :meth:`read` reads
         self.sim = None
         self.reading = None
         self.over = True
@@ -203,7 +204,6 @@ class JointCore:
         self._flows = sim.drive.flows if m.hydraulics is not None else None
         self._rates = np.zeros(len(m.joints))
         self._dof = model.jnt_dofadr[[element_id(model, "joint", j) for j in m.joints]]
-        self._observes = m.force_reading == "ft" or self.goal.READS_TORQUES
         if m.force_reading == "ft":
             self.ft = ForceSensor.from_config(model, self.resolved.sensing.force_sensor, joints=m.joints)
             self._ft_out = np.zeros((4, 3))
