@@ -653,7 +653,8 @@ def bench_envs(*, copies: int = 8, steps: int = 200, seed: int = 0) -> list[Row]
     import mujoco
 
     import excavsim.envs  # noqa: F401 - registers the environments
-    from excavsim.envs.joint_core import DIG_TASK, JointCore
+    from excavsim.envs.joint_core import JointCore
+    from excavsim.envs.joint_trench import DIG_TASK
 
     env_id = "excavsim/TrenchJointDig-v0"
     horizon = {"max_time_s": 2 * steps / 100 + 10}  # no episode ends while timed

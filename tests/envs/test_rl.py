@@ -64,8 +64,9 @@ def test_every_environment_is_registered_and_the_joint_ones_have_the_batched_vec
     assert excavsim.envs.register()
     for env_id in ENV_IDS:
         assert env_id in gym.envs.registration.registry
-    for env_id in (JOINT_ENV_ID, JOINT_DIG_ENV_ID):
+    for env_id in (JOINT_ENV_ID, JOINT_DIG_ENV_ID, EXCAVATOR_JOINT_ENV_ID):
         assert gym.spec(env_id).vector_entry_point == "excavsim.envs.batched:BatchedJointEnv"
+        assert gym.spec(env_id).entry_point == "excavsim.envs.joint_env:JointEnv"  # one face for every machine
     assert gym.spec(JOINT_DIG_ENV_ID).kwargs["max_time_s"] == 6.0  # 600 steps, one dig
 
 
