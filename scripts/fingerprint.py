@@ -223,10 +223,28 @@ def _key(path: pathlib.Path) -> str:
     return _renamed(doc["name"]) if isinstance(doc, dict) and "name" in doc else path.name
 
 
+NEW_SUMMARY_KEYS = {"task": "trench"}
+"""Keys a summary gained when the tasks became plug-ins (every summary says its task), with the value a
+summary of before would have had; a summary of A without one is compared as if it had it."""
+
+
+def _with_new_keys(doc):
+    """``doc`` with the :data:`NEW_SUMMARY_KEYS` a trench summary lacked (a dict holding ``end`` and ``digs``)."""
+    if isinstance(doc, dict):
+        doc = {k: _with_new_keys(v) for k, v in doc.items()}
+        if "end" in doc and "digs" in doc:
+            doc = {**{k: v for k, v in NEW_SUMMARY_KEYS.items() if k not in doc}, **doc}
+        return doc
+    if isinstance(doc, list):
+        return [_with_new_keys(v) for v in doc]
+    return doc
+
+
 def _normal(doc):
     """A result for comparison: its volatile keys stripped, its id, recording path and spec left out (the
     spec's fields are inputs, and its shape may change with the code; what it ran is in ``params``), and the
     renamed names replaced."""
+    doc = _with_new_keys(doc)
     if not RENAMES:
         return _strip(doc)
     if isinstance(doc, dict):
