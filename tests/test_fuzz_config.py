@@ -55,10 +55,10 @@ BASES = {
     "campaign": _shipped(constants.CONFIGS_DIR / "campaigns" / "tiny.yaml"),
     "experiment": _shipped(constants.CONFIGS_DIR / "experiments" / "fig114.yaml"),
     "regress": _shipped(constants.CONFIGS_DIR / "regress" / "small_sand.yaml"),
-    "loading": _shipped(constants.CONFIGS_DIR / "loading.yaml"),
-    "loading_mujoco": _shipped(constants.CONFIGS_DIR / "loading_mujoco.yaml"),
-    "loading_campaign": _shipped(constants.CONFIGS_DIR / "campaigns" / "loading_mujoco.yaml"),
-    "truck": _shipped(constants.CONFIGS_DIR / "truck.yaml"),
+    "pile_loading_planar": _shipped(constants.CONFIGS_DIR / "pile_loading_planar.yaml"),
+    "pile_loading": _shipped(constants.CONFIGS_DIR / "pile_loading.yaml"),
+    "pile_loading_campaign": _shipped(constants.CONFIGS_DIR / "campaigns" / "pile_loading_machines.yaml"),
+    "dump_trial": _shipped(constants.CONFIGS_DIR / "dump_trial.yaml"),
 }
 
 

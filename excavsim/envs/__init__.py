@@ -5,7 +5,7 @@
   with the agent in the planner's place.
 * ``excavsim/LoadDig-v0`` (:class:`~excavsim.envs.load_env.LoadDigEnv`): loading from a pile in
   MuJoCo, one step per dig, the action the loading planner's (k, alpha); the episode is the loop of
-  ``excavsim trench --spec`` with ``task: load`` and the agent in the loading planner's place.
+  ``excavsim trench --spec`` with ``task: pile_loading`` and the agent in the loading planner's place.
 * The joint level, one environment for any trenching machine (:class:`~excavsim.envs.joint_env.JointEnv`
   over :class:`~excavsim.envs.joint_core.JointCore`): one step per control period, the action the set-point
   rates of the machine's four digging joints; the machine is the spec's (or ``machine=``). Three ids,

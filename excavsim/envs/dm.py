@@ -122,7 +122,7 @@ class DmLoadDig(_DmFace):
     :class:`~excavsim.envs.load_env.LoadDigEnv`).
 
     Args:
-        spec: the episode (task load); seed: the first episode's seed (see the module docstring); the
+        spec: the episode (task pile_loading); seed: the first episode's seed (see the module docstring); the
             rest as :class:`~excavsim.envs.load_core.LoadCore`.
     """
 

@@ -26,8 +26,8 @@ from excavsim.loop.plugin import TaskPlugin, load_entry
 
 TASKS: dict[str, str] = {
     "trench": "excavsim.tasks.trench.plugin:Trench",  # a trench goal dug by the T3 or an excavator (Singh 1995 §7.2)
-    "pile_loading": "excavsim.tasks.load.plugin:PileLoading",  # the loader or shovel loads from a pile (Singh 1995 §7.2.1)
-    "dump_trial": "excavsim.tasks.truck.plugin:DumpTrial",  # one dig-swing-dump trial of Rowe's script (Rowe 1997 §6.2)
+    "pile_loading": "excavsim.tasks.pile_loading.plugin:PileLoading",  # the loader or shovel loads from a pile (Singh 1995 §7.2.1)
+    "dump_trial": "excavsim.tasks.dump_trial.plugin:DumpTrial",  # one dig-swing-dump trial of Rowe's script (Rowe 1997 §6.2)
     "truck_loading": "excavsim.tasks.truck_loading.plugin:TruckLoading",  # a truck loaded to full (Rowe 1997 §4, §6)
 }
 """The package's own tasks: name -> the entry point of its plug-in class."""

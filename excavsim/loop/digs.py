@@ -3,8 +3,8 @@
 The platform's :class:`~excavsim.loop.episode.Episode` asks its task, and the task its dig source,
 for one dig per cycle on the map it just scanned, and tells the source afterwards how the dig went.
 Each task has its own sources: trenching's planner, random feasible digs and scripted digs
-(:mod:`excavsim.tasks.trench.digs`), loading's planner (:mod:`excavsim.tasks.load.task`), the
-truck's script (:mod:`excavsim.tasks.truck.trial`); the dig-level environments give the agent's.
+(:mod:`excavsim.tasks.trench.digs`), loading's planner (:mod:`excavsim.tasks.pile_loading.task`), the
+truck's script (:mod:`excavsim.tasks.dump_trial.trial`); the dig-level environments give the agent's.
 """
 
 from __future__ import annotations

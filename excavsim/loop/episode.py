@@ -62,7 +62,7 @@ class Task(Protocol):
 
     Each hook's arguments are the task's own (a trench's :class:`~excavsim.handoff.dig.Dig` and
     :class:`~excavsim.handoff.dig.ExecutionRecord`, a loading dig's path and its
-    :class:`~excavsim.tasks.load.task.MujocoDig`); an observer of a task knows them.
+    :class:`~excavsim.tasks.pile_loading.task.MujocoDig`); an observer of a task knows them.
 
     Attributes:
         wall_limit_s: the episode's wall-clock limit [s] (``math.inf``: none), known after :meth:`reset`.

@@ -145,10 +145,10 @@ def test_run_runs_a_spec_of_any_task_through_its_plugin(capsys, monkeypatch):
     seen = []
     monkeypatch.setattr(scenario, "run_spec", lambda spec, **kw: seen.append(spec) or object())
     monkeypatch.setattr(catalog.plugin("dump_trial"), "format_run", lambda result: "the task's table")
-    assert main(["run", "configs/specs/truck_trial.yaml", "--seed", "4"]) == 0
+    assert main(["run", "configs/specs/dump_trial.yaml", "--seed", "4"]) == 0
     out = capsys.readouterr().out
     assert "excavsim run: task dump_trial, machine t3, one trial, seed 4" in out and "the task's table" in out
     assert seen[0].task == "dump_trial" and seen[0].seed == 4
-    assert main(["run", "configs/specs/truck_trial.yaml", "--dig-budget", "3"]) == 2
+    assert main(["run", "configs/specs/dump_trial.yaml", "--dig-budget", "3"]) == 2
     assert "dig_budget: task dump_trial has no budget of digs" in capsys.readouterr().err
     assert main(["run"]) == 2  # SPEC is required

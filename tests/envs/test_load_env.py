@@ -3,7 +3,7 @@ loading planner's. Gymnasium's checker, seeding, the snapping of infeasible acti
 policy against the plain loading episode, and the errors for bad specs, seeds and actions.
 
 Every episode is tiny: a 0.6 m pile the loader clears in two digs, one coarse scan per map, and a
-planner grid of 20 cm and 10 degrees (a quarter of configs/loading.yaml's cells).
+planner grid of 20 cm and 10 degrees (a quarter of configs/pile_loading_planar.yaml's cells).
 """
 
 from __future__ import annotations
@@ -24,8 +24,8 @@ from excavsim.envs.load_env import LoadDigEnv, LoadPlannerPolicy
 from excavsim.envs.render import offscreen_error
 from excavsim.loop.episode import Episode
 from excavsim.loop.scenario import EpisodeSpec, resolve
-from excavsim.tasks.load import planar as ld
-from excavsim.tasks.load.task import LoadTask
+from excavsim.tasks.pile_loading import planar as ld
+from excavsim.tasks.pile_loading.task import LoadTask
 
 TINY = {
     "name": "tiny", "dig_budget": 2, "seed": 0,
@@ -64,7 +64,7 @@ def test_gymnasium_check_env_passes_and_the_spaces_are_the_documented_ones():
         check_env(env.unwrapped, skip_render_check=offscreen_error() is not None)
         u = env.unwrapped
         assert u.action_space.shape == (2,) and u.action_space.dtype == np.float32
-        np.testing.assert_allclose(u.action_space.low, [-0.4, np.radians(-30)], rtol=1e-6)  # configs/loading.yaml
+        np.testing.assert_allclose(u.action_space.low, [-0.4, np.radians(-30)], rtol=1e-6)  # configs/pile_loading_planar.yaml
         np.testing.assert_allclose(u.action_space.high, [4.0, np.radians(40)], rtol=1e-6)
         assert u.core.rules.k_step == 0.2
         assert u.observation_space["sections"].shape == (3, PROFILE_X.size) == (3, 170)

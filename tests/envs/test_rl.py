@@ -20,7 +20,7 @@ import pytest
 from gymnasium.utils.env_checker import check_env as gym_check_env
 
 import excavsim.envs
-from excavsim.config.loading import load_loading_config
+from excavsim.tasks.pile_loading.config_planar import load_loading_config
 from excavsim.envs import (DIG_ENV_ID, ENV_IDS, EXCAVATOR_JOINT_ENV_ID, JOINT_DIG_ENV_ID, JOINT_ENV_ID, LOAD_DIG_ENV_ID,
                            EnvError)
 from excavsim.envs.batched import BatchedJointEnv, watch_ok

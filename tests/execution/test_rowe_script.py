@@ -12,7 +12,7 @@ import mujoco
 import numpy as np
 import pytest
 
-from excavsim.config.truck_loading import load_truck_loading_file
+from excavsim.tasks.truck_loading.config import load_truck_loading_file
 from excavsim.errors import GoalError
 from excavsim.execution.conditions import always, joint_above, joint_below
 from excavsim.execution.rowe_script.geometry import TruckSite, bucket_for_pitch, clearance_boom_angle
@@ -23,7 +23,7 @@ from excavsim.execution.rowe_script.timing import ProfileTiming, SwingProfile, T
 from excavsim.execution.script import Command, Script, Step, SubScript
 from excavsim.robot.excavators import EXCAVATOR_25T
 from excavsim.robot.extract import arm_from_model
-from excavsim.tasks.truck import trial as truck
+from excavsim.tasks.dump_trial import trial as truck
 from excavsim.tasks.truck_loading import task as loading
 from excavsim.world.hydraulics import EXCAVATOR_JOINTS
 from excavsim.world.simulation import Simulation

@@ -13,7 +13,7 @@ from pydantic import Field
 
 from excavsim.config import StrictModel
 from excavsim.config.kinds import plain_kind
-from excavsim.config.truck_loading import TruckLoadingFile
+from excavsim.tasks.truck_loading.config import TruckLoadingFile
 from excavsim.loop.plugin import Metric, TaskPlugin
 
 NAME = "truck_loading"
@@ -51,7 +51,7 @@ class TruckLoading(TaskPlugin):
     outputs = frozenset({"live"})
 
     def resolve(self, spec, *, robot_path=None, scene_path=None) -> TruckLoadingFile:
-        from excavsim.config.truck_loading import load_truck_loading_file
+        from excavsim.tasks.truck_loading.config import load_truck_loading_file
         from excavsim.loop.scenario import override
 
         super().resolve(spec, robot_path=robot_path, scene_path=scene_path)

@@ -1,8 +1,8 @@
 """Truck loading with the 25 t excavator, pass after pass until the truck is full (Rowe 1997 §4, §6).
 
 ``task: truck_loading`` of the episode specification (machine ``excavator_25t``). A new task rather than
-``task: truck`` with another machine: ``truck`` is one trial of §6.2's experiment on the T3 (the truck
-moved away, one dump on the ground, its configuration ``configs/truck.yaml``), this is the loading of a
+``task: dump_trial`` with another machine: ``truck`` is one trial of §6.2's experiment on the T3 (the truck
+moved away, one dump on the ground, its configuration ``configs/dump_trial.yaml``), this is the loading of a
 real truck to full, pass after pass, with its own configuration (``configs/truck_loading.yaml``, the
 spec's ``truck_loading:`` overrides) and a pass budget (the spec's ``dig_budget``); keeping them apart
 leaves the T3 trial as it was, bit for bit.
@@ -40,7 +40,7 @@ from typing import Any
 import numpy as np
 
 from excavsim.config import get_soil, load_sensing_config
-from excavsim.config.truck_loading import TruckLoadingFile
+from excavsim.tasks.truck_loading.config import TruckLoadingFile
 from excavsim.errors import ConfigError, GoalError
 from excavsim.execution.autodig import AutoDigConfig, autodig
 from excavsim.execution.rowe_script.geometry import ClearDump, TruckSite

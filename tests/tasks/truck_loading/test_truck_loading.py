@@ -9,7 +9,7 @@ import math
 import numpy as np
 import pytest
 
-from excavsim.config.truck_loading import load_truck_loading_file
+from excavsim.tasks.truck_loading.config import load_truck_loading_file
 from excavsim.errors import ConfigError
 from excavsim.loop.episode import Episode
 from excavsim.loop.scenario import EpisodeSpec, episode_summary, load_spec, resolve, run_spec
