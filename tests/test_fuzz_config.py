@@ -232,7 +232,7 @@ def stubbed(monkeypatch):
     import excavsim.studies.experiment
     import excavsim.record
     import excavsim.studies.learning.compare
-    import excavsim.loop.rig  # before the patches: a module importing a name after them would keep the stub
+    import excavsim.rig.core  # before the patches: a module importing a name after them would keep the stub
     import excavsim.loop.scenario
     import excavsim.robot.reachability
     import excavsim.world.simulation
@@ -242,7 +242,7 @@ def stubbed(monkeypatch):
     monkeypatch.setattr(excavsim.studies.experiment, "run_experiment", would_run)
     monkeypatch.setattr(excavsim.studies.learning.compare, "run_learn", would_run)
     monkeypatch.setattr(excavsim.robot.reachability, "load_or_build", would_run)
-    monkeypatch.setattr(excavsim.loop.rig, "load_or_build", would_run)
+    monkeypatch.setattr(excavsim.rig.core, "load_or_build", would_run)
     monkeypatch.setattr(excavsim.world.simulation, "Simulation", would_run)
     monkeypatch.setattr(excavsim.record, "TrenchRecorder", would_run)
 

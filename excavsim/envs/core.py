@@ -149,7 +149,7 @@ class GoalWindow:
 
     Rows run along the lateral axis (towards +y at waist 0), columns radially away from the robot.
     World points use the loop's convention for the trench's footprint
-    (:func:`~excavsim.loop.measures.trench_footprint`): the arm plane through the waist axis.
+    (:func:`~excavsim.rig.measures.trench_footprint`): the arm plane through the waist axis.
     """
 
     def __init__(self, goal: TrenchGoal, spacing_m: float, margin_m: float, half_width_m: float):

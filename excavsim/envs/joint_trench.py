@@ -4,7 +4,7 @@
 trench, the height patch around the tip, the reward on the true trench, the ends and the clock. It runs on
 any trenching machine (the spec's ``machine``): the trench goal is resolved in that machine's pit, and the
 loop's pieces around it (the scanner and the machine's model of itself,
-:func:`~excavsim.loop.rig.make_rig`) are that machine's. The observation helpers it shares with the dig
+:func:`~excavsim.rig.core.make_rig`) are that machine's. The observation helpers it shares with the dig
 level (:class:`~excavsim.envs.core.Field`, :class:`~excavsim.envs.core.TrueTrench`) stay in
 :mod:`~excavsim.envs.core`.
 """
@@ -19,8 +19,8 @@ import numpy as np
 
 from excavsim.envs.core import EnvError, Field, TrueTrench
 from excavsim.handoff.goal import goal_profile
-from excavsim.loop.measures import trench_footprint
-from excavsim.loop.rig import go_home, make_rig, scan
+from excavsim.rig.measures import trench_footprint
+from excavsim.rig.core import go_home, make_rig, scan
 from excavsim.robot.fast import arm_params, forward_pose
 from excavsim.tasks.trench.task import map_done
 

@@ -32,7 +32,7 @@ from excavsim.handoff.episode import EpisodeObserver, ObserverGroup
 from excavsim.handoff.maps import ElevationMap
 from excavsim.learning.dataset import ForceDataset, path_progress
 from excavsim.learning.encoding import Terrain, encode
-from excavsim.loop.samples import DigSamples
+from excavsim.rig.samples import DigSamples
 
 # The band around a dig's path where the scans count the soil it removed: the settlement after the
 # dig moves soil only within it, the spoil lands outside it (measured: the removed volume within
@@ -293,7 +293,7 @@ def dataset_from_recording(rec: dict[str, Any], *, arm, waist: float, width: flo
 def recording_dataset(rec: dict[str, Any]) -> ForceDataset:
     """:func:`dataset_from_recording` with the robot's kinematics, the planner and the trench of the
     recording's configuration (its goal's waist angle; the default scene's arm and bucket)."""
-    from excavsim.loop.rig import make_rig
+    from excavsim.rig.core import make_rig
     from excavsim.world.simulation import Simulation
 
     sim = Simulation(seed=0)

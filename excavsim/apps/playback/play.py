@@ -40,7 +40,7 @@ from excavsim.execution.playback import (DepthDual, Demonstration, FixedImpedanc
 from excavsim.handoff.dig import DigPlan
 from excavsim.handoff.maps import ElevationMap
 from excavsim.handoff.dig import DEMO_ACTION
-from excavsim.loop.rig import go_home, go_to, make_rig
+from excavsim.rig.core import go_home, go_to, make_rig
 from excavsim.world.simulation import Simulation
 
 DEMO_SOIL = "testbed_sand"

@@ -25,9 +25,9 @@ from excavsim.errors import GoalError, UsageError
 from excavsim.execution.demonstration import Demonstration, plane_state
 from excavsim.execution.teleop import FINISH, HELP, TeleopOptions, apply_key, keys_of
 from excavsim.handoff.episode import EpisodeObserver
-from excavsim.loop.measures import episode_result, trench_footprint
+from excavsim.rig.measures import episode_result, trench_footprint
 from excavsim.apps.playback.play import DEMO_SOIL, demo_plan, make_world
-from excavsim.loop.rig import go_home, go_to, make_rig
+from excavsim.rig.core import go_home, go_to, make_rig
 
 START_HEIGHT_M = 0.10  # above the demonstration dig's entry
 

@@ -1,6 +1,6 @@
 """Collecting force data by digging in the simulator (Singh 1995 §5.2.4: ~4000 samples of 30 digs).
 
-This module and :mod:`excavsim.tasks.trench.online` are where learning meets the world: they run episodes
+This module and :mod:`excavsim.rig.online` are where learning meets the world: they run episodes
 (:func:`~excavsim.tasks.trench.task.run_episode`) with an observer that turns every dig into force
 samples. The rest of :mod:`excavsim.learning` is numpy, scipy and scikit-learn on arrays.
 
@@ -8,7 +8,7 @@ samples. The rest of :mod:`excavsim.learning` is numpy, scipy and scikit-learn o
 episode per bed whose digs are **random feasible actions** (seeded,
 :class:`~excavsim.tasks.trench.digs.RandomFeasibleDigs`) among those sweeping at least
 ``min_volume_fraction`` of the bucket, instead of the planner's choice, so that the data cover the
-action space and the terrain as the trench deepens; :class:`~excavsim.loop.samples.DigSamples`
+action space and the terrain as the trench deepens; :class:`~excavsim.rig.samples.DigSamples`
 takes the rows of every dig from its execution record.
 """
 
@@ -23,7 +23,7 @@ import numpy as np
 
 from excavsim.errors import ConfigError, GoalError
 from excavsim.learning.dataset import ForceDataset
-from excavsim.loop.samples import DigSamples
+from excavsim.rig.samples import DigSamples
 
 
 class _Collector(DigSamples):

@@ -42,7 +42,7 @@ from excavsim.handoff.maps import ElevationMap
 from excavsim.learning.lwr_tuning import Objective
 from excavsim.loop.digs import Choice
 from excavsim.loop.episode import Episode
-from excavsim.loop.rig import go_to
+from excavsim.rig.core import go_to
 from excavsim.robot.extract import arm_from_model
 from excavsim.sensing.elevation import scan_map
 from excavsim.world.scanner import LaserScanner

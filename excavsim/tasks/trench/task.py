@@ -35,8 +35,8 @@ from excavsim.handoff.maps import ElevationMap
 from excavsim.handoff.observation import Diverged, OutOfTime
 from excavsim.loop.digs import Choice, DigSource
 from excavsim.loop.episode import Episode, world_failed
-from excavsim.loop.measures import episode_result, trench_footprint
-from excavsim.loop.rig import bucket_witness, go_home, make_rig, park, scan
+from excavsim.rig.measures import episode_result, trench_footprint
+from excavsim.rig.core import bucket_witness, go_home, make_rig, park, scan
 from excavsim.mechanics.wedge import G_M_S2
 from excavsim.planning.experience import DigExperience, failure_kind
 from excavsim.robot.kinematics import PlanarArm
@@ -67,7 +67,7 @@ class TrenchTask:
     (``machine``: ``tb035``, ``excavator_25t``) out of its pit, in the same loop.
 
     Its world is a :class:`~excavsim.world.simulation.Simulation`, its pieces the loop's
-    :class:`~excavsim.loop.rig.Rig`; it parks the arm out of the scanner's view before each scan,
+    :class:`~excavsim.rig.core.Rig`; it parks the arm out of the scanner's view before each scan,
     is done when the map shows the trench within tolerance, takes its digs from a
     :class:`~excavsim.loop.digs.DigSource` (the planner by default), executes them with the dig
     script and measures them (:class:`~excavsim.handoff.episode.DigMetrics`); its result is an
@@ -82,7 +82,7 @@ class TrenchTask:
             ``configs/``), the world's used when :meth:`reset` is given none.
         machine: the trenching machine (:mod:`excavsim.robot.machine`; default the T3): its world
             (:func:`~excavsim.world.machines.make_world`) and the rig on its joints, planar chain, reach and
-            torque limits (:func:`~excavsim.loop.rig.make_rig`). The configurations and the goal must be the
+            torque limits (:func:`~excavsim.rig.core.make_rig`). The configurations and the goal must be the
             machine's (:class:`~excavsim.tasks.trench.spec.TrenchResolved` merges ``configs/machines/<machine>.yaml``).
     """
 
@@ -239,7 +239,7 @@ def spec_episode(spec, resolved, *, progress: Callable[[str], None] | None = Non
     o = spec.options
     if o.predictor != "wedge":
         from excavsim.handoff.episode import ObserverGroup
-        from excavsim.tasks.trench.online import OnlineLearning
+        from excavsim.rig.online import OnlineLearning
 
         observer = ObserverGroup(OnlineLearning(o.predictor, progress=progress), observer)
     r = resolved

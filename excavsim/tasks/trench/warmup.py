@@ -17,7 +17,7 @@ from collections.abc import Callable
 import numpy as np
 
 from excavsim.handoff.maps import ElevationMap
-from excavsim.loop.rig import make_rig
+from excavsim.rig.core import make_rig
 from excavsim.loop.scenario import EpisodeSpec, run_spec
 from excavsim.world.simulation import Simulation
 

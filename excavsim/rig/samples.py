@@ -4,7 +4,7 @@
 terrain of each scan and the phases of each chosen dig, and turns a dig's execution record into
 force samples (:func:`~excavsim.learning.dataset.samples_from_record`, the encoding of
 Singh 1995 §5.2.2). Collecting data (:mod:`excavsim.studies.learning.collect`) and learning
-online (:mod:`excavsim.tasks.trench.online`) both build on it.
+online (:mod:`excavsim.rig.online`) both build on it.
 """
 
 from __future__ import annotations

@@ -24,7 +24,7 @@ from excavsim.learning.adapter import LearnedForcePredictor
 from excavsim.learning.dataset import ForceDataset
 from excavsim.learning.evaluate import magnitude
 from excavsim.learning.predictors import ForceModel, WedgeModel, make_model
-from excavsim.loop.samples import DigSamples
+from excavsim.rig.samples import DigSamples
 
 
 @dataclasses.dataclass(frozen=True)
