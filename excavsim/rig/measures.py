@@ -1,8 +1,8 @@
 """The rig's privileged measures of a trench: where it lies on the soil grid, and the true terrain against it.
 
 The world's truth, for metrics and results only (the mind sees the scanned maps): the trenching task
-(:class:`~excavsim.tasks.trench.task.TrenchTask`) measures its episodes with them, and so do the
-other drivers of the T3 that dig towards a trench goal (teleoperation,
+measures its episodes with them, and so do the other drivers of the T3 that dig towards a trench goal
+(teleoperation,
 :mod:`excavsim.apps.playback.teleop`; the joint-level environments).
 """
 

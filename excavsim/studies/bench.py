@@ -169,8 +169,17 @@ def bench_soil_coupling() -> list[Row]:
     ``Simulation.step`` is timed; the first run also compiles the numba kernels, so a warm-up demo
     runs first.
     """
-    from excavsim.tasks.trench.demo import run_demo
+    from excavsim.handoff.dig import DEMO_ACTION
+    from excavsim.loop.scenario import EpisodeSpec, resolve
     from excavsim.world.simulation import Simulation
+
+    spec = EpisodeSpec(name="demo", goal="sand", dig_budget=1, done_fraction=None)  # the default task's demo dig
+    resolved = resolve(spec)
+
+    def run_demo(sim: Simulation):
+        episode = spec.plugin.episode(spec, resolved)
+        episode.reset(0, sim=sim, digs=spec.plugin.dig_source("scripted", [DEMO_ACTION]))
+        return episode.run()
 
     class Recorder(Simulation):
         def __init__(self, *a, **k):
