@@ -97,8 +97,10 @@ MODULES.update({f"tests.{name}": f"tests.{folder.replace('/', '.')}.{name}" for 
 # platform's loop.episode and loop.digs for excavsim.tasks.trench (Episode, Task, MapWriter, Choice and
 # DigSource stayed; the trench's privileged measures went to loop.measures, the demo's action to handoff).
 NAMES: dict[str, str] = {
-    **{f"excavsim.loop.episode.{n}": f"excavsim.tasks.trench.task.{n}"
-       for n in ("TrenchTask", "run_episode", "map_done", "dig_metrics", "MIN_USEFUL_M3")},
+    **{f"excavsim.loop.episode.{n}": f"excavsim.tasks.trench.task.{n}" for n in ("TrenchTask", "run_episode", "map_done")},
+    # a dig's metrics, then in the trench task, serve every task that digs with the rig
+    **{f"{old}.{n}": f"excavsim.rig.measures.{n}" for old in ("excavsim.loop.episode", "excavsim.tasks.trench.task")
+       for n in ("dig_metrics", "MIN_USEFUL_M3")},
     **{f"excavsim.loop.episode.{n}": f"excavsim.loop.measures.{n}" for n in ("trench_footprint", "episode_result")},
     **{f"excavsim.loop.digs.{n}": f"excavsim.tasks.trench.digs.{n}"
        for n in ("PlannedDigs", "RandomFeasibleDigs", "ScriptedDigs", "predicted_peaks", "relaxed_margins",

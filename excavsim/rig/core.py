@@ -5,12 +5,15 @@ the configurations, the robot's model of itself (:class:`~excavsim.robot.kinemat
 read from the compiled model), the scanner, the planner with its nominal force predictor, the dig
 executor and the model's ``home`` and ``park`` keyframes. :func:`park`, :func:`go_home` and
 :func:`scan` are the moves around each dig (Singh 1995 §7.2, Fig. 107): park out of
-the scanner's view, scan ten images into a map, come back over the box.
+the scanner's view, scan ten images into a map, come back over the box; :func:`execute_dig` digs one
+planned dig in the plane of the rig's goal and measures it, :func:`world_stop` says when its record
+ends the episode.
 """
 
 from __future__ import annotations
 
 import dataclasses
+import math
 import time
 from collections.abc import Callable
 
@@ -21,7 +24,9 @@ from excavsim.config import (ExecutorConfig, PlannerConfig, SensingConfig, SoilP
                              load_executor_config, load_planner_config, load_sensing_config, load_trench_goal)
 from excavsim.execution.dig import DigExecutor
 from excavsim.execution.droop import DroopCompensation
-from excavsim.handoff.dig import ExecutionRecord
+from excavsim.handoff.dig import Dig, DigPlan, ExecutionRecord
+from excavsim.handoff.episode import DigMetrics
+from excavsim.handoff.goal import goal_profile
 from excavsim.handoff.maps import ElevationMap
 from excavsim.planning.constraints import PoseTorqueLimits
 from excavsim.planning.predictor import WedgePredictor
@@ -30,6 +35,7 @@ from excavsim.robot.extract import arm_from_model
 from excavsim.readouts import keyframe_qpos
 from excavsim.robot.kinematics import PlanarArm
 from excavsim.robot.machine import T3, Machine
+from excavsim.rig.measures import dig_metrics
 from excavsim.robot.reachability import TableSpec, load_or_build
 from excavsim.sensing.elevation import MapAccuracy, map_accuracy, scan_map
 from excavsim.sensing.ft import ForceSensor
@@ -184,3 +190,33 @@ def bucket_witness(sim: Simulation) -> Callable[[str, ExecutionRecord], None]:
             rec.bucket_volume_m3 = float(sim.truth.volumes.bucket)
 
     return witness
+
+
+def execute_dig(sim: Simulation, rig: Rig, index: int, dig: Dig, emap: ElevationMap, *,
+                witness: Callable[[str, ExecutionRecord], None] | None = None) -> tuple[ExecutionRecord, DigMetrics]:
+    """Execute dig ``index`` (planned on ``emap`` in the arm plane of ``rig.goal``, the arm over the box) with
+    the rig's dig script, let the soil settle, and measure it: its execution record and metrics.
+
+    The touch-down offset may shift the path down by at most its clearance above the goal profile (a map
+    error never makes the bucket cut below the goal), and up only when ``dig.shift_up``. ``witness`` is the
+    executor's ``on_phase`` hook (:func:`bucket_witness`: the bucket's true load for the metrics).
+    """
+    goal, t0 = rig.goal, sim.time
+    clearance = float(np.min(dig.poses[:, 1] - goal_profile(goal, dig.poses[:, 0])))
+    bounds = (-max(clearance, 0.0), math.inf if dig.shift_up else 0.0)
+    plan = DigPlan(dig.poses, dig.phases, math.radians(goal.waist_deg), dig.volume_m3, bounds,
+                   surface=rig.planner.surface(emap))
+    rec = rig.executor.run(plan, on_phase=witness)
+    sim.settle_soil()
+    return rec, dig_metrics(index, dig, rec, capacity=rig.capacity, sim_s=float(sim.time - t0),
+                            ft_rate_hz=rig.executor.ft.rate_hz, density_kg_m3=rig.planner.density)
+
+
+def world_stop(rec: ExecutionRecord, index: int) -> tuple[str, str] | None:
+    """The episode's end and reason when dig ``index``'s record says the world cannot go on (the simulation
+    diverged, or the script's wall-clock deadline passed), else None."""
+    if rec.outcome == "diverged":
+        return "diverged", f"{rec.warnings[-1]} (dig {index})"
+    if rec.outcome.startswith("timeout: "):
+        return "timeout", f"{rec.outcome[len('timeout: '):]} (dig {index})"
+    return None

@@ -1,8 +1,9 @@
-"""The rig's privileged measures of a trench: where it lies on the soil grid, and the true terrain against it.
+"""The rig's measures: one dig's metrics, where a trench lies on the soil grid, and the true terrain against it.
 
-The world's truth, for metrics and results only (the mind sees the scanned maps): the trenching task
-measures its episodes with them, and so do the other drivers of the T3 that dig towards a trench goal
-(teleoperation,
+:func:`dig_metrics` measures a dig from its execution record (and the bucket's true load at lift-out,
+which the rig's witness wrote into it). The rest is the world's truth, for metrics and results only
+(the mind sees the scanned maps): the tasks that dig with the rig measure their episodes with them, and
+so do the other drivers of the T3 that dig towards a trench goal (teleoperation,
 :mod:`excavsim.apps.playback.teleop`; the joint-level environments).
 """
 
@@ -13,9 +14,34 @@ import math
 import numpy as np
 
 from excavsim.config import TrenchGoal
+from excavsim.handoff.dig import Dig, ExecutionRecord
 from excavsim.handoff.episode import DigMetrics, EpisodeResult
 from excavsim.handoff.goal import goal_profile
+from excavsim.mechanics.wedge import G_M_S2
+from excavsim.planning.experience import failure_kind
 from excavsim.world.simulation import Simulation
+
+MIN_USEFUL_M3 = 0.001  # a dig that brings up less than 1 l failed (the measure campaigns report)
+
+
+def dig_metrics(index: int, dig: Dig, rec: ExecutionRecord, *, capacity: float, sim_s: float,
+                ft_rate_hz: float, density_kg_m3: float) -> DigMetrics:
+    """One dig's metrics. Torques cover the soil-loaded part of the dig (touch-down to the end of the
+    lift-out): the moves through the air to the spoil and back are the servo's business, not the dig's."""
+    lo, hi = rec.in_soil_window()
+    tt = np.asarray(rec.times)
+    sel = (tt >= lo) & (tt <= hi) if rec.torques else np.zeros(0, bool)
+    torques = np.asarray(rec.torques)[sel] if sel.any() else np.zeros((1, 6))
+    dt = 1.0 / ft_rate_hz
+    weighed = rec.lifted_load_n / (density_kg_m3 * G_M_S2) if math.isfinite(rec.lifted_load_n) else 0.0
+    return DigMetrics(
+        index=index, kind=dig.kind, action=dig.action, outcome=rec.outcome, predicted_m3=dig.volume_m3,
+        bucket_m3=rec.bucket_volume_m3, efficiency=rec.bucket_volume_m3 / capacity,
+        stall_joint=rec.stall["joint"] if rec.stall else None, planning_s=dig.planning_s,
+        sim_s=sim_s, peak_torque_nm=np.abs(torques).max(axis=0),
+        cumulative_torque_nm_s=float(np.abs(torques).sum() * dt), predicted_peak_nm=dig.predicted_peak_nm,
+        weighed_m3=float(weighed),
+        failure=failure_kind(rec, weighed, MIN_USEFUL_M3))
 
 
 def trench_footprint(sim: Simulation, goal: TrenchGoal, width: float) -> tuple[np.ndarray, np.ndarray]:

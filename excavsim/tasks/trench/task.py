@@ -28,24 +28,21 @@ from typing import Any
 import numpy as np
 
 from excavsim.config import ExecutorConfig, PlannerConfig, RobotConfig, SceneConfig, SensingConfig, TrenchGoal
-from excavsim.handoff.dig import Dig, DigPlan, ExecutionRecord
+from excavsim.handoff.dig import ExecutionRecord
 from excavsim.handoff.episode import DigMetrics, EpisodeObserver, EpisodeResult
 from excavsim.handoff.goal import goal_profile
 from excavsim.handoff.maps import ElevationMap
 from excavsim.handoff.observation import Diverged, OutOfTime
 from excavsim.loop.digs import Choice, DigSource
 from excavsim.loop.episode import Episode, world_failed
+from excavsim.rig.core import bucket_witness, execute_dig, go_home, make_rig, park, scan, world_stop
 from excavsim.rig.measures import episode_result, trench_footprint
-from excavsim.rig.core import bucket_witness, go_home, make_rig, park, scan
-from excavsim.mechanics.wedge import G_M_S2
-from excavsim.planning.experience import DigExperience, failure_kind
+from excavsim.planning.experience import DigExperience
 from excavsim.robot.kinematics import PlanarArm
 from excavsim.tasks.trench.digs import PlannedDigs
 from excavsim.robot.machine import get_machine
 from excavsim.world.machines import make_world
 from excavsim.world.simulation import Simulation
-
-MIN_USEFUL_M3 = 0.001  # a dig that brings up less than 1 l failed (the measure campaigns report)
 
 
 def map_done(emap: ElevationMap, goal: TrenchGoal, arm: PlanarArm, width: float, *, done_fraction: float,
@@ -140,31 +137,21 @@ class TrenchTask:
         return self.source.choose(self.rig, emap)
 
     def execute(self, index, choice):
-        sim, rig, goal, dig = self.sim, self.rig, self.rig.goal, choice.dig
         try:
-            go_home(sim, rig)
+            go_home(self.sim, self.rig)
         except (Diverged, OutOfTime) as exc:
             return None, world_failed(exc, f"going home for dig {index}")
-        t0 = sim.time
-        clearance = float(np.min(dig.poses[:, 1] - goal_profile(goal, dig.poses[:, 0])))
-        bounds = (-max(clearance, 0.0), math.inf if dig.shift_up else 0.0)
-        plan = DigPlan(dig.poses, dig.phases, math.radians(goal.waist_deg), dig.volume_m3, bounds,
-                       surface=rig.planner.surface(self.emap))
-        self.record = rec = rig.executor.run(plan, on_phase=self._witness)
-        sim.settle_soil()
-        metrics = dig_metrics(index, dig, rec, capacity=rig.capacity, sim_s=float(sim.time - t0),
-                              ft_rate_hz=rig.executor.ft.rate_hz, density_kg_m3=rig.planner.density)
+        self.record, metrics = execute_dig(self.sim, self.rig, index, choice.dig, self.emap, witness=self._witness)
         self.metrics.append(metrics)
-        return (rec, metrics), None
+        return (self.record, metrics), None
 
     def after(self, index, choice, dug, say):
         rec, metrics = dug
         dig = choice.dig
         say(f"  {dig.kind} {rec.outcome}: {1000 * dig.volume_m3:.1f} l planned, "
             f"{1000 * rec.bucket_volume_m3:.1f} l dug" + (f", stall at {metrics.stall_joint}" if metrics.stall_joint else ""))
-        if rec.outcome == "diverged" or rec.outcome.startswith("timeout: "):  # the world cannot go on
-            why = rec.warnings[-1] if rec.outcome == "diverged" else rec.outcome[len("timeout: "):]
-            return ("diverged" if rec.outcome == "diverged" else "timeout"), f"{why} (dig {index})"
+        if (stop := world_stop(rec, index)) is not None:  # the world cannot go on
+            return stop
         lesson = self.source.learned(self.rig, index, dig, rec, self.emap)
         if lesson:
             say(lesson)
@@ -203,27 +190,6 @@ def run_episode(sim: Simulation, *, seed: int = 0, goal: TrenchGoal | None = Non
     episode = Episode(task, dig_budget=dig_budget, progress=progress, observer=observer)
     episode.reset(seed, sim=sim, digs=digs)
     return episode.run()
-
-
-
-def dig_metrics(index: int, dig: Dig, rec: ExecutionRecord, *, capacity: float, sim_s: float,
-                ft_rate_hz: float, density_kg_m3: float) -> DigMetrics:
-    """One dig's metrics. Torques cover the soil-loaded part of the dig (touch-down to the end of the
-    lift-out): the moves through the air to the spoil and back are the servo's business, not the dig's."""
-    lo, hi = rec.in_soil_window()
-    tt = np.asarray(rec.times)
-    sel = (tt >= lo) & (tt <= hi) if rec.torques else np.zeros(0, bool)
-    torques = np.asarray(rec.torques)[sel] if sel.any() else np.zeros((1, 6))
-    dt = 1.0 / ft_rate_hz
-    weighed = rec.lifted_load_n / (density_kg_m3 * G_M_S2) if math.isfinite(rec.lifted_load_n) else 0.0
-    return DigMetrics(
-        index=index, kind=dig.kind, action=dig.action, outcome=rec.outcome, predicted_m3=dig.volume_m3,
-        bucket_m3=rec.bucket_volume_m3, efficiency=rec.bucket_volume_m3 / capacity,
-        stall_joint=rec.stall["joint"] if rec.stall else None, planning_s=dig.planning_s,
-        sim_s=sim_s, peak_torque_nm=np.abs(torques).max(axis=0),
-        cumulative_torque_nm_s=float(np.abs(torques).sum() * dt), predicted_peak_nm=dig.predicted_peak_nm,
-        weighed_m3=float(weighed),
-        failure=failure_kind(rec, weighed, MIN_USEFUL_M3))
 
 
 
