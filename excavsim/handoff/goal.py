@@ -2,9 +2,10 @@
 
 A trench goal (:class:`~excavsim.config.TrenchGoal`, Singh 1995 §3.4) is a 2-D
 profile in the arm plane at one waist angle: :func:`goal_profile` gives the lowest height the bucket
-may cut to at each radial distance. :class:`SurfaceProfile` is the scanned elevation map sampled
-along the same plane (the planner's view of the terrain). Both are shared by the planner, the
-learned force predictors, the loop's metrics and the recorder.
+may cut to at each radial distance, and :func:`goal_met` is the done test of a goal on a map's heights.
+:class:`SurfaceProfile` is the scanned elevation map sampled along the same plane (the planner's view
+of the terrain). They are shared by the planner, the learned force predictors, the loop's metrics and
+the recorder.
 """
 
 from __future__ import annotations
@@ -42,6 +43,27 @@ def outline_points(poses: np.ndarray, outline: np.ndarray) -> np.ndarray:
     a, b = np.asarray(outline, dtype=float).reshape(-1, 2).T
     c, s = np.cos(poses[..., 2])[..., None], np.sin(poses[..., 2])[..., None]
     return np.stack([poses[..., 0, None] - a * c - b * s, poses[..., 1, None] - a * s + b * c], axis=-1)
+
+
+def goal_met(z: np.ndarray, z_goal: np.ndarray, initial_z: float, *, done_fraction: float,
+             tolerance_m: float) -> tuple[bool, float]:
+    """Whether surface heights ``z`` meet the goal heights ``z_goal`` at the same sample points (a done test on
+    a scanned map), and the fraction of the goal's soil removed there.
+
+    Args:
+        z, z_goal: (n,) the surface's and the goal's heights at the samples [m].
+        initial_z: the surface's height before digging [m]; the goal's soil is what lies between it and ``z_goal``.
+        done_fraction: the fraction of that soil that must be removed.
+        tolerance_m: how far any sample may stay above its goal height [m].
+
+    Returns:
+        (met, removed fraction): met when at least ``done_fraction`` is removed and no sample is more than
+        ``tolerance_m`` above the goal; the fraction is 1 when the goal holds no soil.
+    """
+    target = np.clip(initial_z - z_goal, 0, None).sum()
+    removed = np.clip(initial_z - z, 0, None).clip(max=initial_z - z_goal).sum()
+    frac = float(removed / target) if target > 0 else 1.0
+    return bool(frac >= done_fraction and np.max(z - z_goal) <= tolerance_m), frac
 
 
 def goal_profile(goal: TrenchGoal, x: np.ndarray) -> np.ndarray:

@@ -30,7 +30,7 @@ import numpy as np
 from excavsim.config import ExecutorConfig, PlannerConfig, RobotConfig, SceneConfig, SensingConfig, TrenchGoal
 from excavsim.handoff.dig import ExecutionRecord
 from excavsim.handoff.episode import DigMetrics, EpisodeObserver, EpisodeResult
-from excavsim.handoff.goal import goal_profile
+from excavsim.handoff.goal import goal_met, goal_profile
 from excavsim.handoff.maps import ElevationMap
 from excavsim.handoff.observation import Diverged, OutOfTime
 from excavsim.loop.digs import Choice, DigSource
@@ -50,12 +50,8 @@ def map_done(emap: ElevationMap, goal: TrenchGoal, arm: PlanarArm, width: float,
     """Whether the trench meets its tolerance on the scanned map, and the removed fraction there."""
     x = np.linspace(goal.near_x_m, goal.far_x_m, 60)
     pts = arm.plane_to_world(math.radians(goal.waist_deg), np.stack([x, np.zeros_like(x)], axis=-1))
-    z = emap.height_at(pts[:, 0], pts[:, 1])
-    zg = goal_profile(goal, x)
-    target = np.clip(initial_z - zg, 0, None).sum()
-    removed = np.clip(initial_z - z, 0, None).clip(max=initial_z - zg).sum()
-    frac = float(removed / target) if target > 0 else 1.0
-    return bool(frac >= done_fraction and np.max(z - zg) <= tolerance_m), frac
+    return goal_met(emap.height_at(pts[:, 0], pts[:, 1]), goal_profile(goal, x), initial_z,
+                    done_fraction=done_fraction, tolerance_m=tolerance_m)
 
 
 
