@@ -50,7 +50,8 @@ picks the machine (the region's default is the TB035, the trench's the spec's ma
 
 
 def register() -> bool:
-    """Register the environments of :data:`ENV_IDS` with Gymnasium (done on import); False when
+    """Register the environments of :data:`ENV_IDS`, and those every registered task's plug-in contributes
+    (:attr:`~excavsim.loop.plugin.TaskPlugin.environments`), with Gymnasium (done on import); False when
     Gymnasium is not installed. The joint-level ones also register the batched vector environment
     (:class:`~excavsim.envs.batched.BatchedJointEnv`) as their ``vector_entry_point``, which
     ``gymnasium.make_vec`` uses by default (and with ``vectorization_mode="vector_entry_point"``)."""
@@ -67,6 +68,13 @@ def register() -> bool:
         if env_id not in registry:
             gymnasium.register(env_id, entry_point="excavsim.envs.joint_env:JointEnv", kwargs=dict(kwargs),
                                vector_entry_point="excavsim.envs.batched:BatchedJointEnv")
+    from excavsim.loop import catalog
+
+    for plugin in catalog.plugins().values():  # the environments every task contributes (its plug-in's)
+        for env in plugin.environments:
+            if env.id not in registry:
+                gymnasium.register(env.id, entry_point=env.entry_point, kwargs=dict(env.kwargs),
+                                   vector_entry_point=env.vector_entry_point)
     return True
 
 

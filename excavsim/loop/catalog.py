@@ -29,6 +29,7 @@ TASKS: dict[str, str] = {
     "pile_loading": "excavsim.tasks.pile_loading.plugin:PileLoading",  # the loader or shovel loads from a pile (Singh 1995 §7.2.1)
     "dump_trial": "excavsim.tasks.dump_trial.plugin:DumpTrial",  # one dig-swing-dump trial of Rowe's script (Rowe 1997 §6.2)
     "truck_loading": "excavsim.tasks.truck_loading.plugin:TruckLoading",  # a truck loaded to full (Rowe 1997 §4, §6)
+    "pit_digging": "excavsim.tasks.pit_digging.plugin:PitDigging",  # a rectangular pit dug lane by lane (Singh 1995 ch. 6)
 }
 """The package's own tasks: name -> the entry point of its plug-in class."""
 DEFAULT_TASK = "trench"

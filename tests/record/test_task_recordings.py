@@ -30,6 +30,7 @@ SPECS = {  # (task, machine): a short episode of it
                                             pile_loading={"n_scans": 1}),
     ("dump_trial", "t3"): EpisodeSpec(task="dump_trial"),
     ("truck_loading", "excavator_25t"): EpisodeSpec(task="truck_loading", machine="excavator_25t", dig_budget=1),
+    ("pit_digging", "t3"): EpisodeSpec(task="pit_digging", dig_budget=1, sensing=TINY_SENSING, planner=T3_GRID),
 }
 CASES = [pytest.param(task, machine, id=f"{task}-{machine}") for task, machine in SPECS]
 WALL = re.compile(r"wall|planning_s")  # summary keys that are wall-clock times
@@ -77,7 +78,7 @@ def the_recording_holds_the_episode(path, task: str, machine: str, result) -> No
     assert tree[body]["sim_time"] == tree[body]["step"] >= 10, body  # sampled at 10 Hz of simulated time
     assert any(e.startswith(f"{body}/") and tree[e]["static"] == 1 for e in list(tree))  # its geoms, static
     assert tree["/world/soil/truth"]["static"] == 1 and tree["/world/soil/truth"]["sim_time"] >= 2
-    if task == "trench":
+    if task in ("trench", "pit_digging"):  # the pit's recorder is the trench's, in each dig's lane
         (dig,) = result.digs
         assert scalars(path, "/metrics/bucket_l") == [pytest.approx(1000 * dig.bucket_m3)]
         assert tree["/world/soil/scan"]["sim_time"] == 2 and tree["/joint_deg/" + ("wrist_pitch" if machine == "t3"

@@ -1,0 +1,150 @@
+"""``excavsim/PitDig-v0``: the pit dug one dig per step, the agent choosing the lane (Gymnasium).
+
+:class:`PitCore` steps the platform's :class:`~excavsim.loop.episode.Episode` of the pit task phase by
+phase (the generic dig-level core, :class:`~excavsim.envs.core.DigLevelCore`), with the agent's lane in
+place of the dig source's choice: the lane's planner plans the dig on the scanned map (a lane without a
+dig of minimum utility gives way to the lane with the most soil that has one, as the task's own source
+does). :class:`PitDigEnv` is its Gymnasium face (:class:`~excavsim.envs.dig_env.DigStepEnv`).
+"""
+
+from __future__ import annotations
+
+import math
+import pathlib
+from collections.abc import Mapping
+from typing import Any
+
+import gymnasium as gym
+import numpy as np
+
+from excavsim.config import parse_config
+from excavsim.envs.core import DIG_WEIGHTS, DigLevelCore, Field, TrueTrench, check_weights
+from excavsim.envs.dig_env import DigStepEnv
+from excavsim.errors import EnvError
+from excavsim.loop.scenario import EpisodeSpec, load_spec, resolve
+from excavsim.tasks.pit_digging.digs import LaneDigs, lane_soil_m3
+from excavsim.tasks.pit_digging.task import NAME, dig_rows, spec_episode, summary
+
+
+def as_pit_spec(spec: EpisodeSpec | Mapping | str | pathlib.Path | None) -> EpisodeSpec:
+    """A pit-digging specification from itself, a mapping of its fields, a YAML path, or None (the defaults)."""
+    if spec is None or isinstance(spec, Mapping):
+        spec = parse_config({"task": NAME, **(spec or {})}, EpisodeSpec, source="PitDig-v0's spec")
+    elif isinstance(spec, (str, pathlib.Path)):
+        spec = load_spec(spec)
+    if not isinstance(spec, EpisodeSpec) or spec.task != NAME:
+        raise EnvError(f"PitDig-v0 digs a pit: its spec must be of task {NAME} (an EpisodeSpec, a mapping or a YAML "
+                       f"path); given {getattr(spec, 'task', type(spec).__name__)!r}")
+    return spec
+
+
+class PitCore(DigLevelCore):
+    """The pit-digging episode, one step per dig; the action is the lane's index (as a vector of one number).
+
+    Observation: ``soil_l`` (the soil the scanned map shows above each lane's goal [l]) and ``digs_left``.
+    Reward per dig (true terrain, after settlement): ``removed_per_l`` x litres removed above the pit's goal,
+    less ``overdig_per_l`` x litres dug below it, less ``stall`` for a stalled dig. ``terminated`` when the
+    episode ends ``done``, ``no_dig`` or ``diverged``; ``truncated`` at the dig budget or the wall-clock limit.
+    ``info``: ``lane_used`` and ``dig`` (its row) after a dig, ``reward_terms``, and ``episode`` (the summary
+    without wall times) at the end.
+
+    Args:
+        spec: the episode (see :func:`as_pit_spec`).
+        weights: reward weights over :data:`~excavsim.envs.core.DIG_WEIGHTS`.
+        observer: an extra observer of the episode (a recorder, say).
+    """
+
+    action_label = "the lane"
+
+    def __init__(self, spec=None, *, weights: Mapping[str, float] | None = None, observer=None):
+        self.spec = as_pit_spec(spec)
+        self.resolved = resolve(self.spec)
+        self.weights = check_weights(weights, DIG_WEIGHTS, "pit")
+        self.observer = observer
+        n = len(self.resolved.lanes)
+        self.action_low, self.action_high = np.zeros(1), np.array([n - 1.0])
+        self.fields = {"soil_l": Field((n,), "float32", 0.0, 1e4, doc="soil the map shows above each lane's goal [l]"),
+                       "digs_left": Field((), "int64", n=self.spec.dig_budget + 1, doc="digs left in the budget")}
+        self._episode, self._closed = None, False
+        self._clear()
+
+    def _start(self, seed: int) -> None:
+        self._episode = ep = spec_episode(self.spec, self.resolved, observer=self.observer)
+        ep.reset(seed, digs=LaneDigs())
+        self._sim = ep.sim
+        self._truth = TrueTrench(ep.sim, ep.task.mask, ep.task.z_goal)
+        self._litres = np.zeros(2)  # removed above and dug below the goal so far [l]
+
+    def _advance(self):
+        if not self._episode.over:
+            self._episode.look()  # park, scan and the done test: the agent's decision, or the end
+        return self._episode  # its ``result`` is None while it runs
+
+    def _agent_choice_for(self, action: np.ndarray):
+        ep = self._episode
+        return ep.task.source.choose(ep.task.lanes, ep.emap, first=int(round(action[0])))
+
+    def _dig(self) -> None:
+        dug = self._episode.dig()
+        if dug is None:  # the world failed on the way to the dig
+            return
+        now = 1000 * np.array(self._truth.measure())
+        gained, self._litres = now - self._litres, now
+        stalled = dug[1].stall_joint is not None
+        w = self.weights
+        self._last = {"metrics": dug[1], "lane": self._episode.choice.dig.lane, "reward": float(w["removed_per_l"] * gained[0] - w["overdig_per_l"] * gained[1]
+                                                         - w["stall"] * stalled),
+                      "terms": {"removed_l": float(gained[0]), "overdig_l": float(gained[1]), "stalled": stalled}}
+
+    def _observation(self) -> dict[str, np.ndarray]:
+        ep, n = self._episode, len(self.resolved.lanes)
+        seen = ep is not None and ep.emap is not None
+        soil = 1000 * lane_soil_m3(ep.task.lanes, ep.emap) if seen else np.zeros(n)
+        left = self.spec.dig_budget - (ep.digs_done if ep is not None else 0)
+        return {"soil_l": soil.astype(np.float32), "digs_left": np.int64(max(left, 0))}
+
+    def _info(self, decision, first: bool = False) -> dict[str, Any]:
+        info: dict[str, Any] = {}
+        if not first and self._last is not None:
+            m = self._last["metrics"]
+            info.update(lane_used=self._last["lane"], reward_terms=dict(self._last["terms"]),
+                        dig={k: (None if isinstance(v, float) and math.isnan(v) else v)
+                             for k, v in dig_rows(_OneDig(m))[0].items()})
+        if decision.result is not None:
+            info["episode"] = {k: v for k, v in summary(decision.result).items() if k != "wall_s"}
+        return info
+
+
+class _OneDig:
+    """A result of one dig, for :func:`~excavsim.tasks.pit_digging.task.dig_rows`."""
+
+    def __init__(self, dig):
+        self.digs = [dig]
+
+
+class PitDigEnv(DigStepEnv):
+    """A pit-digging episode, one step per dig: the action is the lane to dig (``Discrete(lanes)``).
+
+    See :class:`PitCore` for the observation, the reward and the end. Seeding as the other dig-level
+    environments: ``reset(seed=s)`` runs the episode with seed ``s``; ``reset()`` the spec's seed first.
+
+    Args:
+        spec, weights, observer: as :class:`PitCore`.
+        render_mode: None or ``"rgb_array"`` (a frame of the world between digs).
+        render_size: (width, height) of the frames [pixels].
+    """
+
+    core_class = PitCore
+    env_id = "PitDig-v0"
+    action_noun = "lane"
+
+    def __init__(self, spec=None, *, render_mode: str | None = None, render_size: tuple[int, int] = (480, 360),
+                 **kwargs: Any):
+        super().__init__(spec, render_mode=render_mode, render_size=render_size, **kwargs)
+        self.action_space = gym.spaces.Discrete(len(self.core.resolved.lanes))
+
+    def step(self, action):
+        """Dig in lane ``action``; returns (observation, reward, terminated, truncated, info)."""
+        if not self.action_space.contains(action):
+            raise EnvError(f"the lane must be an integer from 0 to {self.action_space.n - 1}; given {action!r}")
+        return self.core.step(np.array([int(action)], dtype=float))
