@@ -8,15 +8,23 @@ This module stays light to import: the hooks import the task's heavy modules whe
 
 from __future__ import annotations
 
+import importlib
 from typing import Any
 
 from pydantic import Field
 
-from excavsim.config import StrictModel
+from excavsim.config import StrictModel, load_config
+from excavsim.handoff.episode import format_episode
+from excavsim.loop.catalog import summary_number
 from excavsim.loop.plugin import EnvEntry, Metric, TaskPlugin
 from excavsim.tasks.pit_digging.goal import PitGoal
 
 NAME = "pit_digging"
+
+
+def _task():
+    """The task's episode module (:mod:`~excavsim.tasks.pit_digging.task`), imported when a hook first needs it."""
+    return importlib.import_module("excavsim.tasks.pit_digging.task")
 
 
 class PitOptions(StrictModel):
@@ -51,21 +59,15 @@ class PitDigging(TaskPlugin):
     dig_sources = {"lanes": "excavsim.tasks.pit_digging.digs:LaneDigs"}
 
     def resolve(self, spec, *, robot_path=None, scene_path=None):
-        from excavsim.tasks.pit_digging.task import resolve
-
         super().resolve(spec, robot_path=robot_path, scene_path=scene_path)  # refuses base files: it has none
-        return resolve(spec)
+        return _task().resolve(spec)
 
     def episode(self, spec, resolved, *, progress=None, observer=None):
-        from excavsim.tasks.pit_digging.task import spec_episode
-
-        return spec_episode(spec, resolved, progress=progress, observer=observer)
+        return _task().spec_episode(spec, resolved, progress=progress, observer=observer)
 
     def as_mapping(self, field, value, data):
         if field != "pit" or not isinstance(value, str):
             return None
-        from excavsim.config import load_config
-
         return load_config(value, PitGoal).model_dump()  # a pit file, so that a campaign can vary pit.depth_m
 
     def describe(self, spec, resolved) -> str:
@@ -75,25 +77,17 @@ class PitDigging(TaskPlugin):
                 f"seed {spec.seed}")
 
     def summary(self, result) -> dict[str, Any]:
-        from excavsim.tasks.pit_digging.task import summary
-
-        return summary(result)
+        return _task().summary(result)
 
     def dig_rows(self, result) -> list[dict[str, Any]]:
-        from excavsim.tasks.pit_digging.task import dig_rows
-
-        return dig_rows(result)
+        return _task().dig_rows(result)
 
     def progress_text(self, summary) -> str:
-        from excavsim.loop.catalog import summary_number
-
         num = summary_number(summary)
         return f"{num('digs')} digs in {num('lanes_dug')} lanes, {num('removed_fraction', 100)} % removed"
 
     def format_run(self, result) -> str:
-        from excavsim.handoff.episode import format_episode
-
-        return format_episode(result)
+        return format_episode(result)  # the trench's table: the digs' actions, litres and outcomes
 
     def recorder(self, path, *, live=None):
         from excavsim.tasks.pit_digging.recording import PitRecorder
