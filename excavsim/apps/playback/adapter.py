@@ -25,18 +25,20 @@ weighting :data:`W` of the printed E, the 10 cm free descent before a recorded d
 
 from __future__ import annotations
 
+import abc
 import dataclasses
 from collections.abc import Callable
+from pathlib import Path
 
 import numpy as np
 
+from excavsim.apps.playback import DEFAULT_MACHINE
 from excavsim.config import SceneConfig, SoilParams, get_soil, load_scene_config
 from excavsim.errors import ConfigError, ExcavsimError, UsageError
 from excavsim.execution.demonstration import Demonstration
 from excavsim.execution.teleop import (FINISH, HELP, KEYS, SWING_HELP, SWING_KEYS, TeleopOptions, apply_key,
                                        apply_swing_key)
 from excavsim.robot.kinematics import PlanarArm
-from excavsim.apps.playback import DEFAULT_MACHINE
 from excavsim.robot.machine import Machine
 from excavsim.world.machines import make_world
 
@@ -47,6 +49,7 @@ SCALED = ("viscous_tangential_n_s_m2", "viscous_normal_n_s_m2", "viscous_angular
 STIFFER, SOFTER = 3.0, 0.3
 W = 1.0e6  # §3.3.1: 1 mm of position error weighs as 1 N of force error (for the printed E)
 APPROACH_M, APPROACH_S = 0.10, 1.0  # the free descent prepended to a recorded demonstration: height [m], time [s]
+TELEOP_HEIGHT_M = 0.10  # teleoperation starts this far above the demonstration's entry [m]
 # the errors' file columns and their formats (the table of run_playback: errors, soil in the bucket)
 CSV_FORMATS = {"pos_rms_m": ".4f", "pos_max_m": ".4f", "force_rms_n": ".1f", "force_max_err_n": ".1f",
                "force_peak_n": ".1f", "demo_force_peak_n": ".1f", "weighted_error": ".0f", "bucket_m3": ".5f"}
@@ -115,7 +118,7 @@ class Impedance:
         return f"variable ({key}={g:g})"
 
 
-class PlaybackRig:
+class PlaybackRig(abc.ABC):
     """One world of a machine, as the playback needs it: the servos it commands, the robot's model of itself
     (:attr:`arm`), the force it reads (:attr:`force`, a :class:`~excavsim.sensing.ft.ForceSensor` or what
     offers its ``reading_into``) and the world itself (privileged, for the soil in the bucket).
@@ -131,6 +134,7 @@ class PlaybackRig:
     force: object
     control_dt: float
 
+    @abc.abstractmethod
     def go_to_start(self, pose: np.ndarray, swing: float) -> None:
         """Bring the tip to ``pose`` (x, z [m], pitch [rad]) in the arm plane at ``swing`` [rad].
 
@@ -143,33 +147,39 @@ class PlaybackRig:
         """The soil in the bucket now [m^3] (privileged truth, for the table)."""
         return float(self.world.truth.volumes.bucket)
 
+    @abc.abstractmethod
     def teleop_begin(self, observer) -> tuple[np.ndarray, float, np.ndarray]:
         """Start a teleoperation session seen by ``observer`` (or None; its ``started`` is called here and its
         ``stepped`` after every control step): move to 10 cm above the demonstration's entry; the commanded tip
         pose (3,), swing [rad] and servo target there."""
         raise NotImplementedError
 
+    @abc.abstractmethod
     def teleop_target(self, pose: np.ndarray, swing: float) -> np.ndarray | None:
         """The servo target of tip ``pose`` at ``swing``; None when it is out of reach."""
         raise NotImplementedError
 
+    @abc.abstractmethod
     def teleop_step(self, target: np.ndarray) -> tuple[np.ndarray, np.ndarray, float]:
         """One control step towards ``target``: the measured tip pose (3,), the plane force (2,) [N] and the
         arm plane's swing [rad] of the sample."""
         raise NotImplementedError
 
+    @abc.abstractmethod
     def teleop_end(self, n_keys: int | None) -> None:
         """The session ended after ``n_keys`` keys (None: it raised): the observer, if started, is told."""
         raise NotImplementedError
 
 
-class MachineAdapter:
+class MachineAdapter(abc.ABC):
     """A machine's side of the playback (see the module docstring); one subclass per kind of machine.
 
     Args:
         machine: the machine of :data:`excavsim.robot.machine.MACHINES`.
 
-    Class attributes a kind sets: :attr:`impedance`; :attr:`csv_columns` (the errors file's columns);
+    Class attributes a kind sets: :attr:`impedance`; :attr:`table_header` and :attr:`row_format` (its errors
+    table: a format string over the soil, the controller, the position errors in cm and the errors' keys);
+    :attr:`csv_columns` (the errors file's columns);
     :attr:`chapter_report` (the closing note, the figures and Figs. 3.7-3.10's analysis, as on the T3);
     :attr:`swing_keys` (whether z/c swing the arm's plane in teleoperation); :attr:`holds_last_command` (whether
     a key's ramp starts from the last commanded servo target or from the last key's target: they differ by
@@ -177,6 +187,8 @@ class MachineAdapter:
     """
 
     impedance: Impedance
+    table_header: str
+    row_format: str
     csv_columns: tuple[str, ...] = ("pos_rms_m", "pos_max_m", "force_rms_n", "force_max_err_n", "force_peak_n",
                                     "weighted_error")
     chapter_report = False
@@ -210,10 +222,12 @@ class MachineAdapter:
     def keys_help(self) -> str:
         return f"{HELP}; {SWING_HELP}" if self.swing_keys else HELP
 
+    @abc.abstractmethod
     def rig(self, soil: SoilParams, seed: int = 0) -> PlaybackRig:
         """A fresh world of the machine in ``soil`` (under DiMaio's model) with ``seed``."""
         raise NotImplementedError
 
+    @abc.abstractmethod
     def record_demonstration(self, seed: int = 0, soil: str = DEMO_SOIL) -> Demonstration:
         """The machine's own demonstration in ``soil`` (without the free descent)."""
         raise NotImplementedError
@@ -248,6 +262,7 @@ class MachineAdapter:
             raise UsageError(f"teleop{self.flag}: unknown key {key!r}; allowed: {''.join(KEYS)}{swing} and "
                              f"{FINISH!r} ({self.keys_help})") from None
 
+    @abc.abstractmethod
     def demonstration_note(self, raw: Demonstration, played: Demonstration) -> str:
         """The line saying what was recorded (``raw``) and will be played (``played``, with the descent)."""
         raise NotImplementedError
@@ -256,13 +271,22 @@ class MachineAdapter:
         """The line saying which demonstration was given, or None."""
         return None
 
-    def table_header(self) -> str:
-        raise NotImplementedError
-
     def table_row(self, soil: str, controller: str, e: dict) -> str:
-        """One row of the errors table: ``e`` is :meth:`~excavsim.execution.playback.PlaybackRun.errors` with
-        ``bucket_m3`` and ``outcome``."""
-        raise NotImplementedError
+        """One row of the errors table under :attr:`table_header`: ``e`` is
+        :meth:`~excavsim.execution.playback.PlaybackRun.errors` with ``bucket_m3`` and ``outcome``."""
+        row = self.row_format.format(soil=soil, controller=controller, pos_rms_cm=100 * e["pos_rms_m"],
+                                     pos_max_cm=100 * e["pos_max_m"], **e)
+        return row if e["outcome"] == "completed" else f"{row} | {e['outcome']}"  # a playback that failed
+
+    def save_demonstration(self, demo: Demonstration, out: str | Path, name: str, say: Callable[[str], None],
+                           what: str = "") -> Path:
+        """Write ``demo`` to ``out/name`` and say where (``what`` after the path) and how to play it back."""
+        out = Path(out)
+        out.mkdir(parents=True, exist_ok=True)
+        path = demo.save(out / name)
+        say(f"wrote {path}{what} ({len(demo.times)} samples, {demo.times[-1]:.2f} s); play it back with: "
+            f"excavsim playback{self.flag} --demo {path}")
+        return path
 
     def check_from_recordings(self) -> None:
         """Refuse ``--from-rrd`` (a demonstration read from a recorded dig's joints and wrist F/T) on a machine
@@ -282,11 +306,8 @@ class MachineAdapter:
         :attr:`from_recordings`."""
         raise NotImplementedError
 
+    @abc.abstractmethod
     def recorder(self, record: str | None, live: str | None, seed: int, say: Callable[[str], None]):
         """The observer that records (``record``) or streams (``live``) a teleoperation session, or None."""
         raise NotImplementedError
 
-
-def outcome_suffix(outcome: str) -> str:
-    """`` | <outcome>`` after a table row of a playback that did not complete, else ""."""
-    return "" if outcome == "completed" else f" | {outcome}"

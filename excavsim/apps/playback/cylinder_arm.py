@@ -29,8 +29,8 @@ the playback as the T3's servos: joint encoders and cylinder forces (with the tr
 :data:`CYLINDER_FORCE_NOISE_N`, assumed) padded to the T3's six joints.
 
 **The demonstration** (:meth:`CylinderArm.record_demonstration`) is scripted: the tip driven by IK along a cut
-in the pit (:meth:`CylinderRig.cut`: entry, down to the depth, a drag towards the machine, a curl) in the
-demonstration soil, the measured tip pose and estimated force sampled every control step; a 10 cm free
+in the pit (:meth:`CylinderRig.cut`: entry, down to the depth, a drag towards the machine, a curl; the TB035's
+cut, scaled by the machine's reach on another excavator) in the demonstration soil, the measured tip pose and estimated force sampled every control step; a 10 cm free
 descent is prepended as on the T3. Teleoperation makes one too: the keys move the tip in the arm plane and
 z/c swing the cab (DiMaio §4.2's cylindrical endpoint coordinates), from 10 cm above the cut's entry.
 """
@@ -42,16 +42,15 @@ from collections.abc import Callable
 
 import numpy as np
 
-from excavsim import constants
-from excavsim.apps.playback.adapter import (DEMO_SOIL, Impedance, MachineAdapter, PlaybackRig, dimaio_scene,
-                                            outcome_suffix)
+from excavsim.apps.playback.adapter import (DEMO_SOIL, TELEOP_HEIGHT_M, Impedance, MachineAdapter, PlaybackRig,
+                                            dimaio_scene)
 from excavsim.config import SoilParams, get_soil
 from excavsim.errors import GoalError, UsageError
 from excavsim.execution.demonstration import Demonstration, plane_state
 from excavsim.handoff.observation import Observation
-from excavsim.readouts import element_id
 from excavsim.robot.extract import arm_from_model
-from excavsim.robot.machine import Machine
+from excavsim.robot.excavators import TB035
+from excavsim.robot.machine import Machine, get_machine
 from excavsim.sensing.pressure import CylinderForceEstimate
 from excavsim.world.hydraulics import EXCAVATOR_JOINTS, ExcavatorWorld
 from excavsim.world.machines import make_world
@@ -60,15 +59,14 @@ from excavsim.world.machines import make_world
 TABLE_4_1 = Impedance("DiMaio 1998 Table 4.1", mass_kg=100.0, k_high_n_m=1.0e5, k_low_n_m=1.0e4, damping_n_s_m=5000.0,
                       g_n_s_m=2000.0, position="position (K=1e5)", low="low (K=1e4)")
 CYLINDER_FORCE_NOISE_N = 100.0  # each cylinder force reading's noise (1 sigma) [N] (assumed: ~0.3 bar on its bore)
-# The scripted demonstration cut in the arm plane at swing 0, laid out in the pit (assumed): it enters a tenth
-# of the pit's half-length beyond the pit's centre, cuts down a tenth of the half-length and drags to three
-# tenths before the centre (the TB035's 4 m pit from x = 1.2 to 5.2 m: 3.6 -> 2.6 m at 0.2 m deep)
-CUT_ENTRY, CUT_END, CUT_DEPTH = 0.2, -0.3, 0.1  # of the pit's half-length, from its centre along x
+# The scripted demonstration cut in the arm plane at swing 0 (assumed): on the TB035, DiMaio's machine, from
+# x = 3.6 m on the surface down to 0.2 m and dragged to 2.6 m (its pit runs from x = 1.2 to 5.2 m); another
+# excavator cuts the same path scaled by its reach over the TB035's (their reachability tables' x_max_m)
+DEMO_ENTRY_X_M, DEMO_END_X_M, DEMO_DEPTH_M = 3.6, 2.6, 0.2  # on the TB035
 DEMO_PITCH, DEMO_CURL_PITCH = 0.6, -0.4  # the blade's rake while cutting and once curled [rad]
-DEMO_CURL_RISE_M = 0.1  # the curl lifts the tip this much
+DEMO_CURL_RISE_M = 0.1  # the curl lifts the tip this much (on the TB035)
 DEMO_SPEED_M_S = 0.2  # along the cut
 ABOVE_M = 0.3  # a playback comes down onto the demonstration's start from this far above
-START_HEIGHT_M = 0.10  # teleoperation starts this far above the cut's entry
 
 
 class CylinderServos:
@@ -134,14 +132,12 @@ class CylinderRig(PlaybackRig):
         self._observer = None
 
     def cut(self) -> list[np.ndarray]:
-        """The scripted demonstration's waypoints (x, z, pitch) in the pit (see :data:`CUT_ENTRY`): the entry on
-        the surface, down to the depth, the drag towards the machine and the curl."""
-        m = self.world.model
-        centre = float(m.body_pos[element_id(m, "body", constants.SOIL_BOX_BODY)][0])
-        half = float(m.hfield_size[element_id(m, "hfield", constants.SOIL_HFIELD)][0])
-        entry, end, d = centre + CUT_ENTRY * half, centre + CUT_END * half, CUT_DEPTH * half
+        """The scripted demonstration's waypoints (x, z, pitch) in the pit (see :data:`DEMO_ENTRY_X_M`): the entry
+        on the surface, down to the depth, the drag towards the machine and the curl."""
+        s = self.machine.table.x_max_m / get_machine(TB035.name).table.x_max_m  # 1 on the TB035
+        entry, end, d, rise = s * DEMO_ENTRY_X_M, s * DEMO_END_X_M, s * DEMO_DEPTH_M, s * DEMO_CURL_RISE_M
         return [np.array(p) for p in ((entry, 0.0, DEMO_PITCH), (entry, -d, DEMO_PITCH), (end, -d, DEMO_PITCH),
-                                      (end, -d + DEMO_CURL_RISE_M, DEMO_CURL_PITCH))]
+                                      (end, -d + rise, DEMO_CURL_PITCH))]
 
     def joints_of(self, pose: np.ndarray, swing: float = 0.0) -> np.ndarray:
         """(4,) joint targets of tip pose ``pose`` (x, z, pitch) at ``swing`` [rad].
@@ -179,7 +175,7 @@ class CylinderRig(PlaybackRig):
             observer.started(self.world)
             self._observer = observer
             self.servos.step_hooks.append(observer.stepped)
-        pose = self.cut()[0] + np.array([0.0, START_HEIGHT_M, 0.0])
+        pose = self.cut()[0] + np.array([0.0, TELEOP_HEIGHT_M, 0.0])
         target = self.joints_of(pose, 0.0)
         self.move_to(target, tol=0.002)
         return pose, 0.0, target
@@ -204,6 +200,10 @@ class CylinderArm(MachineAdapter):
     """The playback's side of a hydraulic excavator (the module docstring)."""
 
     impedance = TABLE_4_1
+    table_header = "{:12s} {:20s} {:>17s} | {:>19s} | {:>10s} | {:>12s}".format(
+        "soil", "controller", "pos RMS/max [cm]", "force RMS/peak [N]", "E", "bucket [m^3]")
+    row_format = ("{soil:12s} {controller:20s} {pos_rms_cm:7.2f} / {pos_max_cm:6.2f}  | {force_rms_n:8.0f} / "
+                  "{force_peak_n:8.0f} | {weighted_error:10.0f} | {bucket_m3:12.4f}")
     csv_columns = ("pos_rms_m", "pos_max_m", "force_rms_n", "force_peak_n", "demo_force_peak_n", "weighted_error",
                    "bucket_m3")
     swing_keys = True
@@ -245,21 +245,12 @@ class CylinderArm(MachineAdapter):
         n = len(poses)
         entry, end, depth = path[0][0], path[2][0], -path[2][1]
         return Demonstration(np.arange(n) * dt, np.array(poses), np.array(forces), dt, 0.0,
-                             f"{self.title} scripted cut {entry:g} -> {end:g} m at {depth:g} m deep, "
+                             f"{self.title} scripted cut {entry:.3g} -> {end:.3g} m at {depth:.3g} m deep, "
                              f"{DEMO_SPEED_M_S:g} m/s", soil)
 
     def demonstration_note(self, raw: Demonstration, played: Demonstration) -> str:
         return (f"{self.title} demonstration: {len(played.times)} samples ({played.times[-1]:.2f} s) in {played.soil}; "
                 f"{played.source}; force peak {np.linalg.norm(played.force, axis=1).max():.0f} N")
-
-    def table_header(self) -> str:
-        return (f"{'soil':12s} {'controller':20s} {'pos RMS/max [cm]':>17s} | {'force RMS/peak [N]':>19s} | "
-                f"{'E':>10s} | {'bucket [m^3]':>12s}")
-
-    def table_row(self, soil: str, controller: str, e: dict) -> str:
-        return (f"{soil:12s} {controller:20s} {100 * e['pos_rms_m']:7.2f} / {100 * e['pos_max_m']:6.2f}  | "
-                f"{e['force_rms_n']:8.0f} / {e['force_peak_n']:8.0f} | {e['weighted_error']:10.0f} | "
-                f"{e['bucket_m3']:12.4f}" + outcome_suffix(e["outcome"]))
 
     def recorder(self, record: str | None, live: str | None, seed: int, say: Callable[[str], None]):
         """An :class:`~excavsim.record.excavator.ExcavatorRecorder` of the session to ``record`` (no live view).

@@ -109,14 +109,15 @@ def run_playback(out: Path | None = None, *, machine: str = DEFAULT_MACHINE, see
         demo.save(out / "demonstration.json")
     runs: dict[tuple[str, str], PlaybackRun] = {}
     table = {}
-    progress(pm.table_header())
-    for label, soil in soils().items():
+    progress(pm.table_header)
+    chapter = soils()
+    for label, soil in chapter.items():
         for law in controllers(imp, sweep and label != "same"):
             run, moved = play(demo, soil, label, law, seed, machine=machine)
             runs[label, law.name] = run
             e = table[label, law.name] = {**run.errors(W), "bucket_m3": moved, "outcome": run.outcome}
             progress(pm.table_row(label, law.name, e))
-    changed = [k for k in soils() if k != "same"]
+    changed = [k for k in chapter if k != "same"]
     if pm.chapter_report:
         progress(f"(demonstrated force peak {table['same', imp.position]['demo_force_peak_n']:.0f} N; W = {W:g})")
         for line in verdict(table, changed, imp):
@@ -292,12 +293,7 @@ def demonstration_from_recording(path: str, dig: int, out: str | Path, *, machin
     recorded = read_dig(path, dig)
     demo = pm.demonstration_from_signals(recorded.joint_times, recorded.joints, recorded.ft_times, recorded.ft_tip,
                                          recorded.path_world, source=f"{path}, dig {recorded.dig}")
-    out = Path(out)
-    out.mkdir(parents=True, exist_ok=True)
-    saved = demo.save(out / "rrd_demonstration.json")
-    say(f"wrote {saved}: dig {recorded.dig} of {path} ({len(demo.times)} samples, {demo.times[-1]:.2f} s); "
-        f"play it back with: excavsim playback{pm.flag} --demo {saved}")
-    return saved
+    return pm.save_demonstration(demo, out, "rrd_demonstration.json", say, what=f": dig {recorded.dig} of {path}")
 
 
 def command(out: str | Path, *, machine: str = DEFAULT_MACHINE, seed: int = 0, seeds: list[int] | None = None,

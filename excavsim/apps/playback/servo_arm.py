@@ -32,8 +32,8 @@ from collections.abc import Callable
 
 import numpy as np
 
-from excavsim.apps.playback.adapter import (DEMO_SOIL, Impedance, MachineAdapter, PlaybackRig, dimaio_scene,
-                                            outcome_suffix)
+from excavsim.apps.playback.adapter import (DEMO_SOIL, TELEOP_HEIGHT_M, Impedance, MachineAdapter, PlaybackRig,
+                                            dimaio_scene)
 from excavsim.config import SoilParams, get_soil
 from excavsim.errors import GoalError
 from excavsim.execution.demonstration import (Demonstration, demonstration_from_joints, demonstration_from_record,
@@ -51,7 +51,6 @@ TABLE_6_5 = Impedance("DiMaio 1998 Table 6.5", mass_kg=100.0, k_high_n_m=1.0e5, 
                       g_n_s_m=2000.0, position="position (high K)", low="force (low K)",
                       moderate=(("moderate (K=1e4)", 1.0e4),),
                       g_sweep=(("low G", 100.0), ("high G", 100000.0), ("medium G", 1000.0)))
-START_HEIGHT_M = 0.10  # teleoperation starts this far above the demonstration dig's entry
 
 
 class ServoRig(PlaybackRig):
@@ -97,7 +96,7 @@ class ServoRig(PlaybackRig):
         self.go_home()
         plan = self.demo_plan()
         self._waist = plan.waist
-        pose = plan.poses[0] + np.array([0.0, START_HEIGHT_M, 0.0])
+        pose = plan.poses[0] + np.array([0.0, TELEOP_HEIGHT_M, 0.0])
         q_start, ok = self.arm.inverse(pose)
         if not ok:
             raise GoalError("teleop: the start pose above the demonstration dig is out of reach")
@@ -143,6 +142,10 @@ class ServoArm(MachineAdapter):
     """The playback's side of a machine with joint servos and a wrist F/T sensor (the module docstring)."""
 
     impedance = TABLE_6_5
+    table_header = "{:12s} {:24s} {:>17s} | {:>21s} {:>8s} | {:>22s}".format(
+        "soil", "controller", "pos RMS/max [cm]", "force RMS/max err [N]", "peak [N]", "E = mean W x~^2 + f~^2")
+    row_format = ("{soil:12s} {controller:24s} {pos_rms_cm:7.2f} / {pos_max_cm:6.2f}  | {force_rms_n:8.1f} / "
+                  "{force_max_err_n:8.1f}   {force_peak_n:8.1f} | {weighted_error:22.0f}")
     chapter_report = True
     holds_last_command = True
     from_recordings = True
@@ -176,15 +179,6 @@ class ServoArm(MachineAdapter):
     def given_note(self, demo: Demonstration) -> str:
         return (f"demonstration given: {len(demo.times)} samples ({demo.times[-1]:.2f} s), soil {demo.soil!r}, "
                 f"{demo.source}; the 'same' soil is {DEMO_SOIL} under DiMaio's model")
-
-    def table_header(self) -> str:
-        return (f"{'soil':12s} {'controller':24s} {'pos RMS/max [cm]':>17s} | {'force RMS/max err [N]':>21s} "
-                f"{'peak [N]':>8s} | {'E = mean W x~^2 + f~^2':>22s}")
-
-    def table_row(self, soil: str, controller: str, e: dict) -> str:
-        return (f"{soil:12s} {controller:24s} {100 * e['pos_rms_m']:7.2f} / {100 * e['pos_max_m']:6.2f}  | "
-                f"{e['force_rms_n']:8.1f} / {e['force_max_err_n']:8.1f}   {e['force_peak_n']:8.1f} | "
-                f"{e['weighted_error']:22.0f}" + outcome_suffix(e["outcome"]))
 
     def recorder(self, record: str | None, live: str | None, seed: int, say: Callable[[str], None]):
         """An episode recorder of the session (to ``record``, or streamed to a viewer: ``live`` "" spawns one)."""

@@ -160,9 +160,4 @@ def teleop_session(out: str | Path, *, machine: str = DEFAULT_MACHINE, keys: Ite
         f"vertical {f[1]:7.0f} N"))
     if record:
         say(f"{pm.recorded_words} {record}; replay it with: excavsim replay {record}")
-    out = Path(out)
-    out.mkdir(parents=True, exist_ok=True)
-    path = demo.save(out / "teleop_demonstration.json")
-    say(f"wrote {path} ({len(demo.times)} samples, {demo.times[-1]:.2f} s); play it back with: "
-        f"excavsim playback{pm.flag} --demo {path}")
-    return path
+    return pm.save_demonstration(demo, out, "teleop_demonstration.json", say)
