@@ -96,3 +96,23 @@ def test_a_demonstration_at_another_machines_rate_is_refused_before_any_playback
     with pytest.raises(ExcavsimError, match="control period"):
         run_playback(None, machine=other, demo=demo, progress=lines.append)
     assert not any("soil" in line and "controller" in line for line in lines)  # no table started
+
+
+def test_every_excavator_cuts_the_tb035s_demonstration_scaled_by_its_reach():
+    """The scripted cut is DiMaio's machine's (3.6 -> 2.6 m at 0.2 m deep on the TB035); every other excavator of
+    the registry cuts it scaled by its reach, within its reach and joint limits, approach included."""
+    from excavsim.apps.playback.cylinder_arm import ABOVE_M
+
+    tb035 = adapter_for("tb035").rig(get_soil(DEMO_SOIL), 0).cut()
+    assert [p.tolist() for p in tb035] == [[3.6, 0.0, 0.6], [3.6, -0.2, 0.6], [2.6, -0.2, 0.6], [2.6, -0.1, -0.4]]
+    for name, machine in MACHINES.items():
+        if machine.hydraulics is None:
+            continue
+        rig = adapter_for(name).rig(get_soil(DEMO_SOIL), 0)
+        cut = rig.cut()
+        scale = cut[0][0] / tb035[0][0]
+        assert scale == pytest.approx(machine.table.x_max_m / MACHINES["tb035"].table.x_max_m)
+        assert cut[2][1] == pytest.approx(-0.2 * scale)
+        for pose in cut:  # raises if out of reach
+            rig.joints_of(pose)
+            rig.joints_of(pose + np.array([0.0, ABOVE_M, 0.0]))
