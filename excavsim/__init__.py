@@ -15,7 +15,7 @@ The common path is exported here, imported on first use so that ``import excavsi
   :func:`episode_summary` (a flat dict of numbers), :func:`dig_rows` (one dict per dig) or
   :func:`format_episode` (the table ``excavsim trench`` prints);
 * a world and the loop's pieces: :class:`Simulation`, :func:`make_rig` (the planner, executor,
-  scanner and the arm's model), :func:`scan` (an elevation map), :func:`resolve_goal`;
+  scanner and the arm's model), :func:`scan` (an elevation map), :func:`resolve` (the configurations a spec stands for);
 * planning on a map: :class:`TrenchPlanner` (``rig.planner.plan(emap)``), :class:`ElevationMap`,
   :class:`TrenchAction`.
 """
@@ -38,12 +38,12 @@ _LAZY = {
     "run_spec": "excavsim.loop.scenario",
     "episode_summary": "excavsim.loop.scenario",
     "dig_rows": "excavsim.loop.scenario",
-    "resolve_goal": "excavsim.loop.scenario",
+    "resolve": "excavsim.loop.scenario",
     "format_episode": "excavsim.handoff.episode",
     "EpisodeResult": "excavsim.handoff.episode",
     "Simulation": "excavsim.world.simulation",
-    "make_rig": "excavsim.loop.rig",
-    "scan": "excavsim.loop.rig",
+    "make_rig": "excavsim.rig.core",
+    "scan": "excavsim.rig.core",
     "TrenchPlanner": "excavsim.planning.search",
     "PlanResult": "excavsim.planning.search",
     "ElevationMap": "excavsim.handoff.maps",

@@ -189,20 +189,84 @@ def _strip(x):
     return x
 
 
+RENAMES: dict[str, str] = {}  # old name -> new name (compare --rename OLD=NEW): tasks renamed between A and B
+KEY_RENAMES: dict[str, str] = {}  # old field -> new field (compare --rename-key OLD=NEW), for JSON keys only
+
+
+def _renamed(text: str) -> str:
+    """``text`` with the old names of :data:`RENAMES` replaced by the new ones (as whole words, ``_`` counting
+    as a separator) and runs of spaces folded (a renamed column is wider)."""
+    for old, new in RENAMES.items():
+        text = re.sub(rf"(?<![A-Za-z0-9]){re.escape(old)}(?![A-Za-z0-9])", new, text)
+    if RENAMES:  # folded spaces; a campaign episode's id ends in a hash of its spec, whose shape changed
+        text = re.sub(r"-[0-9a-f]{10}\b", "-HASH", re.sub(r" +", " ", text))
+    return text
+
+
+def _renamed_json(doc):
+    """A JSON document with the renamed fields (keys) and names (in strings) of B."""
+    if isinstance(doc, dict):
+        return {KEY_RENAMES.get(k, k): _renamed_json(v) for k, v in doc.items()}
+    if isinstance(doc, list):
+        return [_renamed_json(v) for v in doc]
+    return _renamed(doc) if isinstance(doc, str) else doc
+
+
 def _lines(path: pathlib.Path) -> list[str]:
-    return [TIMING.sub("T", line) for line in path.read_text().splitlines()
+    return [_renamed(TIMING.sub("T", line)) for line in path.read_text().splitlines()
             if not any(v in line for v in VOLATILE)]
+
+
+def _key(path: pathlib.Path) -> str:
+    """A result file's episode: its name (a campaign's grid values), renamed; an environment's file name."""
+    doc = json.loads(path.read_text())
+    return _renamed(doc["name"]) if isinstance(doc, dict) and "name" in doc else path.name
+
+
+NEW_SUMMARY_KEYS = {"task": "trench"}
+"""Keys a summary gained when the tasks became plug-ins (every summary says its task), with the value a
+summary of before would have had; a summary of A without one is compared as if it had it."""
+
+
+def _with_new_keys(doc):
+    """``doc`` with the :data:`NEW_SUMMARY_KEYS` a trench summary lacked (a dict holding ``end`` and ``digs``)."""
+    if isinstance(doc, dict):
+        doc = {k: _with_new_keys(v) for k, v in doc.items()}
+        if "end" in doc and "digs" in doc:
+            doc = {**{k: v for k, v in NEW_SUMMARY_KEYS.items() if k not in doc}, **doc}
+        return doc
+    if isinstance(doc, list):
+        return [_with_new_keys(v) for v in doc]
+    return doc
+
+
+def _normal(doc):
+    """A result for comparison: its volatile keys stripped, its id, recording path and spec left out (the
+    spec's fields are inputs, and its shape may change with the code; what it ran is in ``params``), and the
+    renamed names replaced."""
+    doc = _with_new_keys(doc)
+    if not RENAMES:
+        return _strip(doc)
+    if isinstance(doc, dict):
+        doc = {k: v for k, v in doc.items() if k not in ("id", "spec", "recording")}
+    return _renamed_json(_strip(doc))
 
 
 def compare(a: pathlib.Path, b: pathlib.Path) -> int:
     """Print what differs between two fingerprints; returns the number of differences."""
     bad = 0
     def metrics(path: pathlib.Path) -> dict:  # the baseline's "written_by" names the module that wrote it
-        return {k: v for k, v in json.loads(path.read_text()).items() if k != "written_by"}
+        doc = {k: v for k, v in json.loads(path.read_text()).items() if k != "written_by"}
+        for scenario in doc.get("scenarios", {}).values():  # a trench scenario had no task before the plug-ins
+            scenario["task"] = _renamed(scenario.get("task", "trench"))
+        return doc
 
     ma, mb = metrics(a / "regress_full.json"), metrics(b / "regress_full.json")
     added = sorted(set(mb.get("scenarios", {})) - set(ma.get("scenarios", {})))
     for name in [*RUNS, "envs.txt"]:
+        if not (a / name).exists():
+            print(f"new   {name}: not in {a}")
+            continue
         if name == "regress.txt" and added:  # new golden scenarios: compared below by the old ones' metrics
             print(f"new   {name}: scenarios {', '.join(added)} added; the others compared by their metrics")
             continue
@@ -233,14 +297,15 @@ def compare(a: pathlib.Path, b: pathlib.Path) -> int:
         detail = ", ".join(differ) if differ else "bit for bit"
         print(f"{'DIFF ' if differ else 'same '} {maps.name}: {len(files)} maps, {detail}")
     for folder in ("campaign_tiny/episodes", "campaign_tasks/episodes", "envs"):
-        files = sorted((a / folder).glob("*.json"))
-        other = sorted((b / folder).glob("*.json"))
-        if not files or [f.name for f in files] != [f.name for f in other]:
+        # results matched by their episode's name (its grid values), ids aside: an id hashes the spec
+        files = {_key(f): f for f in sorted((a / folder).glob("*.json"))}
+        other = {_key(f): f for f in sorted((b / folder).glob("*.json"))}
+        if not files or sorted(files) != sorted(other):
             bad += 1
             print(f"DIFF  {folder}: {len(files)} results against {len(other)}")
             continue
-        differ = [f.name for f in files
-                  if _strip(json.loads(f.read_text())) != _strip(json.loads((b / folder / f.name).read_text()))]
+        differ = [other[k].name for k, f in files.items()
+                  if _normal(json.loads(f.read_text())) != _normal(json.loads(other[k].read_text()))]
         bad += len(differ)
         print(f"{'DIFF ' if differ else 'same '} {folder}: {len(files)} results"
               + (f", differing: {', '.join(differ)}" if differ else ", exactly"))
@@ -257,6 +322,10 @@ def main(argv: list[str] | None = None) -> int:
     cmp = sub.add_parser("compare", help="compare two fingerprints")
     cmp.add_argument("a", type=pathlib.Path)
     cmp.add_argument("b", type=pathlib.Path)
+    cmp.add_argument("--rename", action="append", default=[], metavar="OLD=NEW",
+                     help="a name A uses that B calls NEW (a renamed task), compared as the same")
+    cmp.add_argument("--rename-key", action="append", default=[], metavar="OLD=NEW",
+                     help="a field (a JSON key) A uses that B calls NEW")
     envs = sub.add_parser("_envs", help="(internal) run the environments' episodes into DIR")
     envs.add_argument("dir", type=pathlib.Path)
     args = parser.parse_args(argv)
@@ -266,6 +335,8 @@ def main(argv: list[str] | None = None) -> int:
     if args.command == "record":
         record(args.dir, args.repo.resolve())
         return 0
+    RENAMES.update(pair.split("=", 1) for pair in args.rename)
+    KEY_RENAMES.update(pair.split("=", 1) for pair in args.rename_key)
     return 1 if compare(args.a, args.b) else 0
 
 

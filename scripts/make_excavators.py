@@ -319,11 +319,7 @@ def keyframes(s: ExcavatorSpec) -> dict[str, np.ndarray]:
 
 
 def key_line(s: ExcavatorSpec, name: str, q: np.ndarray) -> str:
-    lk = s.linkage
-    rho, lam = float(lk.rocker_angle(q[3])), float(lk.link_angle(q[3]))
-    qpos = [q[0], q[1], q[2], q[3], rho, lam - rho]  # swing, boom, stick, bucket, rocker, link (tree order)
-    act = [q[0] - s.ref[0]] + [float(s.cylinder_length(fn, q[j]) - s.cylinder_length(fn, s.ref[j]))
-                               for j, fn in ((1, "boom"), (2, "stick"), (3, "bucket"))]
+    qpos, act = s.rest_state(q)  # swing, boom, stick, bucket, rocker, link (tree order); the servos' states
     return f'<key name="{name}" qpos="{f(qpos)}" act="{f(act)}" ctrl="0 0 0 0"/>'
 
 

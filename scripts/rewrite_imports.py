@@ -31,11 +31,11 @@ import sys
 # Old module -> new module. Keep it: branches written before the move still use the old names.
 MODULES: dict[str, str] = {
     # tasks: one home per task
-    "excavsim.loop.loading": "excavsim.tasks.load.planar",
-    "excavsim.loop.loading_mujoco": "excavsim.tasks.load.task",
-    "excavsim.tasks.load.in_mujoco": "excavsim.tasks.load.task",  # split: its campaigns went to load.campaign (NAMES)
-    "excavsim.loop.truck": "excavsim.tasks.truck.trial",
-    "excavsim.loop.truck_campaign": "excavsim.tasks.truck.campaign",
+    "excavsim.loop.loading": "excavsim.tasks.pile_loading.planar",
+    "excavsim.loop.loading_mujoco": "excavsim.tasks.pile_loading.task",
+    "excavsim.tasks.pile_loading.in_mujoco": "excavsim.tasks.pile_loading.task",  # split: its campaigns went to load.campaign (NAMES)
+    "excavsim.loop.truck": "excavsim.tasks.dump_trial.trial",
+    "excavsim.loop.truck_campaign": "excavsim.tasks.dump_trial.campaign",
     # trenching, out of the platform (loop.episode's and loop.digs' trenching names moved by name:
     # see NAMES below)
     "excavsim.loop.demo": "excavsim.tasks.trench.demo",
@@ -82,8 +82,8 @@ TESTS: dict[str, str] = {
     **dict.fromkeys(["test_demo", "test_table7"], "tasks/trench"),
     "test_envs": "envs",
     "test_cli_errors": "cli",
-    **dict.fromkeys(["test_loading", "test_loading_mujoco"], "tasks/load"),
-    **dict.fromkeys(["test_truck", "test_truck_tuning"], "tasks/truck"),
+    **dict.fromkeys(["test_loading", "test_loading_mujoco"], "tasks/pile_loading"),
+    **dict.fromkeys(["test_truck", "test_truck_tuning"], "tasks/dump_trial"),
     **dict.fromkeys(["test_calibrate", "test_calibrate_noise", "test_identify"], "apps/calibrate"),
     **dict.fromkeys(["test_playback", "test_playback_duality", "test_playback_seeds", "test_playback_sources"],
                     "apps/playback"),
@@ -106,8 +106,8 @@ NAMES: dict[str, str] = {
                  "OVER_LIMIT_MARGINS")},
     "excavsim.loop.demo.DEMO_ACTION": "excavsim.handoff.dig.DEMO_ACTION",
     # loading in MuJoCo: the task stayed (tasks.load.task), its runs over machines and seeds left it
-    **{f"{old}.{n}": f"excavsim.tasks.load.campaign.{n}"
-       for old in ("excavsim.loop.loading_mujoco", "excavsim.tasks.load.in_mujoco")
+    **{f"{old}.{n}": f"excavsim.tasks.pile_loading.campaign.{n}"
+       for old in ("excavsim.loop.loading_mujoco", "excavsim.tasks.pile_loading.in_mujoco")
        for n in ("format_comparison", "load_campaign", "same_pile_2d", "run_campaign", "format_campaign",
                  "write_campaign", "run_episodes")},
     # calibration: the fits stayed (apps.calibrate.fit), the command's run and Table 5.3's experiment left it

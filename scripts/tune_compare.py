@@ -1,7 +1,7 @@
 """Tuned against untuned truck loading over seeds, and a target moved mid-run (issue 21's campaign entry).
 
 Kept for the commands written before ``excavsim tune --compare``, which it now calls (the campaign lives
-in :mod:`excavsim.tasks.truck.campaign`; Rowe 1997 §6.2, Fig. 12). The same as
+in :mod:`excavsim.tasks.dump_trial.campaign`; Rowe 1997 §6.2, Fig. 12). The same as
 
     .venv/bin/excavsim tune --compare --seeds 0 1 2 --trials 40 [--soils testbed_sand sandy_loam]
         [--retarget 21] [--out runs/tune_compare]

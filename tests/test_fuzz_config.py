@@ -55,10 +55,10 @@ BASES = {
     "campaign": _shipped(constants.CONFIGS_DIR / "campaigns" / "tiny.yaml"),
     "experiment": _shipped(constants.CONFIGS_DIR / "experiments" / "fig114.yaml"),
     "regress": _shipped(constants.CONFIGS_DIR / "regress" / "small_sand.yaml"),
-    "loading": _shipped(constants.CONFIGS_DIR / "loading.yaml"),
-    "loading_mujoco": _shipped(constants.CONFIGS_DIR / "loading_mujoco.yaml"),
-    "loading_campaign": _shipped(constants.CONFIGS_DIR / "campaigns" / "loading_mujoco.yaml"),
-    "truck": _shipped(constants.CONFIGS_DIR / "truck.yaml"),
+    "pile_loading_planar": _shipped(constants.CONFIGS_DIR / "pile_loading_planar.yaml"),
+    "pile_loading": _shipped(constants.CONFIGS_DIR / "pile_loading.yaml"),
+    "pile_loading_campaign": _shipped(constants.CONFIGS_DIR / "campaigns" / "pile_loading_machines.yaml"),
+    "dump_trial": _shipped(constants.CONFIGS_DIR / "dump_trial.yaml"),
 }
 
 
@@ -232,7 +232,7 @@ def stubbed(monkeypatch):
     import excavsim.studies.experiment
     import excavsim.record
     import excavsim.studies.learning.compare
-    import excavsim.loop.rig  # before the patches: a module importing a name after them would keep the stub
+    import excavsim.rig.core  # before the patches: a module importing a name after them would keep the stub
     import excavsim.loop.scenario
     import excavsim.robot.reachability
     import excavsim.world.simulation
@@ -242,9 +242,9 @@ def stubbed(monkeypatch):
     monkeypatch.setattr(excavsim.studies.experiment, "run_experiment", would_run)
     monkeypatch.setattr(excavsim.studies.learning.compare, "run_learn", would_run)
     monkeypatch.setattr(excavsim.robot.reachability, "load_or_build", would_run)
-    monkeypatch.setattr(excavsim.loop.rig, "load_or_build", would_run)
+    monkeypatch.setattr(excavsim.rig.core, "load_or_build", would_run)
     monkeypatch.setattr(excavsim.world.simulation, "Simulation", would_run)
-    monkeypatch.setattr(excavsim.record, "RerunRecorder", would_run)
+    monkeypatch.setattr(excavsim.record, "TrenchRecorder", would_run)
 
 
 ARG_VALUES = st.one_of(st.sampled_from(["-1", "0", "1", "2", "1000", "1001", "100000", str(2**32), str(2**64), "nan",

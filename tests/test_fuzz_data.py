@@ -79,7 +79,7 @@ def _demonstration() -> Demonstration:
 
 
 def _baseline() -> dict:
-    return {"format": 2, "scenarios": {"tiny": {"seeds": [0, 1], "end": ["done", "budget"], "sim_s": [10.0, 12.0],
+    return {"format": 2, "scenarios": {"tiny": {"seeds": [0, 1], "task": "trench", "end": ["done", "budget"], "sim_s": [10.0, 12.0],
                                                 "metrics": {"removed_fraction": {"values": [0.5, 0.6]}}}}}
 
 

@@ -46,9 +46,9 @@ def test_the_package_keeps_every_contract():
     ("loop/digs.py", "import excavsim.loop.episode", "No import cycles"),
     ("loop/episode.py", "import excavsim.tasks.trench.task", "Layers"),
     ("apps/calibrate/digs.py", "import excavsim.tasks.trench.digs", "Layers"),
-    ("tasks/trench/task.py", "import excavsim.tasks.truck.trial", "No task imports another"),
+    ("tasks/trench/task.py", "import excavsim.tasks.dump_trial.trial", "No task imports another"),
     ("loop/scenario.py", "import excavsim.studies.campaign.runner", "Layers"),
-    ("tasks/truck/trial.py", "import excavsim.tasks.load.planar", "No task imports another"),
+    ("tasks/dump_trial/trial.py", "import excavsim.tasks.pile_loading.planar", "No task imports another"),
     ("apps/calibrate/fit.py", "import excavsim.apps.playback.driver", "No application imports another"),
     ("studies/bench.py", "import excavsim.studies.regress.suite", "No study imports another"),
 ])

@@ -1,9 +1,10 @@
 """The ``excavsim`` command. It only parses arguments and calls the package.
 
-One module per group of commands, each adding its own subcommands (``register``): ``episodes``
-(demo, cycle, trench, replay), ``tasks`` (load, tune), ``apps`` (calibrate, playback), ``studies``
-(campaign, regress, experiment, learn, figures, bench) and ``tools`` (validate, plan, warmup).
-:func:`build_parser` returns the whole parser (a docs tool can render it); :func:`main` runs it.
+One module per group of the platform's commands, each adding its own subcommands (``register``):
+``episodes`` (run, replay), ``apps`` (calibrate, playback), ``studies`` (campaign, regress, experiment,
+learn, figures, bench) and ``tools`` (validate, warmup); then every registered task adds its own
+(:meth:`~excavsim.loop.plugin.TaskPlugin.add_commands`, e.g. trenching's ``trench``, ``demo``, ``cycle`` and
+``plan``). :func:`build_parser` returns the whole parser (a docs tool can render it); :func:`main` runs it.
 
 Errors that excavsim raises on purpose (bad configuration, unreachable poses, diverging physics)
 print one clear message and exit with status 2, without a traceback.
@@ -14,24 +15,27 @@ from __future__ import annotations
 import argparse
 import sys
 
-from excavsim.cli import apps, episodes, studies, tasks, tools
-from excavsim.cli.options import MAX_DIG_BUDGET, MAX_SEED
+from excavsim.cli import apps, episodes, studies, tools
+from excavsim.config.arguments import MAX_DIG_BUDGET, MAX_SEED
+from excavsim.loop import catalog
 from excavsim.errors import ExcavsimError, shorten
 
 __all__ = ["MAX_DIG_BUDGET", "MAX_SEED", "build_parser", "main"]
 
-GROUPS = (episodes, studies, tools, apps, tasks)  # the order of the commands in --help
+GROUPS = (episodes, studies, tools, apps)  # the order of the platform's commands in --help, the tasks' after
 
 
 def build_parser() -> argparse.ArgumentParser:
     """The argument parser of the ``excavsim`` command."""
     from excavsim import __version__
 
-    parser = argparse.ArgumentParser(prog="excavsim", description="MuJoCo testbed for robotic trenching.")
+    parser = argparse.ArgumentParser(prog="excavsim", description="MuJoCo testbed for robotic excavation.")
     parser.add_argument("--version", action="version", version=f"excavsim {__version__}")
     sub = parser.add_subparsers(dest="command", required=True, metavar="COMMAND")
     for group in GROUPS:
         group.register(sub)
+    for plugin in catalog.plugins().values():
+        plugin.add_commands(sub)
     return parser
 
 

@@ -6,7 +6,8 @@ from __future__ import annotations
 import argparse
 import pathlib
 
-from excavsim.cli.options import float_in, int_in, out_dir, out_file, seed_type
+from excavsim.cli.live import live_viewer
+from excavsim.config.arguments import float_in, int_in, out_dir, out_file, seed_type
 from excavsim.errors import ConfigError, UsageError, shorten
 
 
@@ -70,10 +71,11 @@ def _cmd_playback(args: argparse.Namespace) -> int:
             raise UsageError("playback: --seeds runs the chapter-6 experiment on several seeds; it cannot be "
                              "combined with --seed, --teleop or --from-rrd (give --seeds alone, or with --demo)")
         seeds = driver.seed_range(args.seeds)
-    driver.command(args.out, machine=args.machine,
-                   seed=args.seed if args.seed is not None else 0, seeds=seeds, sweep=not args.no_sweep,
-                   demo_path=args.demo, teleop=args.teleop, keys=args.keys, record=args.record, live=args.live,
-                   from_rrd=args.from_rrd, dig=args.dig, say=lambda line: print(line, flush=True))
+    with live_viewer(args.live) as live:  # a viewer window that --live spawns ends with the command
+        driver.command(args.out, machine=args.machine, seed=args.seed if args.seed is not None else 0, seeds=seeds,
+                       sweep=not args.no_sweep, demo_path=args.demo, teleop=args.teleop, keys=args.keys,
+                       record=args.record, live=live, from_rrd=args.from_rrd, dig=args.dig,
+                       say=lambda line: print(line, flush=True))
     return 0
 
 

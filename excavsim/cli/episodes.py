@@ -1,6 +1,5 @@
-"""The episode commands: ``demo``, ``cycle``, ``trench`` (one episode, or a specification's), ``run``
-(a specification's episode of any task: ``trench --spec``) and ``replay`` (a recorded episode in the
-Rerun viewer)."""
+"""The episode commands of every task: ``run`` (a specification's episode, whatever its task) and ``replay``
+(a recorded episode in the Rerun viewer). The tasks add their own commands (:mod:`excavsim.loop.catalog`)."""
 
 from __future__ import annotations
 
@@ -8,49 +7,26 @@ import argparse
 import math
 import pathlib
 
-from excavsim.cli.options import (MAX_DIG_BUDGET, MAX_SEED, dig_budget_type, name_or_path, out_dir, out_file, seed_type,
-                                  world_options)
+from excavsim.cli.live import live_stream
+from excavsim.config.arguments import episode_options, out_file
 from excavsim.errors import ConfigError, UsageError, shorten
 
 
-def _cmd_demo(args: argparse.Namespace) -> int:
-    from excavsim.handoff.episode import format_episode
-    from excavsim.tasks.trench.demo import demo_from_configs
-
-    print(format_episode(demo_from_configs(args.robot_config, args.scene_config, seed=args.seed, progress=print)))
-    return 0
-
-
-def _cmd_cycle(args: argparse.Namespace) -> int:
-    from excavsim.handoff.episode import format_episode
-    from excavsim.loop.scenario import EpisodeSpec, run_spec
-
-    spec = EpisodeSpec(name="cycle", dig_budget=1, seed=args.seed)
-    print(f"excavsim cycle: park, scan, plan, dig, settle, scan: one dig of the {spec.goal} trench (seed {args.seed})")
-    result = run_spec(spec, progress=print, robot_path=args.robot_config, scene_path=args.scene_config)
-    print(format_episode(result))
-    return 0
-
-
-def _cmd_trench(args: argparse.Namespace) -> int:
+def _cmd_run(args: argparse.Namespace) -> int:
+    """``excavsim run SPEC``: the specification's episode, whatever its task, with the outputs asked for."""
     from excavsim.config import parse_config
     from excavsim.loop.scenario import EpisodeSpec, load_spec, run_with_outputs
 
-    spec = load_spec(args.spec) if args.spec else EpisodeSpec()
-    given = {"goal": args.goal, "soil": args.soil, "dig_budget": args.dig_budget, "seed": args.seed}
+    spec = load_spec(args.spec)
+    given = {"soil": args.soil, "dig_budget": args.dig_budget, "seed": args.seed}
     if args.record and not args.record.endswith(".rrd"):
         raise ConfigError(f"--record must name an .rrd file; given {shorten(repr(args.record), 200)}")
     spec = parse_config({**spec.model_dump(), **{k: v for k, v in given.items() if v is not None}}, EpisodeSpec,
                         source="the command line")
-    run_with_outputs(spec, robot_path=args.robot_config, scene_path=args.scene_config, record=args.record,
-                     live=args.live, save_maps=args.save_maps, timing=args.timing, command=getattr(args, "command", "trench"))
+    with live_stream(args.live) as live:  # a viewer window that --live spawns ends with the command
+        run_with_outputs(spec, robot_path=args.robot_config, scene_path=args.scene_config, record=args.record,
+                         live=live, save_maps=args.save_maps, timing=args.timing, command="run")
     return 0
-
-
-def _cmd_run(args: argparse.Namespace) -> int:
-    """``excavsim run SPEC``: ``excavsim trench --spec SPEC`` (the specification names its task)."""
-    args.goal = None
-    return _cmd_trench(args)
 
 
 def _sim_time(text: str) -> float | None:
@@ -111,25 +87,11 @@ def _cmd_replay(args: argparse.Namespace) -> int:
 
 def register(sub: argparse._SubParsersAction) -> None:
     """Add the episode commands to ``sub``."""
-    demo = sub.add_parser("demo", help="one hand-picked dig through the loop: scan, dig, dump, settle, scan")
-    world_options(demo)
-    demo.set_defaults(func=_cmd_demo)
-
-    trench = sub.add_parser("trench", help="dig a trench: scan, plan, dig, settle until done or out of digs")
-    trench.add_argument("--spec", metavar="YAML", help="an episode specification (goal, soil, seed, budget, "
-                                                       "configuration overrides; e.g. configs/specs/trench_small.yaml)")
-    trench.add_argument("--goal", metavar="NAME|YAML", type=name_or_path,
-                        help="trench goal: a name of configs/trenches (sand, straight, small) or a YAML file "
-                             "(default sand)")
-    _episode_options(trench)
-    trench.set_defaults(func=_cmd_trench)
-
-    run = sub.add_parser("run", help="run an episode specification of any task (trench, load, truck): "
-                                     "`trench --spec SPEC`")
+    run = sub.add_parser("run", help="run an episode specification of any task (`excavsim tasks` lists them)")
     run.add_argument("spec", metavar="SPEC.yaml", help="an episode specification: its task, machine, soil, seed, "
                                                       "budget and configuration overrides (e.g. configs/specs/"
-                                                      "truck_trial.yaml)")
-    _episode_options(run)
+                                                      "trench_small.yaml)")
+    episode_options(run)
     run.set_defaults(func=_cmd_run)
 
     replay = sub.add_parser("replay", help="open a recorded episode (.rrd) in the Rerun viewer")
@@ -146,26 +108,4 @@ def register(sub: argparse._SubParsersAction) -> None:
                         help="the headless viewer's size in points (default 1600x1000)")
     replay.set_defaults(func=_cmd_replay)
 
-    cycle = sub.add_parser("cycle", help="one cycle of the loop: an episode of one dig of the default trench")
-    world_options(cycle)
-    cycle.set_defaults(func=_cmd_cycle)
 
-
-def _episode_options(parser: argparse.ArgumentParser) -> None:
-    """The options ``trench`` and ``run`` share: fields of the specification, its outputs, base configurations."""
-    parser.add_argument("--soil", metavar="NAME", help="soil preset of configs/soils.yaml (default: the scene's)")
-    parser.add_argument("--dig-budget", type=dig_budget_type, metavar="N",
-                        help=f"most digs to try (1 to {MAX_DIG_BUDGET}, default 20)")
-    parser.add_argument("--record", metavar="FILE.rrd", type=out_file(()),
-                        help="record the episode to a Rerun file (see `replay`)")
-    parser.add_argument("--live", nargs="?", const="", metavar="ADDRESS",
-                        help="stream the episode to a Rerun viewer as it runs: alone, spawn one (needs a display); "
-                             "with PORT, HOST:PORT or rerun+http://HOST:PORT/proxy, a running viewer (`rerun`)")
-    parser.add_argument("--timing", action="store_true",
-                        help="print Table 7 (§7.3): the mean per-cycle perception, feasible-set, selection, set-up "
-                             "and execution times beside the thesis' Sparc 10 numbers")
-    parser.add_argument("--save-maps", metavar="DIR", type=out_dir,
-                        help="save every scanned elevation map (for `plan --map`)")
-    parser.add_argument("--robot-config", metavar="YAML", help="servo configuration (default configs/robot.yaml)")
-    parser.add_argument("--scene-config", metavar="YAML", help="scene configuration (default configs/scene.yaml)")
-    parser.add_argument("--seed", type=seed_type, help=f"episode seed (0 to {MAX_SEED}, default 0)")

@@ -8,7 +8,8 @@ import argparse
 import pathlib
 import sys
 
-from excavsim.cli.options import MAX_DIG_BUDGET, dig_budget_type, float_in, int_in, out_dir, out_file, seed_type
+from excavsim.cli.live import live_stream
+from excavsim.config.arguments import MAX_DIG_BUDGET, dig_budget_type, float_in, int_in, out_dir, out_file, seed_type
 from excavsim.errors import ConfigError, UsageError
 
 
@@ -77,25 +78,21 @@ def _cmd_campaign(args: argparse.Namespace) -> int:
             out_dir(out)
         except argparse.ArgumentTypeError as exc:
             raise ConfigError(f"--out (default): {exc}") from None
-    recorder = None
-    if args.live is not None:  # records every episode, streams the first of the grid
-        from excavsim.studies.campaign.runner import check_campaign
-        from excavsim.record.live import LiveRecorders, viewer_url
+    with live_stream(args.live) as url:  # a viewer window that --live spawns ends with the command
+        live = None
+        if url is not None:  # records every episode, streams the first of the grid
+            from excavsim.studies.campaign.runner import check_campaign
 
-        first = check_campaign(spec, source=f"campaign {spec.name}")[0].id
-        url = viewer_url(args.live or None)
-        print(f"streaming episode {first} live to {url}; every episode is recorded (record: true)")
-        spec = spec.model_copy(update={"record": True})
-        recorder = LiveRecorders(url, first)
-    elif spec.record:
-        from excavsim.record import RerunRecorder as recorder
-    report = run_campaign(spec, out, workers=args.workers, resume=args.resume, ray_address=args.ray,
-                          recorder=recorder, progress=print)
-    if report.errors:
-        print(f"{report.errors} of {len(report.rows)} episodes failed: see their 'error' in {out}/episodes",
-              file=sys.stderr)
-        return 1
-    return 0
+            first = check_campaign(spec, source=f"campaign {spec.name}")[0].id
+            print(f"streaming episode {first} live to {url}; every episode is recorded (record: true)")
+            spec = spec.model_copy(update={"record": True})
+            live = (url, first)
+        report = run_campaign(spec, out, workers=args.workers, resume=args.resume, ray_address=args.ray, live=live,
+                              progress=print)
+        if report.errors:
+            print(f"{report.errors} of {len(report.rows)} episodes failed: see their 'error' in {out}/episodes",
+                  file=sys.stderr)
+    return 1 if report.errors else 0
 
 
 def _cmd_learn(args: argparse.Namespace) -> int:
@@ -162,7 +159,7 @@ def register(sub: argparse._SubParsersAction) -> None:
     bench.add_argument("names", nargs="*", metavar="NAME", help="benchmarks to run (default: all)")
     bench.set_defaults(func=_cmd_bench)
 
-    campaign = sub.add_parser("campaign", help="run a grid of trenching episodes in parallel; summary table and plots")
+    campaign = sub.add_parser("campaign", help="run a grid of episodes of any tasks in parallel; summary table and plots")
     campaign.add_argument("campaign", metavar="CAMPAIGN.yaml",
                           help="campaign file (e.g. configs/campaigns/example.yaml)")
     campaign.add_argument("--out", metavar="DIR", type=out_dir, help="output directory (default runs/campaigns/NAME)")

@@ -14,10 +14,11 @@ and in radians in the code. Everything is importable from ``excavsim.config``:
   :mod:`~excavsim.config.sensing`, :mod:`~excavsim.config.planner`, :mod:`~excavsim.config.executor`:
   ``configs/robot.yaml``, ``scene.yaml``, ``soils.yaml``, ``sensing.yaml``, ``planner.yaml`` with
   ``trenches/*.yaml``, and ``executor.yaml``;
-* the applications' files: :mod:`~excavsim.config.loading` (``configs/loading.yaml``, the 2-D loading
-  simulation), :mod:`~excavsim.config.loading_mujoco` (``configs/loading_mujoco.yaml`` and its campaigns),
-  :mod:`~excavsim.config.truck` (``configs/truck.yaml``), :mod:`~excavsim.config.baseline` (the regression
-  baseline ``configs/regress/baseline.json``).
+* :mod:`~excavsim.config.baseline` (the regression baseline ``configs/regress/baseline.json``),
+  :mod:`~excavsim.config.kinds` (a kind of file, as ``excavsim validate`` knows it) and
+  :mod:`~excavsim.config.arguments` (the command line's argument types).
+
+A task's own files are configured in its folder (``excavsim/tasks/<task>/config.py``).
 
 ``excavsim validate`` (:mod:`excavsim.validate`) checks a file of any kind, told from its place or its fields.
 """
@@ -25,9 +26,6 @@ and in radians in the code. Everything is importable from ``excavsim.config``:
 from excavsim.config.baseline import RegressBaseline, load_baseline_file
 from excavsim.config.executor import ExecutorConfig, load_executor_config
 from excavsim.config.loader import StrictModel, display_path, load_config, parse_config, parse_yaml, read_text_file
-from excavsim.config.loading import LoadingConfig, load_loading_config
-from excavsim.config.loading_mujoco import (LoadingCampaign, LoadingMujocoConfig, load_loading_campaign,
-                                           load_loading_mujoco_config)
 from excavsim.config.planner import PlannerConfig, PlannerGrid, TrenchGoal, load_planner_config, load_trench_goal
 from excavsim.config.robot import JointServo, JointServos, RobotConfig, load_robot_config
 from excavsim.config.scene import BucketSoilConfig, SceneConfig, SettleConfig, SoilTruthConfig, load_scene_config
@@ -35,14 +33,6 @@ from excavsim.config.sensing import (ElevationMapConfig, ForceSensorConfig, Scan
                                      load_sensing_config)
 from excavsim.config.semantic import check_goal
 from excavsim.config.soils import DiMaioParams, SoilParams, SoilsFile, get_soil, load_soils
-from excavsim.config.truck import TruckFile, load_truck_file
 from excavsim.errors import ConfigError
 
-__all__ = ["BucketSoilConfig", "ConfigError", "DiMaioParams", "ElevationMapConfig", "ExecutorConfig",
-           "ForceSensorConfig", "JointServo", "JointServos", "LoadingCampaign", "LoadingConfig", "LoadingMujocoConfig",
-           "PlannerConfig", "PlannerGrid", "RegressBaseline", "RobotConfig", "ScannerConfig", "SceneConfig",
-           "SensingConfig", "SettleConfig", "SoilParams", "SoilTruthConfig", "SoilsFile", "StrictModel", "TrenchGoal",
-           "TruckFile", "check_goal", "display_path", "get_soil", "load_baseline_file", "load_config",
-           "load_executor_config", "load_loading_campaign", "load_loading_config", "load_loading_mujoco_config",
-           "load_planner_config", "load_robot_config", "load_scene_config", "load_sensing_config", "load_soils",
-           "load_trench_goal", "load_truck_file", "parse_config", "parse_yaml", "read_text_file"]
+__all__ = ["BucketSoilConfig", "ConfigError", "DiMaioParams", "ElevationMapConfig", "ExecutorConfig", "ForceSensorConfig", "JointServo", "JointServos", "PlannerConfig", "PlannerGrid", "RegressBaseline", "RobotConfig", "ScannerConfig", "SceneConfig", "SensingConfig", "SettleConfig", "SoilParams", "SoilTruthConfig", "SoilsFile", "StrictModel", "TrenchGoal", "check_goal", "display_path", "get_soil", "load_baseline_file", "load_config", "load_executor_config", "load_planner_config", "load_robot_config", "load_scene_config", "load_sensing_config", "load_soils", "load_trench_goal", "parse_config", "parse_yaml", "read_text_file"]

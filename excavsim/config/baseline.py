@@ -46,8 +46,8 @@ class ScenarioBaseline(StrictModel):
     """One golden scenario's sample: its seeds, each seed's end and simulated time [s], its metrics."""
 
     seeds: list[int] = Field(min_length=1, description="the seeds run, distinct, >= 0")
-    task: Literal["trench", "load", "truck", "truck_loading"] = Field(
-        default="trench", description="the scenario's task, whose metrics are judged (absent: trench)")
+    task: str = Field(pattern=r"^[a-z][a-z0-9_]{0,39}$",
+                      description="the scenario's task (a name of the catalog), whose metrics are judged")
     end: list[str | None] | None = Field(default=None, description="each seed's end (done, budget, ...)")
     sim_s: list[float | None] | None = Field(default=None, description="each seed's simulated time [s]")
     metrics: dict[str, MetricSummary] = Field(default_factory=dict, description="per metric its sample")

@@ -1,8 +1,10 @@
 """N copies of the joint-level world stepped together in one process: Gymnasium's ``vector_entry_point``.
 
 :class:`BatchedJointEnv` is what ``gymnasium.make_vec("excavsim/TrenchJointDig-v0", num_envs=N)``
-gives (its default vectorization mode, or ``vectorization_mode="vector_entry_point"``). Each copy
-is a :class:`~excavsim.envs.joint_core.JointCore` with its own world; one step of the batch:
+gives (its default vectorization mode, or ``vectorization_mode="vector_entry_point"``), for every
+joint-level id. Each copy is a :class:`~excavsim.envs.joint_core.JointCore` with its own world. The T3 on
+the trench goal (the copies' worlds :class:`~excavsim.world.simulation.Simulation`, their drive four
+symmetric servos and two held ones) takes the compiled path; one step of the batch:
 
 1. the actions of all copies are checked at once and turned into the servos' set-point rates, written
    into every copy's ``data.ctrl`` in one compiled call (:func:`servo_rates`);
@@ -19,6 +21,10 @@ is a :class:`~excavsim.envs.joint_core.JointCore` with its own world; one step o
 The copies step exactly as N single environments do, to the bit (tests/envs/test_rl.py checks it):
 the world's per-step operations on each copy are the same, in the same order. A copy whose soil uses DiMaio's model
 (``truth.model: dimaio``) steps its soil on its own (the batched kernel is the wedge model's).
+
+Any other machine or goal (an excavator's valves, the region goal) steps copy by copy through its core
+(:meth:`JointCore.step <excavsim.envs.joint_core.JointCore.step>`), as ``SyncVectorEnv`` would, with the
+same spaces, seeding and autoreset.
 
 Autoreset follows Gymnasium's ``NEXT_STEP`` mode (as ``SyncVectorEnv``): the step after a copy's
 episode ended resets it (its action is ignored, its reward 0) and returns its first observation.
@@ -38,6 +44,7 @@ from numba.typed import List
 
 from excavsim.envs.core import EnvError, check_seed
 from excavsim.envs.joint_core import JointCore
+from excavsim.envs.joint_trench import JointTrench
 from excavsim.envs.render import RENDER_MODES, FrameRenderer, check_render_mode
 from excavsim.envs.spaces import dict_space
 from excavsim.handoff.observation import Diverged
@@ -63,7 +70,7 @@ def soil_steps(active, heights, strength, grids, mj_arrays, vel6, buckets, edges
 def servo_rates(active, a, ctrls, qposs, act, qadr, hold, limit, gain):
     """The servos' set-point rates of every active copy written into its ``data.ctrl`` (typed list):
     :meth:`JointCore.checked_rates <excavsim.envs.joint_core.JointCore.checked_rates>` element by
-    element (the agent's four rates ``clip(a, -1, 1) * limit``, the wrist's yaw and roll driven to
+    element for the T3's symmetric servos (the agent's four rates ``clip(a, -1, 1) * limit``, the wrist's yaw and roll driven to
     ``hold`` by the servo law of :func:`~excavsim.robot.servo.setpoint_rates`); ``a`` (N, 4) finite,
     ``act``/``qadr`` (N, 6) the actuators and joint addresses, ``hold`` (N, 2), ``limit`` (N, 6), ``gain`` (N,)."""
     for i in range(a.shape[0]):
@@ -98,7 +105,7 @@ def gather_cells(heights, rows, cols, out):
 
 @numba.njit(cache=True, inline="always")
 def _bilinear(h, x, y, x0, y0, cell, ny, nx):
-    """:meth:`PatchLayout.heights_at <excavsim.envs.joint_core.PatchLayout.heights_at>` at one point
+    """:meth:`PatchLayout.heights_at <excavsim.envs.joint_trench.PatchLayout.heights_at>` at one point
     of one map, the same operations in the same order."""
     u = (x - x0) / cell - 0.5
     u = min(max(u, 0.0), nx - 1.0)
@@ -113,7 +120,7 @@ def _bilinear(h, x, y, x0, y0, cell, ny, nx):
 
 @numba.njit(cache=True)
 def patch_kernel(heights, tips, off_x, off_y, grid, goal, terrain, goal_out, depth, inside):
-    """:meth:`PatchLayout.patches <excavsim.envs.joint_core.PatchLayout.patches>` of every copy in
+    """:meth:`PatchLayout.patches <excavsim.envs.joint_trench.PatchLayout.patches>` of every copy in
     one compiled pass, element by element with the same arithmetic (so the same numbers, to the bit).
 
     Args:
@@ -197,8 +204,8 @@ def _soil_arrays(sim) -> dict[str, Any]:
 
 
 class BatchedJointEnv(gym.vector.VectorEnv):
-    """``num_envs`` copies of :class:`~excavsim.envs.joint_env.TrenchJointEnv` stepped in one process,
-    the soil in one compiled call (see the module docstring).
+    """``num_envs`` copies of :class:`~excavsim.envs.joint_env.JointEnv` stepped in one process, for the T3's
+    trench the soil in one compiled call (see the module docstring).
 
     Spaces: the single environment's, batched (``Dict`` of (N, ...) float32 boxes; actions (N, 4)
     float32 in [-1, 1]). ``infos`` hold the single environment's numbers as (N,) arrays with
@@ -211,7 +218,8 @@ class BatchedJointEnv(gym.vector.VectorEnv):
     Args:
         num_envs: the number of copies (>= 1).
         render_mode: None or ``"rgb_array"`` (:meth:`render` gives one frame per copy).
-        kwargs: as :class:`~excavsim.envs.joint_core.JointCore` (the task's spec, weights, horizon, start...).
+        kwargs: as :class:`~excavsim.envs.joint_core.JointCore` (the goal, the spec or machine, weights,
+            horizon, start...).
     """
 
     metadata = {"render_modes": list(RENDER_MODES), "autoreset_mode": gym.vector.AutoresetMode.NEXT_STEP}
@@ -225,6 +233,7 @@ class BatchedJointEnv(gym.vector.VectorEnv):
         self.render_mode = check_render_mode(render_mode)
         self.cores = [JointCore(spec, **kwargs) for _ in range(self.num_envs)]
         core = self.cores[0]
+        self._compiled = _compiled_path(core)
         self.single_observation_space = dict_space(core.fields)
         self.single_action_space = gym.spaces.Box(-1.0, 1.0, shape=core.action_low.shape, dtype=np.float32)
         self.observation_space = batch_space(self.single_observation_space, self.num_envs)
@@ -279,19 +288,25 @@ class BatchedJointEnv(gym.vector.VectorEnv):
             seeds = [(int(seed) + i) % 2**32 for i in range(self.num_envs)]
         self._resets += 1
         infos: dict[str, Any] = {}
+        self._autoreset[:] = False
+        if not self._compiled:
+            firsts = [self.cores[i].reset(s, options) for i, s in enumerate(seeds)]
+            for i, (_, info) in enumerate(firsts):
+                infos = self._add_info(infos, info, i)
+            self._obs = _stacked([obs for obs, _ in firsts])
+            return self._copy_obs(), infos
         for i, s in enumerate(seeds):
             self.cores[i].reset(s, options)
             self._attach(i)
             infos = self._add_info(infos, self._reset_info(i), i)
-        self._autoreset[:] = False
         self._obs = self._observe(np.ones(self.num_envs, dtype=bool), [c.reading for c in self.cores])
         for i in range(self.num_envs):
-            self.cores[i]._potential = self.cores[i]._depth_potential()
+            self.cores[i].goal.started()
         return self._copy_obs(), infos
 
     def _reset_info(self, i: int) -> dict[str, Any]:
-        core = self.cores[i]
-        return {"time_s": 0.0, "map_removed_fraction": core._frac, "map_done": bool(core._done)}
+        goal = self.cores[i].goal
+        return {"time_s": 0.0, "map_removed_fraction": goal._frac, "map_done": bool(goal._done)}
 
     def _attach(self, i: int) -> None:
         """Point the batched kernel's lists at copy ``i``'s fresh world."""
@@ -302,7 +317,7 @@ class BatchedJointEnv(gym.vector.VectorEnv):
         else:
             for name in _SOIL_LISTS:
                 self._soil[name][i] = arrays[name]
-        emap = self.cores[i].emap
+        emap = self.cores[i].goal.emap
         if self._maps is None or self._maps.shape[1:] != emap.heights.shape:
             self._maps = np.zeros((self.num_envs,) + emap.heights.shape)
         self._maps[i] = emap.heights
@@ -315,14 +330,14 @@ class BatchedJointEnv(gym.vector.VectorEnv):
             self._base = List([sim._warnings] * self.num_envs)
         self._counts[i], self._base[i], self._qvels[i] = sim._warning_view, sim._warnings, d.qvel
         self._act[i], self._qadr[i] = sim._act, sim.index.qpos
-        self._hold[i], self._limit[i] = core._hold, core._rate_limit
-        self._gain[i] = float(sim.robot.setpoint_gain_per_s)
-        truth, first = core.truth, self.cores[0].truth
+        self._hold[i], self._limit[i] = core._hold, np.r_[core._hi, core._held_limit]
+        self._gain[i] = core._gain
+        truth, first = core.goal.truth, self.cores[0].goal.truth
         if self._h0 is None or self._h0.shape[1] != len(truth.h0):
             self._h0 = np.zeros((self.num_envs, len(truth.h0)))
             self._cells = np.zeros_like(self._h0)
         self._h0[i] = truth.h0
-        self._shared = all(_same_footprint(c.truth, first) for c in self.cores if hasattr(c, "truth"))
+        self._shared = all(_same_footprint(c.goal.truth, first) for c in self.cores if hasattr(c.goal, "truth"))
 
     def _measure(self) -> tuple[np.ndarray, np.ndarray] | None:
         """Every copy's :meth:`TrueTrench.measure <excavsim.envs.core.TrueTrench.measure>` at once
@@ -330,7 +345,7 @@ class BatchedJointEnv(gym.vector.VectorEnv):
         copies' footprints differ (then each copy measures itself)."""
         if not self._shared:
             return None
-        first = self.cores[0].truth
+        first = self.cores[0].goal.truth
         gather_cells(self._soil["heights"], first.idx[0], first.idx[1], self._cells)
         removed = np.clip(self._h0 - np.maximum(self._cells, first.z_goal), 0, None).sum(axis=1) * first.cell_area
         over = np.clip(first.z_goal - self._cells, 0, None).sum(axis=1) * first.cell_area
@@ -348,6 +363,8 @@ class BatchedJointEnv(gym.vector.VectorEnv):
             raise EnvError(f"actions must have shape ({n}, 4); given shape {a.shape}")
         if not np.all(np.isfinite(a)) or np.any(np.abs(a) > 1.0 + 1e-6):
             raise EnvError(f"actions must be finite rates in [-1, 1]; given {a!r}")
+        if not self._compiled:
+            return self._step_each(a)
         rewards = np.zeros(n)
         terminated = np.zeros(n, dtype=bool)
         truncated = np.zeros(n, dtype=bool)
@@ -413,20 +430,40 @@ class BatchedJointEnv(gym.vector.VectorEnv):
                 infos = self._add_info(infos, info, i)
                 continue
             steps[i] = core.account(observations[i], None if measured is None else (removed[i], over[i]))
-            if core.emap is not self._map_of[i]:  # rescanned
-                self._maps[i] = core.emap.heights
-                self._map_of[i] = core.emap
+            emap = core.goal.emap
+            if emap is not self._map_of[i]:  # rescanned
+                self._maps[i] = emap.heights
+                self._map_of[i] = emap
         for i in np.flatnonzero(resetting):
             observations[i] = self.cores[i].reading
         obs = self._observe(np.ones(n, dtype=bool), observations)
         for i in np.flatnonzero(resetting):
-            self.cores[i]._potential = self.cores[i]._depth_potential()
+            self.cores[i].goal.started()
         stepped = []
         for i, step in steps.items():
             _o, rewards[i], terminated[i], truncated[i], info = cores[i].finish(step, None)
             stepped.append((i, info))
         infos = self._step_infos(infos, stepped)
         self._obs = obs
+        self._autoreset = terminated | truncated
+        return self._copy_obs(), rewards, terminated, truncated, infos
+
+    def _step_each(self, a: np.ndarray):
+        """:meth:`step` copy by copy through each core (any machine and goal), actions ``a`` (N, 4) checked."""
+        n = self.num_envs
+        rewards = np.zeros(n)
+        terminated = np.zeros(n, dtype=bool)
+        truncated = np.zeros(n, dtype=bool)
+        infos: dict[str, Any] = {}
+        observations = []
+        for i, core in enumerate(self.cores):
+            if self._autoreset[i]:
+                obs, info = core.reset(int(self.np_random.integers(0, 2**32)))
+            else:
+                obs, rewards[i], terminated[i], truncated[i], info = core.step(a[i])
+            observations.append(obs)
+            infos = self._add_info(infos, info, i)
+        self._obs = _stacked(observations)
         self._autoreset = terminated | truncated
         return self._copy_obs(), rewards, terminated, truncated, infos
 
@@ -470,7 +507,7 @@ class BatchedJointEnv(gym.vector.VectorEnv):
         copy's tip depth for its shaping."""
         n = self.num_envs
         core0 = self.cores[0]
-        p = core0.patch_size
+        p = core0.goal.patch_size
         tips = np.zeros((n, 3))
         out = {"q": np.zeros((n, 6), np.float32), "qdot": np.zeros((n, 6), np.float32),
                "ft": np.zeros((n, 6), np.float32), "tip": np.zeros((n, 4), np.float32),
@@ -479,16 +516,19 @@ class BatchedJointEnv(gym.vector.VectorEnv):
         time_left = [0.0] * n
         for i in np.flatnonzero(which).tolist():  # gathered in float64, cast to float32 once per field
             core, obs = self.cores[i], observations[i]
-            tip, pitch, wrench = core.tip_and_wrench(obs)
+            tip, pitch = core.goal.tip(obs)
             tips[i] = tip
             q[i] = obs.q
             qdot[i] = obs.qdot
-            ft[i] = wrench
+            ft[i] = core.wrench(obs)
             tip4[i] = (tip[0], tip[1], tip[2], pitch)
-            time_left[i] = max(core.max_time_s - (core.sim.time - core.t0), 0.0)
-        out["q"][:], out["qdot"][:], out["ft"][:], out["tip"][:] = q, qdot, ft, tip4
+            time_left[i] = max(core.max_time_s - core.goal.elapsed(), 0.0)
+        m = core0.machine  # the joints' bounds, as the single observation clips them
+        out["q"][:] = np.clip(q, -m.angle_bound_rad, m.angle_bound_rad)
+        out["qdot"][:] = np.clip(qdot, -m.speed_bound_rad_s, m.speed_bound_rad_s)
+        out["ft"][:], out["tip"][:] = ft, tip4
         out["time_left"][:, 0] = time_left
-        layout = core0.layout
+        layout = core0.goal.layout
         if getattr(self, "_layout", None) is not layout:
             self._layout, (self._grid, self._goal) = layout, _layout_constants(layout)
             self._terrain, self._goal_patch = np.zeros((n, p, p)), np.zeros((n, p, p))
@@ -499,7 +539,7 @@ class BatchedJointEnv(gym.vector.VectorEnv):
         out["patch"][:, 0] = self._terrain
         out["patch"][:, 1] = self._goal_patch
         for i in np.flatnonzero(which):
-            self.cores[i]._tip_depth, self.cores[i]._tip_inside = float(depth[i]), bool(inside[i])
+            self.cores[i].goal._tip_depth, self.cores[i].goal._tip_inside = float(depth[i]), bool(inside[i])
         return out
 
     def _copy_obs(self) -> dict[str, np.ndarray]:
@@ -551,6 +591,22 @@ def _after_physics(sim, ok: bool, before: float):
     for hook in sim.step_hooks:
         hook(sim)
     return sim.observe()
+
+
+def _compiled_path(core: JointCore) -> bool:
+    """Whether ``core``'s copies take the compiled path: the trench goal on a machine whose world is the
+    T3's :class:`~excavsim.world.simulation.Simulation` (no hydraulics), its four driven servos first and
+    two held ones after (the layout :func:`servo_rates` writes); its servos' ranges are symmetric (the robot
+    configuration's flow limits, :func:`~excavsim.world.scene.build_physics`), so that ``a * limit`` is the
+    core's rate for either sign."""
+    m = core.machine
+    return (isinstance(core.goal, JointTrench) and m.hydraulics is None and core.driven.tolist() == [0, 1, 2, 3]
+            and core.held.tolist() == [4, 5])
+
+
+def _stacked(observations: list[dict[str, np.ndarray]]) -> dict[str, np.ndarray]:
+    """The copies' observations as one dict of (N, ...) arrays."""
+    return {k: np.stack([o[k] for o in observations]) for k in observations[0]}
 
 
 def _same_footprint(a, b) -> bool:

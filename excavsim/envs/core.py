@@ -36,7 +36,7 @@ from excavsim.handoff.episode import EpisodeObserver, EpisodeResult
 from excavsim.handoff.goal import goal_profile
 from excavsim.handoff.maps import ElevationMap
 from excavsim.loop.digs import Choice
-from excavsim.loop.scenario import EpisodeSpec, ResolvedSpec, dig_rows, episode_summary, load_spec, spec_episode
+from excavsim.loop.scenario import EpisodeSpec, dig_rows, episode_summary, load_spec, resolve, spec_episode
 from excavsim.planning.experience import DigExperience
 from excavsim.tasks.trench.digs import PlannedDigs
 from excavsim.tasks.trench.task import map_done
@@ -80,9 +80,9 @@ def as_spec(spec: EpisodeSpec | Mapping | str | pathlib.Path | None) -> EpisodeS
         ConfigError: the mapping or file is not a valid specification.
     """
     if spec is None:
-        return EpisodeSpec()
+        return EpisodeSpec(task="trench")
     if isinstance(spec, Mapping):
-        spec = parse_config(dict(spec), EpisodeSpec, source="the environment's spec")
+        spec = parse_config({"task": "trench", **spec}, EpisodeSpec, source="the environment's spec")
     elif isinstance(spec, (str, pathlib.Path)):
         spec = load_spec(spec)
     if isinstance(spec, EpisodeSpec):
@@ -149,7 +149,7 @@ class GoalWindow:
 
     Rows run along the lateral axis (towards +y at waist 0), columns radially away from the robot.
     World points use the loop's convention for the trench's footprint
-    (:func:`~excavsim.loop.measures.trench_footprint`): the arm plane through the waist axis.
+    (:func:`~excavsim.rig.measures.trench_footprint`): the arm plane through the waist axis.
     """
 
     def __init__(self, goal: TrenchGoal, spacing_m: float, margin_m: float, half_width_m: float):
@@ -367,7 +367,7 @@ class DigCore(DigLevelCore):
                  window_margin_m: float = 0.25, window_half_width_m: float = 0.3,
                  observer: EpisodeObserver | None = None, robot_path=None, scene_path=None):
         self.spec = as_spec(spec)
-        self.resolved = ResolvedSpec(self.spec, robot_path=robot_path, scene_path=scene_path)
+        self.resolved = resolve(self.spec, robot_path=robot_path, scene_path=scene_path)
         self.weights = check_weights(weights, DIG_WEIGHTS, "dig")
         self.fallback = bool(fallback)
         self.observer = observer
@@ -501,7 +501,7 @@ class DigCore(DigLevelCore):
     # -- the caller's side -------------------------------------------------------------------------
     def _start(self, seed: int) -> None:
         self._episode = ep = spec_episode(self.spec, self.resolved, observer=self.observer)
-        self._source = _AgentDigs(DigExperience() if self.spec.memory else None)
+        self._source = _AgentDigs(DigExperience() if self.spec.options.memory else None)
         ep.reset(seed, digs=self._source)
         task = ep.task
         self._sim, self._rig = task.sim, task.rig
@@ -533,12 +533,12 @@ class DigCore(DigLevelCore):
         emap = decision.emap if decision.emap is not None else self._belief
         if emap is not None and self._rig is not None:
             r = self.resolved
-            done, frac = map_done(emap, r.goal, self._rig.arm, self._rig.width, done_fraction=self.spec.done_fraction,
-                                  tolerance_m=self.spec.tolerance_m, initial_z=r.goal.surface_z_m)
+            done, frac = map_done(emap, r.goal, self._rig.arm, self._rig.width, done_fraction=self.spec.options.done_fraction,
+                                  tolerance_m=self.spec.options.tolerance_m, initial_z=r.goal.surface_z_m)
             info["map_removed_fraction"] = float(frac)
         if not first and self._last is not None:
             m = self._last["metrics"]
-            row = dig_rows(_Digs([m]))[0]
+            row = dig_rows(_Digs([m]), self.spec.task)[0]
             row = {k: (None if isinstance(v, float) and math.isnan(v) else v) for k, v in row.items()}
             row["efficiency"] = float(m.efficiency) if math.isfinite(m.efficiency) else None
             info["dig"] = row
@@ -549,7 +549,7 @@ class DigCore(DigLevelCore):
             info["executed_cell"] = None if cell is None else np.array(cell, dtype=np.int64)
             info["snapped_to_allowed"] = bool(decided.get("snapped", False))
         if decision.result is not None:
-            summary = episode_summary(decision.result)
+            summary = episode_summary(decision.result, self.spec.task)
             info["episode"] = {k: (None if isinstance(v, float) and math.isnan(v) else v)
                                for k, v in summary.items() if k not in TIMING_KEYS}
         return info

@@ -131,7 +131,7 @@ class TrenchDigEnv(DigStepEnv):
         normalize_action: the action in [-1, 1] (above) instead of the planner's units.
         render_mode: None (the default) or ``"rgb_array"``: :meth:`render` returns a frame of the
             world between digs from MuJoCo's offscreen renderer (:mod:`excavsim.envs.render`); to
-            record whole episodes use ``observer=excavsim.record.RerunRecorder(...)``.
+            record whole episodes use ``observer=excavsim.record.TrenchRecorder(...)``.
         render_size: (width, height) of the frames [pixels].
     """
 

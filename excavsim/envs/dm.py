@@ -1,4 +1,4 @@
-"""The environments with a dm_env face: :class:`DmTrenchDig`, :class:`DmTrenchJoint` and :class:`DmLoadDig`.
+"""The environments with a dm_env face: :class:`DmTrenchDig`, :class:`DmJoint` and :class:`DmLoadDig`.
 
 The same cores as the Gymnasium environments (:mod:`excavsim.envs.core`), with dm_env's
 conventions: ``reset()`` returns a ``FIRST`` time step; ``step`` on a fresh environment or after a
@@ -102,10 +102,11 @@ class DmTrenchDig(_DmFace):
     _core_class = DigCore
 
 
-class DmTrenchJoint(_DmFace):
-    """``TrenchJoint`` with a dm_env face: one step per control period, the action four set-point
-    rates in [-1, 1] (see :class:`~excavsim.envs.joint_core.JointCore` and
-    :class:`~excavsim.envs.joint_env.TrenchJointEnv`).
+class DmJoint(_DmFace):
+    """The joint level with a dm_env face, any machine and goal: one step per control period, the action
+    four set-point rates in [-1, 1] (see :class:`~excavsim.envs.joint_core.JointCore` and
+    :class:`~excavsim.envs.joint_env.JointEnv`): ``DmJoint(spec)`` is ``TrenchJoint``'s world,
+    ``DmJoint(goal="region")`` ``ExcavatorJoint``'s.
 
     Args:
         spec: the world; seed: the first episode's seed (see the module docstring); the rest as
@@ -121,7 +122,7 @@ class DmLoadDig(_DmFace):
     :class:`~excavsim.envs.load_env.LoadDigEnv`).
 
     Args:
-        spec: the episode (task load); seed: the first episode's seed (see the module docstring); the
+        spec: the episode (task pile_loading); seed: the first episode's seed (see the module docstring); the
             rest as :class:`~excavsim.envs.load_core.LoadCore`.
     """
 

@@ -1,44 +1,48 @@
-"""``excavsim/TrenchJoint-v0`` and ``excavsim/TrenchJointDig-v0``: set-point rates of the arm's
-servos at the control rate (Gymnasium).
+"""The joint-level environments' Gymnasium face: ``excavsim/TrenchJoint-v0``, ``excavsim/TrenchJointDig-v0``
+and ``excavsim/ExcavatorJoint-v0``, any machine's digging joints at its control rate.
 
-:class:`TrenchJointEnv` is the Gymnasium face of :class:`~excavsim.envs.joint_core.JointCore`.
+:class:`JointEnv` is the Gymnasium face of :class:`~excavsim.envs.joint_core.JointCore`; the ids are
+registrations of it with their goal and defaults (:mod:`excavsim.envs`).
 """
 
 from __future__ import annotations
 
-import math
 from typing import Any
 
 import gymnasium as gym
 import numpy as np
 
 from excavsim.envs.dig_env import _episode_seed
-from excavsim.envs.joint_core import DIG_TASK, TRENCH_TASK, JointCore
+from excavsim.envs.joint_core import JointCore
 from excavsim.envs.render import RENDER_MODES, FrameRenderer, check_render_mode
 from excavsim.envs.spaces import dict_space
 
-class TrenchJointEnv(gym.Env):
-    """The trenching world at the control rate (100 Hz): the agent drives the servos.
 
-    See :class:`~excavsim.envs.joint_core.JointCore` for the rules, the start and the reward term
-    by term. Spaces (docs/environments.md has the tables):
+class JointEnv(gym.Env):
+    """A trenching machine at its control rate (the T3's 100 Hz, an excavator's 50 Hz): the agent drives
+    the set-point rates of its waist or swing and its planar three joints.
 
-    * action: ``Box(4,)`` float32 in [-1, 1]: the set-point rates of waist, shoulder, elbow and
-      wrist pitch as fractions of their flow limits (the wrist's yaw and roll hold their home angles);
-    * observation: ``Dict`` of float32 boxes ``q``, ``qdot`` (6 joint angles [rad] and velocities
-      [rad/s]), ``ft`` (the F/T reading: soil force [N] and moment [N m] on the bucket about its tip,
-      tip frame), ``tip`` (tip x, y, z [m] and pitch [rad] from the robot's kinematic model),
-      ``patch`` (2 x P x P: the scanned terrain's and the goal's heights around the tip, relative to
-      the tip [m]) and ``time_left`` (1,) [s].
+    See :class:`~excavsim.envs.joint_core.JointCore` for the machine's part (the action, the
+    proprioception) and its goals (:class:`~excavsim.envs.joint_trench.JointTrench`,
+    :class:`~excavsim.envs.joint_region.JointRegion`) for the start, the task's observation entries and the
+    reward term by term. Spaces (docs/environments.md has the tables):
 
-    ``terminated`` when a scan shows the trench within tolerance or the world diverged;
-    ``truncated`` after ``max_time_s``. ``info["reward_terms"]`` splits each reward. Seeding as
-    :class:`~excavsim.envs.dig_env.TrenchDigEnv`; ``reset(options=...)`` takes
-    :data:`~excavsim.envs.joint_core.START_OPTIONS`.
+    * action: ``Box(4,)`` float32 in [-1, 1]: the driven joints' set-point rates as fractions of their ranges
+      (on the T3 the wrist's yaw and roll hold their home angles; on an excavator the pumps share their flow);
+    * observation: ``Dict`` of float32 boxes: ``q``, ``qdot`` and ``ft`` (the T3's wrist F/T) or
+      ``cylinder_force`` (an excavator's), then the goal's: the trench's ``tip``, ``patch``, ``time_left``;
+      the region's ``tip``, ``bucket_soil``, ``region_soil``, ``time_left``.
+
+    ``terminated`` when the goal is reached or the world diverged; ``truncated`` after ``max_time_s``.
+    ``info["reward_terms"]`` splits each reward. Seeding as :class:`~excavsim.envs.dig_env.TrenchDigEnv`:
+    ``reset(seed=s)`` starts episode ``s``; the first reset without a seed starts the spec's ``seed``, later
+    ones draw from ``np_random``; the same seed gives the same episode. ``reset(options=...)`` takes the
+    trench's :data:`~excavsim.envs.joint_trench.START_OPTIONS` (the region takes none).
 
     Args:
-        spec, weights, max_time_s, scan_period_s, patch_size, patch_spacing_m, start, robot_path, scene_path:
-            as :class:`~excavsim.envs.joint_core.JointCore`.
+        spec, goal, machine, soil, seed, weights, max_time_s, robot_path, scene_path, and the goal's settings
+            (the trench's ``scan_period_s``, ``patch_size``, ``patch_spacing_m``, ``start``): as
+            :class:`~excavsim.envs.joint_core.JointCore`.
         render_mode: None (the default) or ``"rgb_array"``: :meth:`render` returns a frame from
             MuJoCo's offscreen renderer (see :mod:`excavsim.envs.render` for the GL backends).
         render_size: (width, height) of the frames [pixels].
@@ -54,11 +58,13 @@ class TrenchJointEnv(gym.Env):
                                            self.core.action_high.astype(np.float32), dtype=np.float32)
         self.observation_space = dict_space(self.core.fields)
         self.metadata = {"render_modes": list(RENDER_MODES), "render_fps": round(1.0 / self.core.control_dt)}
-        goal = self.core.resolved.goal
-        x = (goal.near_x_m + goal.far_x_m) / 2
-        w = math.radians(goal.waist_deg)
-        self._frames = FrameRenderer(*render_size, lookat=(x * math.cos(w), x * math.sin(w), goal.surface_z_m))
+        self._frames = FrameRenderer(*render_size, lookat=self.core.goal.lookat)
         self._resets = 0
+
+    @property
+    def sim(self):
+        """The world (for recorders and renderers; None before the first reset)."""
+        return self.core.sim
 
     def reset(self, *, seed: int | None = None, options: dict[str, Any] | None = None):
         """A fresh world (see the class docstring for seeding and options); returns (observation, info).

@@ -1,7 +1,7 @@
 """The loading environment's core: loading from a pile in MuJoCo one dig at a time, free of any RL library.
 
 :class:`LoadCore` steps the platform's :class:`~excavsim.loop.episode.Episode` of a
-:class:`~excavsim.tasks.load.task.LoadTask` (what ``excavsim trench --spec`` runs for ``task:
+:class:`~excavsim.tasks.pile_loading.task.LoadTask` (what ``excavsim trench --spec`` runs for ``task:
 load``) phase by phase, with the agent's loading action in place of the loading planner's choice
 (:func:`excavsim.planning.loading.plan`, Singh 1995 §3.5, §4.1-4.2). Each cycle the task scans the
 lane, reads the map's three sections and plans on them (the done test: no dig of minimal utility on
@@ -29,16 +29,16 @@ from typing import Any
 import numpy as np
 
 from excavsim.config import parse_config
-from excavsim.config.loading import LoadingConfig, load_loading_config
+from excavsim.tasks.pile_loading.config_planar import LoadingConfig, load_loading_config
 from excavsim.envs.core import DigLevelCore, Field, check_weights
 from excavsim.errors import ConfigError, EnvError
 from excavsim.loop.digs import Choice
 from excavsim.loop.episode import Episode
-from excavsim.loop.scenario import EpisodeSpec, ResolvedSpec, load_spec
+from excavsim.loop.scenario import EpisodeSpec, load_spec, resolve
 from excavsim.planning import loading as lp
-from excavsim.tasks.load import planar as ld
-from excavsim.tasks.load.task import SECTIONS, LoadTask, map_sections
-from excavsim.tasks.load.task import summary as loading_summary
+from excavsim.tasks.pile_loading import planar as ld
+from excavsim.tasks.pile_loading.task import SECTIONS, LoadTask, map_sections
+from excavsim.tasks.pile_loading.task import summary as loading_summary
 
 LANE_LENGTH_M = 8.5  # models/pile_box: the lane runs from x = 0 to 8.5 m
 PROFILE_STEP_M = 0.05
@@ -50,22 +50,22 @@ LOAD_WEIGHTS = {"delivered_per_l": 0.01, "spilled_per_l": 0.01, "dig": 1.0}
 """The loading environment's default reward weights: per litre delivered at the truck, per litre spilled
 off the lane, per dig executed (a cycle's time: the cost of 100 l delivered)."""
 TIMING_KEYS = ("wall_s",)  # wall-clock numbers left out of ``info`` (they differ run to run)
-DEFAULT_SPEC = {"name": "load", "task": "load"}
+DEFAULT_SPEC = {"name": "load", "task": "pile_loading"}
 
 
 def as_load_spec(spec: EpisodeSpec | Mapping | str | pathlib.Path | None) -> EpisodeSpec:
-    """An :class:`~excavsim.loop.scenario.EpisodeSpec` of task ``load`` from itself, a mapping of its
+    """An :class:`~excavsim.loop.scenario.EpisodeSpec` of task ``pile_loading`` from itself, a mapping of its
     fields (``task`` defaults to ``load``), a YAML path, or None (the front loader on the pile of
-    ``configs/loading_mujoco.yaml``, 20 digs, seed 0).
+    ``configs/pile_loading.yaml``, 20 digs, seed 0).
 
     Raises:
-        EnvError: the spec is not of task load, or not a specification at all (with the reason).
+        EnvError: the spec is not of task pile_loading, or not a specification at all (with the reason).
     """
     try:
         if spec is None:
             spec = parse_config(dict(DEFAULT_SPEC), EpisodeSpec, source="the environment's spec")
         elif isinstance(spec, Mapping):
-            spec = parse_config({"task": "load", **dict(spec)}, EpisodeSpec, source="the environment's spec")
+            spec = parse_config({"task": "pile_loading", **dict(spec)}, EpisodeSpec, source="the environment's spec")
         elif isinstance(spec, (str, pathlib.Path)):
             spec = load_spec(spec)
     except ConfigError as exc:
@@ -73,8 +73,8 @@ def as_load_spec(spec: EpisodeSpec | Mapping | str | pathlib.Path | None) -> Epi
     if not isinstance(spec, EpisodeSpec):
         raise EnvError(f"LoadDig-v0: spec must be an EpisodeSpec, a mapping of its fields, a YAML path or None; "
                        f"given {type(spec).__name__}")
-    if spec.task != "load":
-        raise EnvError(f"LoadDig-v0 loads from a pile: its spec's task must be 'load' (machine loader or shovel); "
+    if spec.task != "pile_loading":
+        raise EnvError(f"LoadDig-v0 loads from a pile: its spec's task must be 'pile_loading' (machine loader or shovel); "
                        f"given task {spec.task!r} (use excavsim/TrenchDig-v0 for trenching)")
     return spec
 
@@ -92,13 +92,13 @@ class LoadCore(DigLevelCore):
     :class:`~excavsim.envs.core.DigLevelCore`'s, shared with trenching's :class:`~excavsim.envs.core.DigCore`).
 
     The action is the loading planner's independent variables: (k, alpha) [m, rad] with
-    ``parameterization: k_alpha`` (configs/loading.yaml; d1 maximized, r the smallest reachable
+    ``parameterization: k_alpha`` (configs/pile_loading_planar.yaml; d1 maximized, r the smallest reachable
     radius), (k, alpha, r) with ``k_alpha_r``; the box is the planner's grid's extent. It is snapped
     to the nearest grid cell; when that cell is infeasible on the cycle's section (no d1 meets every
     constraint of §4.1-4.2), the nearest feasible cell (in grid steps) is dug instead
     (``info["snapped_to_allowed"]``).
 
-    Reward per dig (truth, :class:`~excavsim.tasks.load.task.SoilAccount`):
+    Reward per dig (truth, :class:`~excavsim.tasks.pile_loading.task.SoilAccount`):
     ``delivered_per_l`` x litres the bucket poured at the truck, less ``spilled_per_l`` x litres
     that left the lane otherwise (pushed over its ends or sides), less ``dig`` per executed dig.
 
@@ -106,16 +106,16 @@ class LoadCore(DigLevelCore):
         spec: the episode (see :func:`as_load_spec`); its seed is the first episode's unless reset
             gives one; its ``dig_budget`` truncates.
         weights: reward weights over :data:`LOAD_WEIGHTS`.
-        observer: a :class:`~excavsim.tasks.load.task.LoadingObserver` (a Rerun recorder, say).
+        observer: a :class:`~excavsim.tasks.pile_loading.task.LoadingObserver` (a Rerun recorder, say).
         loading_config: the machines' numbers and the planner's grid and rules
-            (:class:`~excavsim.config.loading.LoadingConfig` or its YAML path; default
-            ``configs/loading.yaml``, as ``excavsim trench --spec`` uses); the action box is its grid's.
+            (:class:`~excavsim.tasks.pile_loading.config_planar.LoadingConfig` or its YAML path; default
+            ``configs/pile_loading_planar.yaml``, as ``excavsim trench --spec`` uses); the action box is its grid's.
     """
 
     def __init__(self, spec=None, *, weights: Mapping[str, float] | None = None, observer=None,
                  loading_config: LoadingConfig | str | pathlib.Path | None = None):
         self.spec = as_load_spec(spec)
-        self.resolved = ResolvedSpec(self.spec)
+        self.resolved = resolve(self.spec)
         self.weights = check_weights(weights, LOAD_WEIGHTS, "loading")
         self.observer = observer
         if loading_config is None or isinstance(loading_config, (str, pathlib.Path)):
@@ -208,7 +208,7 @@ class LoadCore(DigLevelCore):
     # -- the caller's side ----------------------------------------------------------------------------------
     def _start(self, seed: int) -> None:
         spec = self.spec  # the episode of excavsim.loop.scenario.spec_episode, with this 2-D configuration
-        task = LoadTask(spec.machine_name, cfg=self.resolved.loading, cfg2d=self.cfg2d)
+        task = LoadTask(spec.machine_name, cfg=self.resolved, cfg2d=self.cfg2d)
         self._episode = ep = Episode(task, dig_budget=spec.dig_budget, observer=self.observer)
         ep.reset(seed)
         self._task = ep.task

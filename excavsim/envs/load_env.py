@@ -18,7 +18,7 @@ class LoadDigEnv(DigStepEnv):
     the nearest feasible cell for an infeasible one, the reward's terms). Spaces:
 
     * action: ``Box(2,)`` float32 (k, alpha) from the planner grid's minima to its maxima [m, rad]
-      (``Box(3,)`` (k, alpha, r) with ``parameterization: k_alpha_r`` in configs/loading.yaml); with
+      (``Box(3,)`` (k, alpha, r) with ``parameterization: k_alpha_r`` in configs/pile_loading_planar.yaml); with
       ``normalize_action=True`` the same shape in [-1, 1], mapped linearly onto that box;
     * observation: ``Dict`` of ``sections`` (3 x 170 float32: the scanned map's middle, near-side and
       far-side sections every 5 cm along the lane), ``joints`` (the encoders), ``reference`` (the
@@ -33,8 +33,8 @@ class LoadDigEnv(DigStepEnv):
     (what was dug: k, h, alpha, d1, r, foot, base_x, section, planned, bucket, delivered, spilled
     and lane volumes [m^3]), ``reward_terms``, ``executed_cell`` (grid indices of k, alpha, r),
     ``snapped_to_allowed`` and ``planner_cell`` (the planner's own dig was dug); at the end
-    ``episode`` (:func:`~excavsim.tasks.load.task.summary` without its wall time). The
-    :class:`~excavsim.tasks.load.task.MujocoRun` is :attr:`result` once the episode ended.
+    ``episode`` (:func:`~excavsim.tasks.pile_loading.task.summary` without its wall time). The
+    :class:`~excavsim.tasks.pile_loading.task.MujocoRun` is :attr:`result` once the episode ended.
 
     Seeding as :class:`~excavsim.envs.dig_env.TrenchDigEnv`: ``reset(seed=s)`` runs the episode with
     seed ``s`` (the soil, the scanner's noise and drift); ``reset()`` without a seed runs the spec's

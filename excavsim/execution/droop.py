@@ -66,7 +66,16 @@ class DroopCompensation:
 
     def track(self, target: np.ndarray) -> Observation:
         """One control step towards ``target`` plus its droop (within the joint limits)."""
+        return self.servos.track(self._raised(target))
+
+    def place(self, q: np.ndarray) -> None:
+        """Set the machine still at joint angles ``q`` with its servos' set-points raised by the droop, so
+        that they hold it there (a start pose without a simulated move; the world's ``place``)."""
+        self.servos.place(q, self._raised(q))
+
+    def _raised(self, target: np.ndarray) -> np.ndarray:
+        """``target`` with its planar joints raised by their droop (within the joint limits) [rad]."""
         t = np.array(target, dtype=float)
         q = t[self._planar]
         t[self._planar] = np.clip(q + self.droop(q), self.arm.lower, self.arm.upper)
-        return self.servos.track(t)
+        return t

@@ -5,15 +5,21 @@ path that mostly turns the bucket (the curl, the pour) still takes time to follo
 
 The follower moves every control step: :meth:`PathFollower.advance` interpolates with the compiled
 :func:`interp_pose`, which computes what :func:`point_at` (``np.interp`` per coordinate) does, bit
-for bit.
+for bit. :func:`follow_path` drives a machine's tip along a path through its inverse kinematics (the
+T3's fixed dig of Rowe 1997 §6.2).
 """
 
 from __future__ import annotations
 
 import math
+from typing import TYPE_CHECKING
 
 import numba
 import numpy as np
+
+if TYPE_CHECKING:
+    from excavsim.handoff.observation import Servos
+    from excavsim.robot.kinematics import PlanarArm
 
 
 def segment_lengths(path: np.ndarray, pitch_radius_m: float) -> np.ndarray:
@@ -120,3 +126,23 @@ class PathFollower:
     def in_cut(self) -> bool:
         """The cursor is past the path's lead-in, in the cut."""
         return self.s >= self.cut_from
+
+
+def follow_path(servos: Servos, arm: PlanarArm, path: np.ndarray, speed: float, waist: float, *,
+                pitch_radius: float = 0.5, settle_s: float = 0.5) -> np.ndarray:
+    """Drive the bucket tip along the pose polyline ``path`` (n, 3) (x m, z m, pitch rad) in the
+    plane at swing angle ``waist`` [rad] at ``speed`` [m/s] through IK, then hold the end for
+    ``settle_s``; returns the joint angles (6,) at the end (the T3's six joints: waist, the three planar
+    ones, and the wrist's yaw and roll held level)."""
+    follower = PathFollower(np.asarray(path, dtype=float), speed, pitch_radius)
+    obs = servos.observe()
+    target = np.array(obs.q, dtype=float)
+    target[0], target[4:] = waist, 0.0
+    while not follower.at_end:
+        q, ok = arm.inverse(follower.advance(servos.control_dt))
+        if ok:
+            target[1:4] = q
+        obs = servos.track(target)
+    for _ in range(int(settle_s / servos.control_dt)):
+        obs = servos.track(target)
+    return np.array(obs.q, dtype=float)

@@ -29,7 +29,7 @@ class EpisodeObserver:
     (:class:`~excavsim.loop.episode.Episode`); the arguments below are the trenching task's. A
     task names its own: loading from a pile calls ``started(world, machine)``, ``scanned(index,
     emap, terrain)``, ``planned(index, plan, tip_path)``, ``stepped(world)``, ``dug(index, dig)``
-    and ``finished(run)`` (:class:`~excavsim.tasks.load.task.LoadingObserver`).
+    and ``finished(run)`` (its folder's ``LoadingObserver``).
     """
 
     def started(self, sim, rig, goal_mask: np.ndarray, goal_z: np.ndarray) -> None:
@@ -139,6 +139,7 @@ class EpisodeResult:
     sim_time_s: float
     wall_time_s: float
     volume_change_m3: float
+    task: str = ""  # the task whose episode it is (its plug-in's name; empty when made outside a task)
 
     @property
     def removed_fraction(self) -> float:

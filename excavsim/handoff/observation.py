@@ -2,7 +2,8 @@
 
 :class:`Observation` is the sensor-level reading of one control step (the world's
 :class:`~excavsim.world.simulation.Simulation` produces it); :class:`Servos` is the part of the
-world the robot's mind may command and read, so that the executor never imports the world.
+world the robot's mind may command and read, so that the executor never imports the world;
+:class:`HydraulicServos` adds the cylinders' pressure transducers of a hydraulic machine.
 :class:`Diverged` and :class:`OutOfTime` are what :meth:`Servos.track` raises when the world can no
 longer be stepped: its physics became unstable, or the episode's wall-clock limit passed.
 """
@@ -26,8 +27,9 @@ class Observation:
 
     Attributes:
         time: simulated time [s].
-        q, qdot: (6,) joint angles [rad] and velocities [rad/s].
-        actuator_force: (6,) servo torques [N m].
+        q, qdot: (n,) joint angles [rad] and velocities [rad/s] (the T3's six; an excavator's four:
+            swing, boom, stick, bucket).
+        actuator_force: (n,) servo torques [N m].
         ft_force, ft_torque: (3,) wrist reading [N, N m].
     """
 
@@ -40,11 +42,12 @@ class Observation:
 
 
 class Servos(Protocol):
-    """The robot's hydraulic servos and sensors, as the executor drives them (a Simulation is one).
+    """The robot's hydraulic servos and sensors, as the executor drives them (a Simulation is one, and
+    so is an excavator's world).
 
     Attributes:
         control_dt: the control period [s].
-        torque_limit: (6,) relief limits of the joints [N m].
+        torque_limit: (n,) relief limits of the joints [N m].
     """
 
     control_dt: float
@@ -60,10 +63,31 @@ class Servos(Protocol):
         ...
 
     def track(self, target: np.ndarray) -> Observation:
-        """One control step driving the joints towards ``target`` (6,) [rad]; the reading after it.
+        """One control step driving the joints towards ``target`` (n,) [rad]; the reading after it.
 
         Raises:
             Diverged: the physics became unstable in this step or an earlier one.
             OutOfTime: the episode's wall-clock limit has passed.
         """
+        ...
+
+
+class HydraulicServos(Servos, Protocol):
+    """Servos of a hydraulic machine whose cylinders report their working pressures
+    (the pressure sensors of Rowe 1997 §6.1; the 25 t excavator's :class:`~excavsim.world.truck.TruckWorld`
+    is one). Besides the full observation, the encoders and the pressures read alone: a loop that needs
+    only those (AutoDig) skips the rest of :meth:`observe` (on the 25 t, its joint torques through the
+    cylinders' moment arms take about a third of a control step's time: measured)."""
+
+    def joint_angles(self) -> np.ndarray:
+        """The joint encoders (n,) [rad]."""
+        ...
+
+    def step(self, target: np.ndarray) -> np.ndarray:
+        """One control step towards joint targets ``target`` (n,) [rad]; the encoders after it (as
+        :meth:`track`, without the rest of the observation)."""
+        ...
+
+    def cylinder_pressures(self) -> np.ndarray:
+        """The boom, stick and bucket cylinders' pressures (3,) [Pa] (positive: pushing)."""
         ...

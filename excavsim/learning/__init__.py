@@ -9,8 +9,8 @@
 * :mod:`~excavsim.learning.adapter`: a learned model as the planner's force predictor.
 
 This package is numpy, scipy and scikit-learn on arrays (no simulator, no recorder). What drives
-the simulator lives in :mod:`excavsim.loop`: :mod:`~excavsim.loop.samples` (force samples from an
-episode's digs), :mod:`~excavsim.studies.learning.collect` (digging for data), :mod:`~excavsim.tasks.trench.online`
+the simulator lives in :mod:`excavsim.loop`: :mod:`~excavsim.rig.samples` (force samples from an
+episode's digs), :mod:`~excavsim.studies.learning.collect` (digging for data), :mod:`~excavsim.rig.online`
 (the episode observer that learns while digging) and :mod:`~excavsim.studies.learning.compare` (the
 ``excavsim learn`` study).
 """

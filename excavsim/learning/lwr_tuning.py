@@ -17,7 +17,7 @@
   ``(Z^T Z)^+ X^T W^4 X (Z^T Z)^+``); below ``MIN_SUPPORT`` the standard error is infinite: the data
   cannot support the prediction, whose value (the fit of the nearest points, the weights rescaled by their
   common factor so that they cannot underflow) stays finite. :func:`select_action` minimizes the cost (its expectation under those
-  errors when ``Objective.uncertainty``; the truck loop turns that off, configs/truck.yaml's
+  errors when ``Objective.uncertainty``; the truck loop turns that off, configs/dump_trial.yaml's
   ``learning.expected_cost``: on a handful of trials the errors are those of an under-determined 7-input
   fit and held the learner at its best early trial), adds ``support_penalty`` per missing unit of
   support below ``min_support`` and per

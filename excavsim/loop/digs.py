@@ -2,9 +2,9 @@
 
 The platform's :class:`~excavsim.loop.episode.Episode` asks its task, and the task its dig source,
 for one dig per cycle on the map it just scanned, and tells the source afterwards how the dig went.
-Each task has its own sources: trenching's planner, random feasible digs and scripted digs
-(:mod:`excavsim.tasks.trench.digs`), loading's planner (:mod:`excavsim.tasks.load.task`), the
-truck's script (:mod:`excavsim.tasks.truck.trial`); the dig-level environments give the agent's.
+Each task has its own sources, named by its plug-in
+(:attr:`~excavsim.loop.plugin.TaskPlugin.dig_sources`: a planner, random feasible digs, scripted digs, a
+self-tuning script ...); the dig-level environments give the agent's.
 """
 
 from __future__ import annotations

@@ -8,9 +8,9 @@ no dig (``no_dig``), when the dig budget is spent (``budget``), when the simulat
 (``diverged``: the world's watchdog saw a MuJoCo warning, a reset or a non-finite state) or when the
 task's wall-clock limit has passed (``timeout``).
 
-:class:`Task` is what a task supplies (its world, map reading, dig source, execution, done test and
-metrics); trenching's is :class:`~excavsim.tasks.trench.task.TrenchTask`, loading's and truck
-loading's live in :mod:`excavsim.tasks` as well. :class:`Episode` is the episode as an object one
+:class:`Task` is what a task's episode supplies (its world, map reading, dig source, execution, done test
+and metrics); each task's lives in its folder of :mod:`excavsim.tasks`, made by its plug-in
+(:meth:`~excavsim.loop.plugin.TaskPlugin.episode`). :class:`Episode` is the episode as an object one
 can reset and advance one cycle (or one phase of a cycle) at a time; the dig-level environments
 (:mod:`excavsim.envs`) step one with the agent's digs. An
 :class:`~excavsim.handoff.episode.EpisodeObserver` handed in by the caller (the Rerun recorder, the
@@ -61,8 +61,8 @@ class Task(Protocol):
     the wall clock and its limit, the world's failures while parking, and the end.
 
     Each hook's arguments are the task's own (a trench's :class:`~excavsim.handoff.dig.Dig` and
-    :class:`~excavsim.handoff.dig.ExecutionRecord`, a loading dig's path and its
-    :class:`~excavsim.tasks.load.task.MujocoDig`); an observer of a task knows them.
+    :class:`~excavsim.handoff.dig.ExecutionRecord`, a loading dig's path and its record); an observer of
+    a task knows them (the task's recorder is made by its plug-in).
 
     Attributes:
         wall_limit_s: the episode's wall-clock limit [s] (``math.inf``: none), known after :meth:`reset`.
@@ -126,8 +126,7 @@ class Episode:
     wall-clock limit nor towards the result's wall time.
 
     Args:
-        task: the task (trenching's is :class:`~excavsim.tasks.trench.task.TrenchTask`; every task
-            of :mod:`~excavsim.loop.catalog`).
+        task: the task's episode part (a :class:`Task`, made by the task's plug-in).
         dig_budget: the most digs.
         progress: called with a line of text per scan and per dig.
         observer: sees every episode (see :class:`~excavsim.handoff.episode.EpisodeObserver`).
@@ -152,9 +151,8 @@ class Episode:
         Args:
             seed: the episode seed (the scanner's noise and drift; the soil's too when the world is built here).
             sim: the world, as built (default: the task builds one with ``seed``).
-            digs: where each cycle's dig comes from (default: the task's; for trenching
-                :class:`~excavsim.tasks.trench.digs.PlannedDigs` with a fresh
-                :class:`~excavsim.planning.experience.DigExperience`).
+            digs: where each cycle's dig comes from (default: the task's own, e.g. trenching's planner with a
+                fresh memory of failed digs).
         """
         self.close()
         self._wall_s = 0.0

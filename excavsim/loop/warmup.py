@@ -1,13 +1,12 @@
-"""Compile every numba kernel once, so that the first real run starts warm.
+"""Compile every numba kernel once, so that the first real run starts warm (``excavsim warmup``).
 
 numba compiles a kernel on its first call and, with ``cache=True``, keeps the machine code in a
 cache (``__pycache__`` beside the sources of an editable install; numba's user-wide cache directory
 when the package's own directory is not writable; ``NUMBA_CACHE_DIR`` when set). On a fresh clone
 the first episode pays about 22 s of CPU for compiling (``excavsim bench coldstart`` measures it).
 :func:`warm_up` pays it at install time instead (``make`` runs ``excavsim warmup`` after
-installing): it runs one short episode through every path of the loop (scanning, planning with the
-compiled kernel, the executor, the soil, settlement) and the reference paths a default episode may
-take (the planner's vectorized statics, used by the fallback and learned predictors).
+installing): each task's plug-in runs what its episodes compile
+(:meth:`~excavsim.loop.plugin.TaskPlugin.warm_up`).
 """
 
 from __future__ import annotations
@@ -15,31 +14,14 @@ from __future__ import annotations
 import time
 from collections.abc import Callable
 
-import numpy as np
-
-from excavsim.handoff.maps import ElevationMap
-from excavsim.loop.rig import make_rig
-from excavsim.loop.scenario import EpisodeSpec, run_spec
-from excavsim.world.simulation import Simulation
-
-# one dig of the small trench on coarse scans: every kernel of an episode, the fewest steps
-WARMUP_SPEC = {
-    "name": "warmup", "goal": "small", "dig_budget": 1, "seed": 0,
-    "sensing": {"map": {"n_scans": 1}, "scanner": {"n_azimuth": 60, "n_elevation": 60}},
-    "planner": {"grid": {"k_min_m": 1.8, "k_max_m": 2.6, "k_step_m": 0.2, "alpha_step_deg": 15.0,
-                         "d1_step_m": 0.04}},
-}
+from excavsim.loop import catalog
 
 
 def warm_up(say: Callable[[str], None] = print) -> float:
-    """Compile (or load from the cache) every kernel an episode uses; returns the CPU seconds it took."""
+    """Compile (or load from the cache) every kernel the registered tasks use; returns the CPU seconds it took."""
     c0 = time.process_time()
-    say("warming the numba cache: one short episode ...")
-    run_spec(EpisodeSpec(**WARMUP_SPEC))
-    say("warming the numba cache: the planner's reference path ...")
-    rig = make_rig(Simulation(seed=0))
-    flat = ElevationMap(0.55, -1.5, 0.05, np.full((60, 60), 0.5), np.ones((60, 60), bool), 0.0)
-    rig.planner.plan(flat, kernel=False)
+    for plugin in catalog.plugins().values():
+        plugin.warm_up(say)
     seconds = time.process_time() - c0
     say(f"warm: {seconds:.1f} s CPU")
     return seconds

@@ -30,7 +30,7 @@ execution record and the F/T sensor's weighing of the lifted load, never the wor
   say nothing of the risk), and the planner keeps its predicted torques within the limits divided
   by an upper quantile of those ratios (:meth:`DigExperience.torque_margin`): a peak-aware force
   constraint learned from the residuals where they matter. A margin that leaves no dig is relaxed
-  towards 1 by the dig source (:func:`excavsim.tasks.trench.digs.relaxed_margins`).
+  towards 1 by the dig source (the trenching task's planned digs).
 
 Not from the thesis, which plans every dig afresh; it is the loop's answer to "never the same
 failing dig planned again blindly". numpy only.

@@ -1,7 +1,7 @@
 """Reading an executed dig back from a Rerun recording (``.rrd``), to make a demonstration of it.
 
 :func:`read_dig` returns the raw signals of one dig of a recording written by
-:class:`~excavsim.record.recorder.RerunRecorder` (entity tree in that module's docstring): the joint
+:class:`~excavsim.record.trench.TrenchRecorder` (entity tree in that module's docstring): the joint
 angles ``joint_deg/<actuator>`` (sampled at the recorder's ``rate_hz``), the executor's F/T readings in
 the tip frame ``ft/tip/{x,y,z}`` and the measured cut path ``world/exec/path`` with the time it was
 logged (the dig's end). The joint and F/T series come from

@@ -1,7 +1,7 @@
 """Reading an episode's Rerun recording back as plain arrays (for ``excavsim calibrate RECORDING.rrd``).
 
 :func:`read_recording` reads, with ``rerun.chunk.RrdReader`` (rerun-sdk 0.41), what
-:class:`~excavsim.record.recorder.RerunRecorder` logs that a calibration needs -- the robot's own
+:class:`~excavsim.record.trench.TrenchRecorder` logs that a calibration needs -- the robot's own
 measurements, never the truth entities:
 
 * ``ft/tip/{x,y,z}``: the executor's F/T readings in the tip frame [N], at their ``sim_time``;

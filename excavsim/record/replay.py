@@ -1,4 +1,9 @@
-"""Open a recording in the Rerun viewer (``excavsim replay``)."""
+"""Open a recording in the Rerun viewer (``excavsim replay``).
+
+Every viewer started here is an :class:`~excavsim.processes.OwnedProcess`: it ends when the command
+that started it ends, on success, on an error, on Ctrl-C and when the command is killed (the window of
+``excavsim replay FILE`` when its user closes it, or with the command).
+"""
 
 from __future__ import annotations
 
@@ -11,6 +16,7 @@ import sys
 from collections.abc import Callable
 
 from excavsim.errors import ConfigError, DataFileError, DependencyError, ExcavsimError, shorten
+from excavsim.processes import OwnedProcess
 
 
 def rerun_command(path: str | os.PathLike) -> list[str]:
@@ -55,12 +61,11 @@ def check_recording(path: str, *, warn: Callable[[str], None] | None = None) -> 
     verify = [*rerun_command(path)[:-1], "rrd", "verify"]
     for footers in ("true", "false"):
         try:
-            with subprocess.Popen([*verify, "--check-footers", footers, path], stdout=subprocess.PIPE,
-                                  stderr=subprocess.PIPE, text=True, errors="replace") as proc:
+            with OwnedProcess([*verify, "--check-footers", footers, path], stdin=subprocess.DEVNULL,
+                              stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, errors="replace") as proc:
                 try:
                     out, err = proc.communicate(timeout=VERIFY_TIMEOUT_S)
                 except subprocess.TimeoutExpired:
-                    proc.kill()
                     raise ExcavsimError(f"{shown}: `rerun rrd verify` did not finish in {VERIFY_TIMEOUT_S} s") from None
         except OSError as exc:
             raise DependencyError(f"{shown}: cannot run `rerun rrd verify` ({exc.strerror})") from None
@@ -87,10 +92,11 @@ def has_display() -> bool:
 
 
 def replay(path: str | os.PathLike, *, dry_run: bool = False, say: Callable[[str], None] = print) -> list[str]:
-    """Open a recording in the Rerun viewer and wait until it is closed.
+    """Open a recording in the Rerun viewer and wait until it is closed (a Ctrl-C, an error or the end
+    of this process closes it too).
 
     Args:
-        path: an ``.rrd`` file written by :class:`RerunRecorder`.
+        path: an ``.rrd`` file written by :class:`TrenchRecorder`.
         dry_run: only say the command that would run.
         say: where messages go.
 
@@ -112,7 +118,11 @@ def replay(path: str | os.PathLike, *, dry_run: bool = False, say: Callable[[str
         say(f"no display here (DISPLAY and WAYLAND_DISPLAY are unset), so the viewer cannot open. On a machine "
             f"with a display, run:\n  {shown}\nor copy {p} there and open it with `rerun {p.name}`.")
         return cmd
-    status = subprocess.run(cmd, check=False).returncode
+    try:
+        with OwnedProcess(cmd, stdin=subprocess.DEVNULL) as viewer:
+            status = viewer.wait()
+    except OSError as exc:
+        raise DependencyError(f"cannot start the Rerun viewer ({exc.strerror}): {shown}") from None
     if status != 0:
         raise ExcavsimError(f"the Rerun viewer exited with status {status}: {shown}")
     return cmd
@@ -151,7 +161,9 @@ def _viewer_trouble(output: str) -> str:
 
 class HeadlessViewer:
     """The stock Rerun viewer, headless (``rerun --headless``), on a free local port, driven through
-    :class:`rerun.experimental.ViewerClient`; a context manager that ends the viewer it started.
+    :class:`rerun.experimental.ViewerClient`; a context manager that ends the viewer it started, with
+    every process the viewer started, when the block is left (on success, an error or Ctrl-C) or this
+    process dies (an :class:`~excavsim.processes.OwnedProcess`).
 
     Needs Vulkan: a GPU driver or Mesa's software rasterizer (Debian/Ubuntu: ``apt-get install
     mesa-vulkan-drivers``).
@@ -173,7 +185,7 @@ class HeadlessViewer:
         self.command = [*rerun_command("x")[:-1], "--headless", "--window-size", f"{size[0]}x{size[1]}",
                         "--port", str(self.port), "--hide-welcome-screen", "--memory-limit", "2GB"]
         self._log = tempfile.TemporaryFile()
-        self.proc: subprocess.Popen | None = None
+        self.proc: OwnedProcess | None = None
         self.client = None
 
     def __enter__(self) -> HeadlessViewer:
@@ -182,8 +194,8 @@ class HeadlessViewer:
         import rerun.experimental as rrx
 
         try:
-            self.proc = subprocess.Popen(self.command, stdin=subprocess.DEVNULL, stdout=self._log,
-                                         stderr=subprocess.STDOUT)
+            self.proc = OwnedProcess(self.command, stdin=subprocess.DEVNULL, stdout=self._log,
+                                     stderr=subprocess.STDOUT)
         except OSError as exc:
             raise DependencyError(f"cannot start the Rerun viewer ({exc.strerror}): {' '.join(self.command)}; "
                                   "reinstall excavsim (rerun-sdk installs the `rerun` command)") from None
@@ -222,15 +234,12 @@ class HeadlessViewer:
                                + (f"\nviewer output:\n{tail}" if tail else ""))
 
     def close(self) -> None:
-        """End the viewer (if this object started it)."""
-        if self.proc is not None and self.proc.poll() is None:
-            self.proc.terminate()
-            try:
-                self.proc.wait(10)
-            except subprocess.TimeoutExpired:
-                self.proc.kill()
-                self.proc.wait(10)
-        self._log.close()
+        """End the viewer and the processes it started (if this object started it)."""
+        try:
+            if self.proc is not None:
+                self.proc.end()
+        finally:
+            self._log.close()
 
     def open(self, path: str | os.PathLike, *, timeout_s: float = 60.0):
         """Open a recording and wait until it has loaded; returns its :class:`rerun.experimental.Recording`."""

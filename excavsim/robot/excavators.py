@@ -171,6 +171,18 @@ class ExcavatorSpec:
         """The cylinder of ``function`` (boom, stick, bucket)."""
         return {"boom": self.boom_cyl, "stick": self.stick_cyl, "bucket": self.bucket_cyl}[function]
 
+    def rest_state(self, q) -> tuple[list[float], list[float]]:
+        """The model's state at rest at joint angles ``q`` (4,) (swing, boom, stick, bucket) [rad]: the joint
+        positions in the MJCF's tree order (swing, boom, stick, bucket, and the bucket linkage's rocker and
+        link, which close the four-bar) [rad], and the servos' activations (the swing angle and each cylinder's
+        length from the reference pose :attr:`ref`) [rad, m]: the scene's keyframes, and a start pose set
+        without a simulated move."""
+        rho, lam = float(self.linkage.rocker_angle(q[3])), float(self.linkage.link_angle(q[3]))
+        qpos = [q[0], q[1], q[2], q[3], rho, lam - rho]
+        act = [q[0] - self.ref[0]] + [float(self.cylinder_length(fn, q[j]) - self.cylinder_length(fn, self.ref[j]))
+                                      for j, fn in ((1, "boom"), (2, "stick"), (3, "bucket"))]
+        return qpos, act
+
     def joint_torque_limits(self, q) -> np.ndarray:
         """(..., 4, 2) the joints' (lower, upper) torque limits at pose ``q`` (..., 4) [N m]: the relief
         forces times the moment arm (pose-dependent, Singh 1995 §5.3 for cylinders), the swing motor's

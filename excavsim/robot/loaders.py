@@ -26,13 +26,13 @@ heel to the cutting edge, counter-clockwise from +x [m, m, rad] (phi = 0: floor 
   pin to the tip points mu counter-clockwise of the floor and the pin lies ``l4 sin(mu)`` *below* the floor's
   line for mu > 0: under the bucket, 0.3-0.5 m under the ground in digs along it. Neither (A1 25) nor the
   table fixes the sign (both hold for either; Fig. A-5 is not in our copy of the text), so the bucket's shape
-  decides: a loader's pin is above and behind its floor, so ``configs/loading.yaml`` has mu = -20 deg (the pin
+  decides: a loader's pin is above and behind its floor, so ``configs/pile_loading_planar.yaml`` has mu = -20 deg (the pin
   0.34 m above the floor's line, 0.94 m behind the edge) and so does the shovel's bucket (same convention).
 * :class:`FrontShovel`, three revolute joints (boom, stick, bucket) on a base that stays put during a
   dig and is placed between digs (§4.2): the planar chain of App. A1-1 without its waist (eqs. A1 11-19),
   with both elbow solutions tried.
 
-The thesis gives no dimensions for either machine: every number is in ``configs/loading.yaml`` and is
+The thesis gives no dimensions for either machine: every number is in ``configs/pile_loading_planar.yaml`` and is
 assumed (sized for a pile about 2 m high; the shovel's bucket link 75 % of the loader's, as §4.2's
 footnote). All functions are vectorized over leading dimensions.
 """

@@ -23,6 +23,7 @@ its moment arm, which varies with the pose).
 from __future__ import annotations
 
 import dataclasses
+import math
 
 import numpy as np
 
@@ -53,6 +54,10 @@ class Machine:
             ``ft_mount``, :class:`~excavsim.sensing.ft.ForceSensor`) or ``cylinders`` (the cylinders'
             pressures through the arm's statics, :class:`~excavsim.sensing.pressure.CylinderForceReading`:
             an excavator's ``ft_mount`` on the bucket pin also carries the linkage's push).
+        angle_bound_rad, speed_bound_rad_s: the bounds of its joints' angles [rad] and speeds [rad/s] in a
+            joint-level environment's observation (:class:`~excavsim.envs.joint_core.JointCore`; readings
+            beyond are clipped): the T3's waist turns nearly a full circle, an excavator's joints stay
+            within half of one (DiMaio 1998 Table 4.2 on the TB035) and move slower.
     """
 
     name: str
@@ -66,6 +71,8 @@ class Machine:
     home: tuple[float, ...] | None = None
     park: tuple[float, ...] | None = None
     force_reading: str = "ft"
+    angle_bound_rad: float = 2 * math.pi
+    speed_bound_rad_s: float = 50.0
 
     @property
     def chain_joints(self) -> tuple[str, ...] | None:
@@ -109,7 +116,7 @@ _HOMES = {"tb035": (0.0, 0.743459, -1.755837, -0.918266), "excavator_25t": (0.0,
 
 MACHINES: dict[str, Machine] = {"t3": T3, **{
     name: Machine(name, CHAIN_JOINTS, CHAIN_JOINTS[0], CHAIN_JOINTS[1:], table=_TABLES[name], hydraulics=spec,
-                  home=_HOMES[name], force_reading="cylinders")
+                  home=_HOMES[name], force_reading="cylinders", angle_bound_rad=math.pi, speed_bound_rad_s=10.0)
     for name, spec in EXCAVATORS.items()}}
 """The trenching machines by name: the T3 and the hydraulic excavators."""
 

@@ -15,7 +15,7 @@ from typing import NamedTuple
 
 import numpy as np
 
-from excavsim import constants
+from excavsim import constants, processes
 
 
 class Row(NamedTuple):
@@ -169,8 +169,17 @@ def bench_soil_coupling() -> list[Row]:
     ``Simulation.step`` is timed; the first run also compiles the numba kernels, so a warm-up demo
     runs first.
     """
-    from excavsim.tasks.trench.demo import run_demo
+    from excavsim.handoff.dig import DEMO_ACTION
+    from excavsim.loop.scenario import EpisodeSpec, resolve
     from excavsim.world.simulation import Simulation
+
+    spec = EpisodeSpec(name="demo", goal="sand", dig_budget=1, done_fraction=None)  # the default task's demo dig
+    resolved = resolve(spec)
+
+    def run_demo(sim: Simulation):
+        episode = spec.plugin.episode(spec, resolved)
+        episode.reset(0, sim=sim, digs=spec.plugin.dig_source("scripted", [DEMO_ACTION]))
+        return episode.run()
 
     class Recorder(Simulation):
         def __init__(self, *a, **k):
@@ -473,8 +482,7 @@ def bench_episode(*, dig_budget: int = 20, seed: int = 0) -> list[Row]:
     import mujoco
 
     from excavsim.handoff.episode import EpisodeObserver
-    from excavsim.tasks.trench.task import run_episode
-    from excavsim.loop.scenario import EpisodeSpec, ResolvedSpec, run_spec
+    from excavsim.loop.scenario import EpisodeSpec, resolve, run_spec, spec_digs, spec_episode
     from excavsim.world.simulation import Simulation
 
     class Timed(Simulation):
@@ -509,13 +517,13 @@ def bench_episode(*, dig_budget: int = 20, seed: int = 0) -> list[Row]:
 
     run_spec(EpisodeSpec(goal="small", dig_budget=1, seed=seed))  # warm-up: numba caches, reachability table
     spec = EpisodeSpec(goal="sand", dig_budget=dig_budget, seed=seed)
-    r = ResolvedSpec(spec)
+    r = resolve(spec)
     sim = Timed(r.robot, r.scene, seed=seed)
     phases = Phases(sim)
     c0, w0 = time.process_time(), time.perf_counter()
-    res = run_episode(sim, seed=seed, goal=r.goal, dig_budget=spec.dig_budget, done_fraction=spec.done_fraction,
-                      tolerance_m=spec.tolerance_m, planner_cfg=r.planner, executor_cfg=r.executor,
-                      sensing_cfg=r.sensing, observer=phases)
+    episode = spec_episode(spec, r, observer=phases)
+    episode.reset(seed, sim=sim, digs=spec_digs(spec))
+    res = episode.run()
     cpu, wall = time.process_time() - c0, time.perf_counter() - w0
     n_ctrl = len(sim.ctrls)
     n_steps = n_ctrl * sim.substeps
@@ -575,8 +583,8 @@ def bench_coldstart() -> list[Row]:
     def child_cpu(env: dict[str, str], *args: str) -> tuple[float, float]:
         before = resource.getrusage(resource.RUSAGE_CHILDREN)
         w0 = time.perf_counter()
-        subprocess.run([sys.executable, "-m", "excavsim.cli", *args], env=env, check=True,
-                       stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
+        processes.run([sys.executable, "-m", "excavsim.cli", *args], env=env, check=True,
+                      stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
         after = resource.getrusage(resource.RUSAGE_CHILDREN)
         return (after.ru_utime - before.ru_utime + after.ru_stime - before.ru_stime), time.perf_counter() - w0
 
@@ -618,9 +626,9 @@ def bench_campaign(*, episodes: int = 8) -> list[Row]:
 
     def run(cores: str, workers: int, folder: str) -> float:
         w0 = time.perf_counter()
-        subprocess.run(["taskset", "-c", cores, sys.executable, "-m", "excavsim.cli", "campaign", spec_path,
-                        "--workers", str(workers), "--out", os.path.join(folder, f"w{workers}")], check=True,
-                       stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
+        processes.run(["taskset", "-c", cores, sys.executable, "-m", "excavsim.cli", "campaign", spec_path,
+                       "--workers", str(workers), "--out", os.path.join(folder, f"w{workers}")], check=True,
+                      stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
         return time.perf_counter() - w0
 
     with tempfile.TemporaryDirectory(prefix="excavsim-bench-campaign-") as folder:
@@ -654,7 +662,8 @@ def bench_envs(*, copies: int = 8, steps: int = 200, seed: int = 0) -> list[Row]
     import mujoco
 
     import excavsim.envs  # noqa: F401 - registers the environments
-    from excavsim.envs.joint_core import DIG_TASK, JointCore
+    from excavsim.envs.joint_core import JointCore
+    from excavsim.envs.joint_trench import DIG_TASK
 
     env_id = "excavsim/TrenchJointDig-v0"
     horizon = {"max_time_s": 2 * steps / 100 + 10}  # no episode ends while timed

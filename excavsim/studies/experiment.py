@@ -31,7 +31,7 @@ from excavsim import constants
 from excavsim.config import ConfigError, StrictModel, load_config
 from excavsim.handoff.episode import EpisodeObserver, EpisodeResult, format_episode
 from excavsim.handoff.goal import goal_profile
-from excavsim.loop.scenario import EpisodeSpec, dig_rows, resolve_goal, run_spec
+from excavsim.loop.scenario import EpisodeSpec, dig_rows, resolve, run_spec
 
 EXPERIMENTS_DIR = constants.CONFIGS_DIR / "experiments"
 _SECTION_SAMPLES = 241  # points along the section [-]
@@ -118,7 +118,7 @@ def run_experiment(exp: ExperimentSpec, out: str | pathlib.Path, *,
     out.mkdir(parents=True, exist_ok=True)
     runs: list[RunResult] = []
     for i, spec in enumerate(exp.runs):
-        goal = resolve_goal(spec.goal)
+        goal = resolve(spec).goal  # an experiment's runs dig goals (a trench's); their task resolves them
         r = np.linspace(max(0.6, goal.near_x_m - 0.6), min(3.5, goal.far_x_m + 0.6), _SECTION_SAMPLES)
         recorder = SectionRecorder(r)
         say(f"[{exp.name} run {i + 1}/{len(exp.runs)}] {spec.name}: seed {spec.seed}")
@@ -172,7 +172,7 @@ def run_experiments(names: list[str], out: str | pathlib.Path, *, dig_budget: in
 def write_outputs(exp: ExperimentSpec, runs: list[RunResult], out: pathlib.Path) -> list[pathlib.Path]:
     """Write ``sections.png``, ``digs.csv``, ``digs.txt`` and ``summary.txt`` of the runs so far."""
     paths = [plot_sections(exp, runs, out / "sections.png")]
-    rows = [{"run": i + 1, "seed": run.spec.seed, **row} for i, run in enumerate(runs) for row in dig_rows(run.result)]
+    rows = [{"run": i + 1, "seed": run.spec.seed, **row} for i, run in enumerate(runs) for row in dig_rows(run.result, run.spec.task)]
     with open(out / "digs.csv", "w", newline="") as f:
         if rows:
             w = csv.DictWriter(f, fieldnames=list(rows[0]))
@@ -276,7 +276,7 @@ def plot_sections(exp: ExperimentSpec, runs: list[RunResult], path: str | pathli
     FigureCanvasAgg(fig)
     row0 = 0
     for b, run in zip(blocks, runs):
-        goal = resolve_goal(run.spec.goal)
+        goal = resolve(run.spec).goal
         z_goal = goal_profile(goal, run.r)
         digs = {d.index: d for d in run.result.digs}
         lo = min(np.nanmin(z_goal), *(np.nanmin(s.true_z) for s in run.sections)) - 0.03

@@ -59,6 +59,7 @@ from excavsim.world.soil import SoilModel
 
 # The excavators' joints in the spec's order; the actuators carry the function's name.
 EXCAVATOR_JOINTS = CHAIN_JOINTS
+LINKAGE_JOINTS = ("rocker_joint", "link_joint")  # the bucket's four-bar, closed by an equality constraint
 CYLINDER_FORCE_SENSORS = ("swing_torque", "boom_cylinder_force", "stick_cylinder_force", "bucket_cylinder_force")
 CONTROL_RATE_HZ = 50.0  # the excavators' control rate [Hz] (assumed, as the loading machines')
 
@@ -145,6 +146,8 @@ class ExcavatorWorld:
         self.drive = HydraulicDrive(self.spec, self.model)
         jids = [element_id(self.model, "joint", j) for j in EXCAVATOR_JOINTS]
         self._qpos = np.array([self.model.jnt_qposadr[j] for j in jids])
+        self._rest_qpos = np.array([self.model.jnt_qposadr[element_id(self.model, "joint", j)]
+                                    for j in (*EXCAVATOR_JOINTS, *LINKAGE_JOINTS)])
         self._sensors = np.array([self.model.sensor_adr[element_id(self.model, "sensor", s)]
                                   for s in CYLINDER_FORCE_SENSORS])
         self._bucket = element_id(self.model, "body", constants.BUCKET_BODY)
@@ -213,6 +216,24 @@ class ExcavatorWorld:
         """One control step towards joint angles ``target`` (4,) [rad] through the hydraulic drive; the observation."""
         self.step(target)
         return self.observe()
+
+    def place(self, q: np.ndarray, setpoints: np.ndarray | None = None) -> None:
+        """Set the machine still at joint angles ``q`` (4,) (swing, boom, stick, bucket) [rad], the bucket
+        linkage closed, velocities and valves zero, and the servos' set-points at the swing angle and the
+        cylinders' lengths of the angles ``setpoints`` (4,) (default ``q``) [rad]
+        (:meth:`~excavsim.robot.excavators.ExcavatorSpec.rest_state`, as the keyframes are written); the derived
+        quantities recomputed (``mj_forward``): a start pose without a simulated move. With the set-points at
+        ``q`` the cylinders then droop under the arm's weight, as from a keyframe; set-points above ``q`` by
+        that droop hold the arm where it is (:meth:`DroopCompensation.place
+        <excavsim.execution.droop.DroopCompensation.place>`)."""
+        qpos, _ = self.spec.rest_state(q)
+        _, act = self.spec.rest_state(q if setpoints is None else setpoints)
+        d = self.data
+        d.qpos[self._rest_qpos] = qpos
+        d.qvel[:] = 0.0
+        d.act[self.drive.actadr] = act
+        d.ctrl[self.drive.act] = 0.0
+        mujoco.mj_forward(self.model, d)
 
     def settle_soil(self) -> None:
         """Settle the whole terrain now (after a dig or a dump)."""

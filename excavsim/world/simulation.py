@@ -198,10 +198,24 @@ class Simulation:
 
     # -- stepping -------------------------------------------------------------------------------
     def step(self, ctrl: np.ndarray | None = None) -> Observation:
-        """One control step: soil update, then the physics substeps with the soil wrench held.
+        """One control step (:meth:`step_rates`) and the observation after it (:meth:`observe`).
 
         Args:
             ctrl: (6,) set-point rates for the servos [rad/s]; the previous controls when None.
+
+        Raises:
+            ExcavsimError: ``ctrl`` is not a finite (6,) vector.
+            Diverged: the physics became unstable in this step or an earlier one (see the module docstring).
+            OutOfTime: the step came after :attr:`wall_deadline`.
+        """
+        self.step_rates(ctrl)
+        return self.observe()
+
+    def step_rates(self, ctrl: np.ndarray | None = None) -> None:
+        """One control step with the servos' set-point rates ``ctrl`` (6,) [rad/s] (the previous controls when
+        None): soil update, then the physics substeps with the soil wrench held. The excavators' world
+        steps its valves' rates by the same name (:meth:`ExcavatorWorld.step_rates
+        <excavsim.world.hydraulics.ExcavatorWorld.step_rates>`), so a joint-level driver steps either.
 
         Raises:
             ExcavsimError: ``ctrl`` is not a finite (6,) vector.
@@ -233,7 +247,18 @@ class Simulation:
         self._clock = float(d.time)
         for hook in self.step_hooks:
             hook(self)
-        return self.observe()
+
+    def place(self, q: np.ndarray, setpoints: np.ndarray | None = None) -> None:
+        """Set the joints at angles ``q`` (6,) [rad] at rest, the servos' integrator states (their position
+        set-points) at ``setpoints`` (default the same angles: the integrating servos hold them without
+        droop) and their rates zero, and recompute the derived quantities (``mj_forward``): a start pose
+        without a simulated move."""
+        d = self.data
+        d.qpos[self._joint_qpos] = q
+        d.qvel[:] = 0.0
+        d.act[self.model.actuator_actadr[self._act]] = q if setpoints is None else setpoints
+        d.ctrl[self._act] = 0.0
+        mujoco.mj_forward(self.model, d)
 
     def _warning_counts(self) -> np.ndarray:
         """How often MuJoCo has raised each of its warnings (data.warning[i].number), in WARNING_NAMES order."""

@@ -136,25 +136,19 @@ def test_validate_refuses_nonsense_of_every_kind(capsys, tmp_path, kind, text, m
     assert err.startswith(f"excavsim: error: {path}") and match in err, err
 
 
-def test_run_is_trench_spec_for_any_task(capsys, monkeypatch):
-    """``excavsim run SPEC`` runs the specification as ``trench --spec SPEC`` does, naming itself; a field
-    its task does not use is refused as there."""
+def test_run_runs_a_spec_of_any_task_through_its_plugin(capsys, monkeypatch):
+    """``excavsim run SPEC`` asks the spec's task for its first line and its table, naming itself; a field its
+    task does not use is refused."""
     import excavsim.loop.scenario as scenario
+    from excavsim.loop import catalog
 
     seen = []
     monkeypatch.setattr(scenario, "run_spec", lambda spec, **kw: seen.append(spec) or object())
-    from excavsim.loop import catalog
-
-    class Module:
-        @staticmethod
-        def format_run(result):
-            return "the task's table"
-
-    monkeypatch.setattr(catalog, "task_module", lambda name: Module)
-    assert main(["run", "configs/specs/truck_trial.yaml", "--seed", "4"]) == 0
+    monkeypatch.setattr(catalog.plugin("dump_trial"), "format_run", lambda result: "the task's table")
+    assert main(["run", "configs/specs/dump_trial.yaml", "--seed", "4"]) == 0
     out = capsys.readouterr().out
-    assert "excavsim run: task truck, machine t3, one trial, seed 4" in out and "the task's table" in out
-    assert seen[0].task == "truck" and seen[0].seed == 4
-    assert main(["run", "configs/specs/truck_trial.yaml", "--dig-budget", "3"]) == 2
-    assert "task truck does not use dig_budget" in capsys.readouterr().err
+    assert "excavsim run: task dump_trial, machine t3, one trial, seed 4" in out and "the task's table" in out
+    assert seen[0].task == "dump_trial" and seen[0].seed == 4
+    assert main(["run", "configs/specs/dump_trial.yaml", "--dig-budget", "3"]) == 2
+    assert "dig_budget: task dump_trial has no budget of digs" in capsys.readouterr().err
     assert main(["run"]) == 2  # SPEC is required

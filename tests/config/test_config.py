@@ -356,7 +356,7 @@ def test_goals_outside_the_box_or_the_soil_are_refused(fields, scene, match):
 def test_shipped_goals_hold_soil_in_the_shipped_scene():
     from excavsim.config import check_goal
     from excavsim.config.semantic import goal_section_m2
-    from excavsim.loop.scenario import resolve_goal
+    from excavsim.tasks.trench.spec import resolve_goal
 
     for name in ("sand", "straight", "small"):
         goal = resolve_goal(name)
@@ -366,11 +366,11 @@ def test_shipped_goals_hold_soil_in_the_shipped_scene():
 
 
 def test_an_episode_spec_with_a_goal_above_the_soil_is_refused_before_it_runs():
-    from excavsim.loop.scenario import EpisodeSpec, ResolvedSpec
+    from excavsim.loop.scenario import EpisodeSpec, resolve
 
     spec = EpisodeSpec(goal=_goal(surface_z_m=1.4, depth_m=0.2))
     with pytest.raises(ConfigError, match="episode: goal: surface_z_m"):
-        ResolvedSpec(spec)
+        resolve(spec)
 
 
 def test_names_checked_inside_a_model_are_echoed_cut_short():

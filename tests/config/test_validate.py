@@ -18,8 +18,8 @@ import yaml
 from excavsim import constants
 from excavsim.cli import main
 from excavsim.config import ConfigError, parse_yaml
-from excavsim.config.loading import LOADING_MACHINES
-from excavsim.validate import KINDS, infer_kind, validate_file, validate_paths
+from excavsim.tasks.pile_loading.config_planar import LOADING_MACHINES
+from excavsim.validate import infer_kind, kinds, validate_file, validate_paths
 
 CONFIG_FILES = sorted(p for p in constants.CONFIGS_DIR.rglob("*") if p.is_file())
 SPEC = {"name": "one", "goal": "small", "soil": "testbed_sand", "seed": 0, "dig_budget": 2}
@@ -40,11 +40,11 @@ CASES = {
                  ("format", "2")),
     "campaign": ("campaigns/tiny.yaml", "campaigns/bad.yaml", ("base.dig_budget", 0), ("record", "yes")),
     "experiment": ("experiments/fig113.yaml", "experiments/bad.yaml", ("runs.0.dig_budget", 0), ("title", 5)),
-    "loading": ("loading.yaml", "loading.yaml", ("pile.height", -1.0), ("units_m2", "tiny")),
-    "loading_mujoco": ("loading_mujoco.yaml", "loading_mujoco.yaml", ("n_scans", 0), ("script.tip_speed", "fast")),
-    "loading_campaign": ("campaigns/loading_mujoco.yaml", "campaigns/bad.yaml", ("seeds", [-1]),
+    "pile_loading_planar": ("pile_loading_planar.yaml", "pile_loading_planar.yaml", ("pile.height", -1.0), ("units_m2", "tiny")),
+    "pile_loading": ("pile_loading.yaml", "pile_loading.yaml", ("n_scans", 0), ("script.tip_speed", "fast")),
+    "pile_loading_campaign": ("campaigns/pile_loading_machines.yaml", "campaigns/bad.yaml", ("seeds", [-1]),
                          ("machines", "loader")),
-    "truck": ("truck.yaml", "truck.yaml", ("target.r_m", -1.0), ("learning.expected_cost", "maybe")),
+    "dump_trial": ("dump_trial.yaml", "dump_trial.yaml", ("target.r_m", -1.0), ("learning.expected_cost", "maybe")),
     "machine": ("machines/tb035.yaml", "machines/bad.yaml", ("executor.touch_force_n", -1.0),
                 ("planner.d2_max_m", "long")),
     "truck_loading": ("truck_loading.yaml", "truck_loading.yaml", ("truck.payload_t", -1.0),
@@ -81,18 +81,18 @@ def _write(tmp_path: pathlib.Path, kind: str, doc: dict) -> pathlib.Path:
 
 
 def test_every_kind_has_a_case_and_the_cases_cover_every_kind():
-    assert set(CASES) == set(KINDS)
+    assert set(CASES) == set(kinds())
 
 
 @pytest.mark.parametrize("path", CONFIG_FILES, ids=lambda p: str(p.relative_to(constants.CONFIGS_DIR)))
 def test_every_file_of_configs_is_valid(path):
     kind, what = validate_file(path)
-    assert kind in KINDS and what
+    assert kind in kinds() and what
 
 
 def test_the_files_of_configs_hold_every_kind_but_the_bare_specification():
-    kinds = {infer_kind(p) for p in CONFIG_FILES}
-    assert kinds >= set(KINDS) - {"spec"}, set(KINDS) - kinds
+    found = {infer_kind(p) for p in CONFIG_FILES}
+    assert found >= set(kinds()), set(kinds()) - found
 
 
 @pytest.mark.parametrize("path", [p for p in CONFIG_FILES if p.suffix == ".yaml"],
@@ -129,7 +129,7 @@ def test_a_bad_file_of_each_kind_is_refused_naming_file_and_field(tmp_path, kind
         assert "allowed" in text, text
 
 
-@pytest.mark.parametrize("kind", ["truck", "loading", "goal", "baseline"])
+@pytest.mark.parametrize("kind", ["dump_trial", "pile_loading_planar", "goal", "baseline"])
 def test_the_cli_refuses_a_bad_file_with_status_2_and_one_message(tmp_path, capsys, kind):
     field, value = CASES[kind][2]
     path = _write(tmp_path, kind, _set(_good(kind), field, value))
@@ -139,7 +139,7 @@ def test_the_cli_refuses_a_bad_file_with_status_2_and_one_message(tmp_path, caps
 
 
 def test_the_cli_checks_every_file_and_reports_the_refused_ones_together(tmp_path, capsys):
-    bad = _write(tmp_path, "truck", _set(_good("truck"), "target.r_m", -1.0))
+    bad = _write(tmp_path, "dump_trial", _set(_good("dump_trial"), "target.r_m", -1.0))
     assert main(["validate", str(constants.ROBOT_YAML), str(bad), str(constants.TRENCHES_DIR)]) == 2
     out, err = capsys.readouterr()
     goals = len(list(constants.TRENCHES_DIR.rglob("*.yaml")))  # the T3's and each machine's (trenches/<machine>/)
@@ -152,8 +152,8 @@ def test_the_cli_checks_every_file_and_reports_the_refused_ones_together(tmp_pat
 def test_a_kind_given_overrides_the_place_and_the_older_form_still_works(capsys):
     assert main(["validate", "--kind", "goal", str(constants.ROBOT_YAML)]) == 2
     assert "unknown field" in capsys.readouterr().err
-    assert main(["validate", "truck", str(constants.CONFIGS_DIR / "truck.yaml")]) == 0
-    assert "valid TruckFile; kind truck" in capsys.readouterr().out
+    assert main(["validate", "dump_trial", str(constants.CONFIGS_DIR / "dump_trial.yaml")]) == 0
+    assert "valid TruckFile; kind dump_trial" in capsys.readouterr().out
     assert main(["validate", "--kind", "trench", str(constants.ROBOT_YAML)]) == 2
     assert "invalid choice: 'trench'" in capsys.readouterr().err
 
@@ -161,19 +161,19 @@ def test_a_kind_given_overrides_the_place_and_the_older_form_still_works(capsys)
 def test_a_file_of_no_known_kind_is_refused_with_the_kinds_listed(tmp_path):
     path = tmp_path / "mystery.yaml"
     path.write_text("colour: blue\n")
-    with pytest.raises(ConfigError, match="cannot tell what the file configures.*allowed kinds: robot, scene"):
+    with pytest.raises(ConfigError, match="cannot tell what the file configures.*allowed kinds: scene, soils"):
         validate_file(path)
-    with pytest.raises(ConfigError, match="unknown kind of configuration file 'trench'; allowed: robot"):
+    with pytest.raises(ConfigError, match="unknown kind of configuration file 'trench'; allowed: scene"):
         validate_file(constants.ROBOT_YAML, "trench")
 
 
 def test_a_loading_campaign_checks_the_configuration_it_names(tmp_path):
-    bad = tmp_path / "loading_mujoco.yaml"
-    bad.write_text((constants.CONFIGS_DIR / "loading_mujoco.yaml").read_text().replace("n_scans: 10", "n_scans: 0"))
+    bad = tmp_path / "pile_loading.yaml"
+    bad.write_text((constants.CONFIGS_DIR / "pile_loading.yaml").read_text().replace("n_scans: 10", "n_scans: 0"))
     camp = tmp_path / "campaigns" / "mine.yaml"
     camp.parent.mkdir()
     camp.write_text(f"machines: [loader]\nseeds: [0]\nmujoco_config: {bad}\n")
-    with pytest.raises(ConfigError, match=r"(?s)mine.yaml: mujoco_config: .*loading_mujoco.yaml: invalid LoadingMujocoConfig:.*n_scans: .*allowed: >= 1"):
+    with pytest.raises(ConfigError, match=r"(?s)mine.yaml: mujoco_config: .*pile_loading.yaml: invalid LoadingMujocoConfig:.*n_scans: .*allowed: >= 1"):
         validate_file(camp)
 
 

@@ -24,7 +24,7 @@ import excavsim.envs
 from excavsim import cli
 from excavsim.envs import DIG_ENV_ID, JOINT_ENV_ID, EnvError
 from excavsim.envs.dig_env import PlannerPolicy
-from excavsim.envs.dm import DmTrenchDig, DmTrenchJoint
+from excavsim.envs.dm import DmJoint, DmTrenchDig
 from excavsim.envs.render import offscreen_error
 from excavsim.handoff.episode import format_episode
 from excavsim.loop.scenario import EpisodeSpec, dig_rows, episode_summary, run_spec
@@ -105,7 +105,7 @@ class DmJointTest(test_utils.EnvironmentTestMixin, absltest.TestCase):
     """dm_env's own checks of the joint environment; its 20 default actions pass two ends of 0.1 s episodes."""
 
     def make_object_under_test(self):
-        return DmTrenchJoint(tiny(), seed=5, max_time_s=0.1, scan_period_s=0.05)
+        return DmJoint(tiny(), seed=5, max_time_s=0.1, scan_period_s=0.05)
 
 
 def test_dm_episodes_end_with_discount_zero_when_terminated_and_one_when_truncated():

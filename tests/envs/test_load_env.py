@@ -3,7 +3,7 @@ loading planner's. Gymnasium's checker, seeding, the snapping of infeasible acti
 policy against the plain loading episode, and the errors for bad specs, seeds and actions.
 
 Every episode is tiny: a 0.6 m pile the loader clears in two digs, one coarse scan per map, and a
-planner grid of 20 cm and 10 degrees (a quarter of configs/loading.yaml's cells).
+planner grid of 20 cm and 10 degrees (a quarter of configs/pile_loading_planar.yaml's cells).
 """
 
 from __future__ import annotations
@@ -23,13 +23,13 @@ from excavsim.envs.load_core import LOAD_WEIGHTS, PROFILE_X
 from excavsim.envs.load_env import LoadDigEnv, LoadPlannerPolicy
 from excavsim.envs.render import offscreen_error
 from excavsim.loop.episode import Episode
-from excavsim.loop.scenario import EpisodeSpec, ResolvedSpec
-from excavsim.tasks.load import planar as ld
-from excavsim.tasks.load.task import LoadTask
+from excavsim.loop.scenario import EpisodeSpec, resolve
+from excavsim.tasks.pile_loading import planar as ld
+from excavsim.tasks.pile_loading.task import LoadTask
 
 TINY = {
     "name": "tiny", "dig_budget": 2, "seed": 0,
-    "loading": {"pile": {"height": 0.6, "top": 0.3, "foot": 1.5}, "n_scans": 1,
+    "pile_loading": {"pile": {"height": 0.6, "top": 0.3, "foot": 1.5}, "n_scans": 1,
                 "scanner": {"n_azimuth": 80, "n_elevation": 20}},
 }
 _CFG2D = ld.load_loading_config()
@@ -64,7 +64,7 @@ def test_gymnasium_check_env_passes_and_the_spaces_are_the_documented_ones():
         check_env(env.unwrapped, skip_render_check=offscreen_error() is not None)
         u = env.unwrapped
         assert u.action_space.shape == (2,) and u.action_space.dtype == np.float32
-        np.testing.assert_allclose(u.action_space.low, [-0.4, np.radians(-30)], rtol=1e-6)  # configs/loading.yaml
+        np.testing.assert_allclose(u.action_space.low, [-0.4, np.radians(-30)], rtol=1e-6)  # configs/pile_loading_planar.yaml
         np.testing.assert_allclose(u.action_space.high, [4.0, np.radians(40)], rtol=1e-6)
         assert u.core.rules.k_step == 0.2
         assert u.observation_space["sections"].shape == (3, PROFILE_X.size) == (3, 170)
@@ -143,8 +143,8 @@ def test_an_infeasible_action_is_dug_as_the_nearest_feasible_cell_and_a_feasible
 
 
 def test_the_planner_as_a_policy_reproduces_the_plain_loading_episode():
-    spec = EpisodeSpec(task="load", **tiny())
-    episode = Episode(LoadTask("loader", cfg=ResolvedSpec(spec).loading, cfg2d=COARSE), dig_budget=2)
+    spec = EpisodeSpec(task="pile_loading", **tiny())
+    episode = Episode(LoadTask("loader", cfg=resolve(spec), cfg2d=COARSE), dig_budget=2)
     episode.reset(4)
     plain = episode.run()  # what excavsim trench --spec runs for this spec (on the coarse grid)
     env = make(spec)
@@ -172,7 +172,7 @@ def test_the_shovel_places_its_base_and_observes_four_joints():
 
 
 def test_bad_specs_seeds_actions_and_orders_are_refused_with_clear_errors():
-    with pytest.raises(EnvError, match=r"task must be 'load'.*TrenchDig"):
+    with pytest.raises(EnvError, match=r"task must be 'pile_loading'.*TrenchDig"):
         LoadDigEnv({"task": "trench"})
     with pytest.raises(EnvError, match=r"invalid spec.*allowed: loader, shovel"):
         LoadDigEnv(tiny(machine="t3"))

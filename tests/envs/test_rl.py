@@ -20,7 +20,7 @@ import pytest
 from gymnasium.utils.env_checker import check_env as gym_check_env
 
 import excavsim.envs
-from excavsim.config.loading import load_loading_config
+from excavsim.tasks.pile_loading.config_planar import load_loading_config
 from excavsim.envs import (DIG_ENV_ID, ENV_IDS, EXCAVATOR_JOINT_ENV_ID, JOINT_DIG_ENV_ID, JOINT_ENV_ID, LOAD_DIG_ENV_ID,
                            EnvError)
 from excavsim.envs.batched import BatchedJointEnv, watch_ok
@@ -37,7 +37,7 @@ SHORT = {  # each environment with a tiny spec and, at the joint level, 0.3 s ep
     JOINT_ENV_ID: {"spec": TINY, "max_time_s": 0.3, "scan_period_s": 0.2},
     JOINT_DIG_ENV_ID: {"spec": TINY, "max_time_s": 0.3},
     EXCAVATOR_JOINT_ENV_ID: {"max_time_s": 0.3},
-    LOAD_DIG_ENV_ID: {"spec": {"name": "tiny", "dig_budget": 1, "seed": 0, "loading": {  # a 0.6 m pile, one coarse scan
+    LOAD_DIG_ENV_ID: {"spec": {"name": "tiny", "dig_budget": 1, "seed": 0, "pile_loading": {  # a 0.6 m pile, one coarse scan
         "pile": {"height": 0.6, "top": 0.3, "foot": 1.5}, "n_scans": 1, "scanner": {"n_azimuth": 80, "n_elevation": 20}}},
         "loading_config": _LOADING.model_copy(update={"planner": _LOADING.planner.model_copy(  # a coarse planner grid
             update={"k_step": 0.2, "alpha_deg": [-30.0, 40.0, 10.0]})})},
@@ -64,8 +64,9 @@ def test_every_environment_is_registered_and_the_joint_ones_have_the_batched_vec
     assert excavsim.envs.register()
     for env_id in ENV_IDS:
         assert env_id in gym.envs.registration.registry
-    for env_id in (JOINT_ENV_ID, JOINT_DIG_ENV_ID):
+    for env_id in (JOINT_ENV_ID, JOINT_DIG_ENV_ID, EXCAVATOR_JOINT_ENV_ID):
         assert gym.spec(env_id).vector_entry_point == "excavsim.envs.batched:BatchedJointEnv"
+        assert gym.spec(env_id).entry_point == "excavsim.envs.joint_env:JointEnv"  # one face for every machine
     assert gym.spec(JOINT_DIG_ENV_ID).kwargs["max_time_s"] == 6.0  # 600 steps, one dig
 
 

@@ -23,7 +23,7 @@ from excavsim.execution.dig import DigExecutor
 from excavsim.execution.paths import interp_pose, point_at, segment_lengths
 from excavsim.execution.script import Abort, Command, CompiledEngine, Script, ScriptEngine, Step, SubScript, Watch
 from excavsim.handoff.observation import Observation
-from excavsim.loop.rig import bucket_witness
+from excavsim.rig.core import bucket_witness
 from excavsim.robot.fast import arm_params, forward_pose
 from excavsim.robot.servo import setpoint_rates, setpoint_rates_reference
 from excavsim.sensing.ft import (TIP_ORDERS, ForceSensor, compiled_matches_numpy, compiled_order, environment_wrench,

@@ -14,7 +14,7 @@ from excavsim.execution.dig import DigExecutor, dig_script
 from excavsim.execution.script import Abort, Command, Script, ScriptEngine, Step, SubScript, Watch
 from excavsim.handoff.dig import DigPlan
 from excavsim.handoff.maps import ElevationMap
-from excavsim.loop.rig import bucket_witness
+from excavsim.rig.core import bucket_witness
 from excavsim.planning.predictor import WedgePredictor
 from excavsim.planning.search import TrenchPlanner
 from excavsim.sensing.ft import ForceSensor

@@ -16,7 +16,7 @@ from excavsim.config.machines import load_machine_config
 from excavsim.handoff.dig import DigPlan
 from excavsim.handoff.goal import goal_profile
 from excavsim.tasks.trench.digs import PlannedDigs
-from excavsim.loop.rig import bucket_witness, go_home, make_rig, park, scan
+from excavsim.rig.core import bucket_witness, go_home, make_rig, park, scan
 from excavsim.loop.scenario import merge
 from excavsim.robot.machine import get_machine
 from excavsim.world.machines import make_world

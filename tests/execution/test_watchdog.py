@@ -22,7 +22,7 @@ from excavsim.execution.dig import DigExecutor
 from excavsim.handoff.episode import EpisodeObserver, ObserverGroup, format_episode
 from excavsim.errors import Diverged, OutOfTime
 from excavsim.loop.scenario import EpisodeSpec, dig_rows, episode_summary, run_spec
-from excavsim.record import RerunRecorder
+from excavsim.record import TrenchRecorder
 from excavsim.sensing.ft import ForceSensor
 from excavsim.world.simulation import Simulation
 from tests.execution.test_execution import flat_map, planned_dig, run_dig
@@ -152,7 +152,7 @@ def log_lines(path) -> list[str]:
 def test_an_episode_whose_world_diverges_ends_diverged_and_says_so_everywhere(tmp_path):
     trigger = DivergeInTheSoil()
     path = tmp_path / "diverged.rrd"
-    res = run_spec(EpisodeSpec(name="diverges", **TINY), observer=ObserverGroup(RerunRecorder(path), trigger))
+    res = run_spec(EpisodeSpec(name="diverges", **TINY), observer=ObserverGroup(TrenchRecorder(path), trigger))
     assert trigger.at_step is not None
     assert res.end == "diverged" and "mjWARN_BADQACC" in res.reason and "(dig 1)" in res.reason
     assert len(res.digs) == 1  # the budget was 2: nothing runs after the divergence

@@ -242,7 +242,7 @@ def test_a_learned_predictor_plans_with_the_soil_force_in_the_arm_plane(arm, rea
 
 
 def test_the_online_observer_updates_the_predictor_after_every_dig():
-    from excavsim.tasks.trench.online import OnlineLearning
+    from excavsim.rig.online import OnlineLearning
     from excavsim.loop.scenario import EpisodeSpec, run_spec
 
     spec = EpisodeSpec(goal="straight", seed=0, dig_budget=2,
@@ -289,7 +289,7 @@ class _Scaled(GlobalRegression):
 def test_a_learned_model_that_forbids_every_dig_within_the_limits_plans_the_one_least_over_them():
     from excavsim.learning.predictors import WedgeModel
     from excavsim.tasks.trench.digs import OVER_LIMIT_MARGINS, PlannedDigs
-    from excavsim.loop.rig import make_rig
+    from excavsim.rig.core import make_rig
     from excavsim.world.simulation import Simulation
 
     rig = make_rig(Simulation(seed=0))
@@ -343,7 +343,7 @@ def test_the_peak_margin_counts_a_stalled_digs_ratio_as_a_lower_bound():
 
 def test_a_learned_model_that_forbids_every_dig_hands_the_choice_to_the_nominal_model():
     from excavsim.tasks.trench.digs import PlannedDigs
-    from excavsim.loop.rig import make_rig
+    from excavsim.rig.core import make_rig
     from excavsim.world.simulation import Simulation
 
     rig = make_rig(Simulation(seed=0))

@@ -7,13 +7,13 @@ import pytest
 
 
 def _tiny_episode(**kw):
-    from excavsim.loop.scenario import EpisodeSpec, ResolvedSpec, spec_episode
+    from excavsim.loop.scenario import EpisodeSpec, resolve, spec_episode
 
     fields = {"goal": "small", "dig_budget": 2,
               "sensing": {"map": {"n_scans": 1}, "scanner": {"n_azimuth": 60, "n_elevation": 60}},
               "planner": {"grid": {"k_min_m": 1.8, "k_max_m": 2.6, "k_step_m": 0.2, "alpha_step_deg": 15.0}}}
     spec = EpisodeSpec(**{**fields, **kw})
-    return spec, spec_episode(spec, ResolvedSpec(spec))
+    return spec, spec_episode(spec, resolve(spec))
 
 
 def test_an_episode_stepped_phase_by_phase_is_run_episode_and_refuses_phases_out_of_order():

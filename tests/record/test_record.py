@@ -16,8 +16,8 @@ from rerun.chunk import RrdReader
 
 from excavsim.cli import main
 from excavsim.errors import ExcavsimError
-from excavsim.record import RerunRecorder
-from excavsim.record.recorder import recording_id_for
+from excavsim.record import TrenchRecorder
+from excavsim.record.base import recording_id_for
 from excavsim.record.geometry import grid_triangles, quat_xyzw
 from excavsim.loop.scenario import EpisodeSpec, run_spec
 
@@ -49,7 +49,7 @@ def entities(path: pathlib.Path) -> dict[str, dict]:
 @pytest.fixture(scope="module")
 def recording(tmp_path_factory):
     path = tmp_path_factory.mktemp("rec") / "ep.rrd"
-    result = run_spec(SPEC, observer=RerunRecorder(path))
+    result = run_spec(SPEC, observer=TrenchRecorder(path))
     return path, result
 
 
@@ -107,7 +107,7 @@ def test_the_summary_grows_after_every_dig_on_sim_time(recording):
 
 
 def test_an_episode_that_raises_still_leaves_a_complete_separate_recording(recording, tmp_path):
-    class FailingAfterTheScan(RerunRecorder):
+    class FailingAfterTheScan(TrenchRecorder):
         def scanned(self, index, emap, accuracy):
             super().scanned(index, emap, accuracy)
             raise ExcavsimError("stop here")
@@ -147,7 +147,7 @@ def test_the_same_episode_records_the_same_contents(recording, tmp_path):
     byte identity is noticed."""
     first, _ = recording
     again = tmp_path / first.name
-    run_spec(SPEC, observer=RerunRecorder(again))
+    run_spec(SPEC, observer=TrenchRecorder(again))
     ids = [RrdReader(p).recordings()[0].recording_id for p in (first, again)]
     assert ids[0] == ids[1] == recording_id_for(first.name, SPEC.seed, _config_of(first))
     a, b = contents(first), contents(again)
@@ -175,12 +175,12 @@ def test_recording_ids_differ_with_the_seed_the_configuration_and_the_file_name(
 
 
 def test_a_recorder_records_one_episode_only(recording):
-    rec = RerunRecorder(recording[0].with_name("again.rrd"))
+    rec = TrenchRecorder(recording[0].with_name("again.rrd"))
     rec.rec = object()  # as after started()
     with pytest.raises(ExcavsimError, match="one episode"):
         rec.started(None, None, None, None)
     with pytest.raises(ExcavsimError, match="rate_hz"):
-        RerunRecorder("x.rrd", rate_hz=0.0)
+        TrenchRecorder("x.rrd", rate_hz=0.0)
 
 
 def test_quaternions_go_from_mujoco_wxyz_to_rerun_xyzw():

@@ -14,7 +14,7 @@ from rerun.chunk import RrdReader
 
 from excavsim.cli import main
 from excavsim.errors import ExcavsimError
-from excavsim.record.truck_loading import TruckLoadingRecorder
+from excavsim.tasks.truck_loading.recording import TruckLoadingRecorder
 from excavsim.tasks.truck_loading import task as truck_loading
 from tests.record.test_record import entities, rerun_cli
 
@@ -58,8 +58,8 @@ def recording(tmp_path_factory):
     path = tmp_path_factory.mktemp("truckrec") / "truck.rrd"
     spies = []
 
-    def recorder(p):
-        spies.append(_Spy(TruckLoadingRecorder(p)))
+    def recorder(p, *, live=None):
+        spies.append(_Spy(TruckLoadingRecorder(p, live=live)))
         return spies[-1]
 
     with pytest.MonkeyPatch.context() as mp:

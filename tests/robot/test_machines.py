@@ -75,7 +75,7 @@ def _mujoco_moment_arms(q: np.ndarray) -> np.ndarray:
 def test_the_planners_limits_for_the_tb035_are_relief_times_area_times_moment_arm():
     """At sampled poses and both directions, the planner's limit is p A |dL/dq| (the closed forms), and the
     moment arms are MuJoCo's tendon's; it varies over the range (by more than a third for every joint)."""
-    from excavsim.loop.rig import planner_limits
+    from excavsim.rig.core import planner_limits
 
     limits = planner_limits(None, get_machine("tb035"))
     assert isinstance(limits, PoseTorqueLimits)
@@ -97,7 +97,7 @@ def test_the_planners_limits_for_the_tb035_are_relief_times_area_times_moment_ar
 
 def test_the_force_constraint_compares_each_torque_with_the_limit_at_its_pose():
     """The planner's torque ratio at a pose is |tau| / (p A |dL/dq|) there, not over one constant."""
-    from excavsim.loop.rig import make_planner
+    from excavsim.rig.core import make_planner
     from excavsim.world.machines import make_world
     from excavsim.config import get_soil
     from excavsim.robot.extract import arm_from_model

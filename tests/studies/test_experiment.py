@@ -10,7 +10,7 @@ from excavsim.cli import main
 from excavsim.config import ConfigError
 from excavsim.studies.experiment import (ExperimentSpec, experiment_names, format_comparison, load_experiment,
                                       run_experiment)
-from excavsim.loop.scenario import EpisodeSpec, ResolvedSpec
+from excavsim.loop.scenario import EpisodeSpec, resolve
 
 
 def test_every_thesis_experiment_has_a_valid_configuration():
@@ -19,7 +19,7 @@ def test_every_thesis_experiment_has_a_valid_configuration():
     for name in experiment_names():
         exp = load_experiment(name)
         assert exp.name == name and exp.thesis
-        planners[name] = [ResolvedSpec(run) for run in exp.runs]  # every override applies
+        planners[name] = [resolve(run) for run in exp.runs]  # every override applies
     fig113, = planners["fig113"]
     assert fig113.planner.objective == "lexicographic" and fig113.planner.auxiliary == "cumulative_torque"
     assert fig113.planner.volume_threshold == 0.95 and fig113.planner.volume_constraint

@@ -185,10 +185,10 @@ def test_the_wedge_stays_the_default_and_a_spec_selects_dimaio():
     assert SceneConfig(soil_cell_size_m=0.025).truth.model == "wedge"
     assert load_scene_config().truth.model == "wedge"
     assert Simulation(seed=0).soil.dimaio is None
-    from excavsim.loop.scenario import EpisodeSpec, ResolvedSpec
+    from excavsim.loop.scenario import EpisodeSpec, resolve
 
     spec = EpisodeSpec(name="d", scene={"truth": {"model": "dimaio"}})
-    assert ResolvedSpec(spec).scene.truth.model == "dimaio"
+    assert resolve(spec).scene.truth.model == "dimaio"
     assert get_soil("testbed_sand").dimaio is not None
 
 

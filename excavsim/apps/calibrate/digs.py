@@ -25,18 +25,20 @@ from typing import Any
 
 import numpy as np
 
+from excavsim import constants
+from excavsim.config import parse_config
 from excavsim.errors import ConfigError, DataFileError, ExcavsimError, UsageError
 from excavsim.handoff.episode import EpisodeObserver, ObserverGroup
 from excavsim.handoff.maps import ElevationMap
 from excavsim.learning.dataset import ForceDataset, path_progress
 from excavsim.learning.encoding import Terrain, encode
-from excavsim.loop.catalog import dig_source, task_class
-from excavsim.loop.episode import Episode
-from excavsim.loop.samples import DigSamples
+from excavsim.rig.samples import DigSamples
 
 # The band around a dig's path where the scans count the soil it removed: the settlement after the
 # dig moves soil only within it, the spoil lands outside it (measured: the removed volume within
 # 2 % of the load at 0.25-0.4 m, 3-4 digs of the testbed sand).
+DIGS_SPEC = constants.CONFIGS_DIR / "specs" / "calibration_digs.yaml"
+"""The episode the calibration's digs are dug in (its task, machine and goal; seed, soil and truth are set here)."""
 RIM_ACROSS_M = 0.3  # beyond the bucket's half width, across the arm plane
 RIM_ALONG_M = 0.4  # beyond the path's radial extent
 # quiet records: no rate effect, failure-cycle drops, heterogeneity or the F/T reading's digging disturbance
@@ -112,16 +114,15 @@ def record_digs(path, *, truth: str = "wedge", soil: str | None = None, digs: in
     Raises:
         ExcavsimError: ``digs`` below 1, or no feasible dig in the fresh box.
     """
-    from excavsim.loop.scenario import EpisodeSpec, ResolvedSpec
     from excavsim.world.simulation import Simulation
 
     if digs < 1:
         raise ConfigError(f"record_digs needs digs >= 1; given {digs}")
     t: dict[str, Any] = {"model": truth, **(QUIET if quiet else {})}
-    cfg = ResolvedSpec(EpisodeSpec(name="calibrate", goal="straight", soil=soil, seed=seed, scene={"truth": t}))
+    spec, cfg = _digs_spec("calibrate", seed, t, soil=soil, budget=digs)
     sim = Simulation(cfg.robot, cfg.scene, seed=seed)
     rec = _DigRecorder(say or (lambda _s: None))
-    _dig(sim, cfg, seed, digs, dig_source("trench", "random", np.random.default_rng((seed, 8)), 0.3),
+    _dig(sim, spec, cfg, spec.plugin.dig_source("random", np.random.default_rng((seed, 8)), 0.3),
          ObserverGroup(rec, observer))
     if not any(len(p) for p in rec.parts):
         raise ExcavsimError(f"no dig of {sim.scene.soil} gave force samples (seed {seed})")
@@ -131,14 +132,26 @@ def record_digs(path, *, truth: str = "wedge", soil: str | None = None, digs: in
     return data
 
 
-def _dig(sim, cfg, seed: int, budget: int, digs, observer: EpisodeObserver) -> None:
-    """An episode of the trenching task (through the platform's catalog: an application imports no
-    task) in ``sim`` with the configurations ``cfg`` (a :class:`~excavsim.loop.scenario.ResolvedSpec`),
-    ``budget`` digs from the dig source ``digs`` and no early stop (digging for data)."""
-    task = task_class("trench")(goal=cfg.goal, done_fraction=None, planner_cfg=cfg.planner, executor_cfg=cfg.executor,
-                                sensing_cfg=cfg.sensing)
-    episode = Episode(task, dig_budget=budget, observer=observer)
-    episode.reset(seed, sim=sim, digs=digs)
+def _digs_spec(name: str, seed: int, truth: dict[str, Any], *, soil: str | None = None, budget: int = 1):
+    """The specification of the calibration's digs (:data:`DIGS_SPEC`, whose task digs them: an application
+    names no task) with ``name``, ``seed``, ``soil``, the world's ``truth`` and a budget of ``budget`` digs, and
+    its resolved configurations."""
+    from excavsim.loop.scenario import EpisodeSpec, load_spec, merge, resolve
+
+    base = load_spec(DIGS_SPEC)
+    data = base.model_dump()
+    data.update(name=name, seed=seed, soil=soil, dig_budget=budget,
+                scene=merge(data.get("scene", {}), {"truth": truth}))
+    spec = parse_config(data, EpisodeSpec, source=str(DIGS_SPEC))
+    return spec, resolve(spec)
+
+
+def _dig(sim, spec, cfg, digs, observer: EpisodeObserver) -> None:
+    """The episode of ``spec`` (its task's, through the platform's catalog: an application imports no task) in
+    ``sim`` with the configurations ``cfg``, its budget of digs from the dig source ``digs`` (the spec digs for
+    data: no early stop)."""
+    episode = spec.plugin.episode(spec, cfg, observer=observer)
+    episode.reset(spec.seed, sim=sim, digs=digs)
     episode.run()
 
 
@@ -175,15 +188,14 @@ def rerun_digs(data: ForceDataset, soil_params, *, truth: str, quiet: bool, seed
     """Dig the record's actions again, in order, in a fresh box of ``soil_params`` (a
     :class:`~excavsim.config.SoilParams`) on the ``truth`` model with the episode seed ``seed``;
     the re-run's force record (its digs numbered as the record's)."""
-    from excavsim.loop.scenario import EpisodeSpec, ResolvedSpec
     from excavsim.world.simulation import Simulation
 
     t: dict[str, Any] = {"model": truth, **(QUIET if quiet else {})}
     actions = recorded_actions(data)
-    cfg = ResolvedSpec(EpisodeSpec(name="calibrate-rerun", goal="straight", seed=seed, scene={"truth": t}))
+    spec, cfg = _digs_spec("calibrate-rerun", seed, t, budget=len(actions))
     sim = Simulation(cfg.robot, cfg.scene, soil=soil_params, seed=seed)
     rec = _DigRecorder(say or (lambda _s: None))
-    _dig(sim, cfg, seed, len(actions), dig_source("trench", "scripted", actions), rec)
+    _dig(sim, spec, cfg, spec.plugin.dig_source("scripted", actions), rec)
     return ForceDataset.concat(rec.parts, meta={"source": "excavsim.apps.calibrate.digs.rerun_digs"})
 
 
@@ -281,7 +293,7 @@ def dataset_from_recording(rec: dict[str, Any], *, arm, waist: float, width: flo
 def recording_dataset(rec: dict[str, Any]) -> ForceDataset:
     """:func:`dataset_from_recording` with the robot's kinematics, the planner and the trench of the
     recording's configuration (its goal's waist angle; the default scene's arm and bucket)."""
-    from excavsim.loop.rig import make_rig
+    from excavsim.rig.core import make_rig
     from excavsim.world.simulation import Simulation
 
     sim = Simulation(seed=0)

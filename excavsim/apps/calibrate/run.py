@@ -262,9 +262,9 @@ def calibrate_file(record: str | pathlib.Path, model: str, out: str | pathlib.Pa
             + (f" (and the episode into {rrd})" if rrd else ""))
         observer = None
         if rrd:
-            from excavsim.record import RerunRecorder
+            from excavsim.record import TrenchRecorder
 
-            observer = RerunRecorder(rrd)
+            observer = TrenchRecorder(rrd)
         record_digs(record, truth=truth, soil=soil, digs=record_digs_n, seed=seed, quiet=quiet, observer=observer,
                     say=say)
     options = dict(soil=soil, rerun_digs=rerun_digs, fixed=fixed, brittleness=brittleness,

@@ -306,8 +306,22 @@ class MachineAdapter(abc.ABC):
         :attr:`from_recordings`."""
         raise NotImplementedError
 
-    @abc.abstractmethod
     def recorder(self, record: str | None, live: str | None, seed: int, say: Callable[[str], None]):
-        """The observer that records (``record``) or streams (``live``) a teleoperation session, or None."""
-        raise NotImplementedError
+        """The observer that records a teleoperation session to ``record`` and streams it to the viewer at
+        ``live`` ("" spawns one), or None for neither.
 
+        Raises:
+            ExcavsimError: nothing listens at ``live``, or no display to spawn a viewer on.
+        """
+        if not record and live is None:
+            return None
+        from excavsim.record.live import viewer_url
+
+        url = viewer_url(live or None) if live is not None else None
+        if url:
+            say(f"streaming the session live to {url}")
+        return self.session_recorder(record, url, seed)
+
+    @abc.abstractmethod
+    def session_recorder(self, record: str | None, url: str | None, seed: int):
+        """The machine's recorder of a session to ``record`` and the viewer at gRPC ``url`` (either may be None)."""

@@ -45,7 +45,7 @@ import numpy as np
 from excavsim.apps.playback.adapter import (DEMO_SOIL, TELEOP_HEIGHT_M, Impedance, MachineAdapter, PlaybackRig,
                                             dimaio_scene)
 from excavsim.config import SoilParams, get_soil
-from excavsim.errors import GoalError, UsageError
+from excavsim.errors import GoalError
 from excavsim.execution.demonstration import Demonstration, plane_state
 from excavsim.handoff.observation import Observation
 from excavsim.robot.extract import arm_from_model
@@ -252,17 +252,9 @@ class CylinderArm(MachineAdapter):
         return (f"{self.title} demonstration: {len(played.times)} samples ({played.times[-1]:.2f} s) in {played.soil}; "
                 f"{played.source}; force peak {np.linalg.norm(played.force, axis=1).max():.0f} N")
 
-    def recorder(self, record: str | None, live: str | None, seed: int, say: Callable[[str], None]):
-        """An :class:`~excavsim.record.excavator.ExcavatorRecorder` of the session to ``record`` (no live view).
-
-        Raises:
-            UsageError: ``live`` given.
-        """
-        if live is not None:
-            raise UsageError(f"playback{self.flag}: --live streams a session of the episode recorder, which does not "
-                             f"draw the {self.title}; record it with --record FILE.rrd and replay it")
-        if not record:
-            return None
+    def session_recorder(self, record: str | None, url: str | None, seed: int):
+        """An :class:`~excavsim.record.excavator.ExcavatorRecorder`: the machine's bodies and cylinders, the pit,
+        the true terrain, the joints and cylinder forces."""
         from excavsim.record.excavator import ExcavatorRecorder
 
-        return ExcavatorRecorder(record, seed=seed)
+        return ExcavatorRecorder(record, seed=seed, live=url)

@@ -1,8 +1,8 @@
 """The playback on a machine with joint servos and a wrist F/T sensor: the T3, where the chapter-6 experiment
 (DiMaio 1998 §6.1-6.3, Figs. 6.42-6.48) runs by default.
 
-The world is the machine over its soil box with the soil under DiMaio's model; the loop's rig
-(:func:`~excavsim.loop.rig.make_rig`) gives the robot's model of itself, its F/T sensor (reporting at the
+The world is the machine over its soil box with the soil under DiMaio's model; the digging rig
+(:func:`~excavsim.rig.core.make_rig`) gives the robot's model of itself, its F/T sensor (reporting at the
 bucket tip) and the dig executor. The demonstration is the cut of :data:`~excavsim.handoff.dig.DEMO_ACTION`
 recorded by the executor in the demonstration soil; each playback runs in a fresh world with the same seed:
 the arm goes home, to the demonstration's first pose by a joint move, and then the impedance playback runs
@@ -40,8 +40,8 @@ from excavsim.execution.demonstration import (Demonstration, demonstration_from_
                                               plane_state)
 from excavsim.handoff.dig import DEMO_ACTION, DigPlan
 from excavsim.handoff.maps import ElevationMap
-from excavsim.loop.measures import episode_result, trench_footprint
-from excavsim.loop.rig import go_home, go_to, make_rig
+from excavsim.rig.core import go_home, go_to, make_rig
+from excavsim.rig.measures import episode_result, trench_footprint
 from excavsim.robot.machine import Machine
 from excavsim.world.machines import make_world
 
@@ -180,14 +180,8 @@ class ServoArm(MachineAdapter):
         return (f"demonstration given: {len(demo.times)} samples ({demo.times[-1]:.2f} s), soil {demo.soil!r}, "
                 f"{demo.source}; the 'same' soil is {DEMO_SOIL} under DiMaio's model")
 
-    def recorder(self, record: str | None, live: str | None, seed: int, say: Callable[[str], None]):
-        """An episode recorder of the session (to ``record``, or streamed to a viewer: ``live`` "" spawns one)."""
-        if not record and live is None:
-            return None
-        from excavsim.record import RerunRecorder
-        from excavsim.record.live import viewer_url
+    def session_recorder(self, record: str | None, url: str | None, seed: int):
+        """The trench recorder: the session as an episode of no dig, with its F/T plot."""
+        from excavsim.record import TrenchRecorder
 
-        url = viewer_url(live or None) if live is not None else None
-        if url:
-            say(f"streaming the session live to {url}")
-        return RerunRecorder(record, live=url)
+        return TrenchRecorder(record, live=url)

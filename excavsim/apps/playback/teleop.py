@@ -49,7 +49,7 @@ def teleoperate(keys: Iterable[str], *, machine: str = DEFAULT_MACHINE, seed: in
         keys: one-character strings (a str works).
         on_key: called after each key with the key, the measured tip pose (3,) and force (2,) [N].
         observer: sees the session: on the T3 as an episode of no dig (``started``, ``stepped`` after every
-            control step, ``finished``; a :class:`~excavsim.record.recorder.RerunRecorder` handed in by the
+            control step, ``finished``; a :class:`~excavsim.record.trench.TrenchRecorder` handed in by the
             command records it or streams it live, so that the force is seen on the F/T plot while driving), on
             an excavator as a run of the machine (an :class:`~excavsim.record.excavator.ExcavatorRecorder`).
 
@@ -149,7 +149,7 @@ def teleop_session(out: str | Path, *, machine: str = DEFAULT_MACHINE, keys: Ite
 
     Args:
         record: a Rerun file to record the session to.
-        live: stream the session to a Rerun viewer: "" spawns one, else its address (the T3's recorder only).
+        live: stream the session to a Rerun viewer: "" spawns one, else its address.
     """
     pm = adapter_for(machine)
     observer = pm.recorder(record, live, seed, say)

@@ -6,16 +6,15 @@ cartesian product of :class:`Episode` s, each with an id made of its grid values
 specification (so that a resumed or extended campaign recognizes the episodes it has run).
 :func:`load_campaign` validates every grid value against the configuration it overrides.
 
-**Campaigns over tasks.** The grid may vary ``task`` (trench, load, truck). A value of ``task`` is a task
-name or a mapping of the episode fields that go with that task (its machine, its configuration
-overrides, its dig budget), e.g. ``{task: load, machine: shovel, loading: {n_scans: 2}}``; the mapping
-must name ``task``. The rule for fields that belong to one task
-(:data:`~excavsim.loop.scenario.FIELD_TASKS`): the **base's** such fields apply only to the episodes of
-the tasks they belong to (the base's goal and planner go to the trench episodes; a load or truck
-episode leaves them at their defaults), so one base serves every task; a **grid key** of such a field
-(e.g. ``planner.grid.k_step_m``) beside a varied task is refused, since it would run the other tasks'
-episodes twice: put it in that task's mapping instead. A campaign that does not vary ``task`` is
-expanded exactly as before (the same ids).
+**Campaigns over tasks.** The grid may vary ``task`` (any registered task). A value of ``task`` is a task
+name or a mapping of the episode fields that go with that task (its machine, its own fields, its dig
+budget), e.g. ``{task: pile_loading, machine: shovel, pile_loading: {n_scans: 2}}``; the mapping must name
+``task``. The rule for a task's own fields (its plug-in's ``options``): the **base's** such fields apply
+only to the episodes of that task (the base's goal and planner go to the trench episodes; the other tasks'
+episodes leave them out), and so does its dig budget for a task that has none, so one base serves every
+task; a **grid key** of such a field (e.g. ``planner.grid.k_step_m``) beside a varied task is refused,
+since it would run the other tasks' episodes twice: put it in that task's mapping instead. A campaign that
+does not vary ``task`` is expanded exactly as before (the same ids).
 """
 
 from __future__ import annotations
@@ -33,9 +32,17 @@ from pydantic import Field
 
 from excavsim.config import StrictModel, load_config, parse_config
 from excavsim.errors import ConfigError
-from excavsim.loop.scenario import FIELD_TASKS, EpisodeSpec, ResolvedSpec, merge, resolve_goal
+from excavsim.loop import catalog
+from excavsim.loop.scenario import COMMON_FIELDS, DEFAULT_BUDGET, EpisodeSpec, merge, resolve
 
-OVERRIDE_SECTIONS = ("robot", "scene", "planner", "executor", "sensing", "loading", "truck", "truck_loading")
+
+def _task_fields() -> dict[str, list[str]]:
+    """Every registered task's own fields of a specification -> the tasks that have them."""
+    out: dict[str, list[str]] = {}
+    for name, plugin in catalog.plugins().items():
+        for field in plugin.options.model_fields:
+            out.setdefault(field, []).append(name)
+    return out
 
 
 def _short(key: str, value: Any) -> Any:
@@ -90,29 +97,36 @@ def _apply(data: dict, key: str, value: Any) -> None:
     head, *rest = key.split(".")
     if head == "name":
         raise ConfigError("grid key 'name': episode names are made from their grid values; vary another field")
-    if head not in EpisodeSpec.model_fields:
+    own = _task_fields()
+    if head not in COMMON_FIELDS and head not in own:
+        renamed = {old: new for p in catalog.plugins().values() for old, new in p.renamed_fields.items()}
+        if head in renamed:
+            raise ConfigError(f"grid key {key!r}: {head} is called {renamed[head]} now; write "
+                              f"{key.replace(head, renamed[head], 1)!r}")
         raise ConfigError(f"grid key {key!r}: {head!r} is not an episode field; allowed: "
-                          f"{', '.join(f for f in EpisodeSpec.model_fields if f != 'name')} "
-                          f"(goal and {', '.join(OVERRIDE_SECTIONS)} take dotted keys into their fields)")
+                          f"{', '.join(f for f in COMMON_FIELDS if f != 'name')} and the tasks' own fields "
+                          f"({', '.join(own)}; those holding mappings take dotted keys into their fields)")
     if head == "task" and not rest and isinstance(value, dict):  # a task with the fields that go with it
         if not isinstance(value.get("task"), str):
-            raise ConfigError(f"grid key 'task': a mapping value must name its task, e.g. {{task: load, machine: "
-                              f"shovel}}; given {value!r}")
+            raise ConfigError(f"grid key 'task': a mapping value must name its task, e.g. {{task: "
+                              f"{catalog.DEFAULT_TASK}, machine: ...}}; given {value!r}")
         for key, sub in value.items():
-            if key in OVERRIDE_SECTIONS and isinstance(sub, dict):  # merged over the base's overrides
+            if isinstance(sub, dict) and isinstance(data.get(key), dict):  # merged over the base's fields
                 data[key] = merge(data[key], sub, where=f"{key}.")
             else:
                 _apply(data, key, sub)
         return
     if not rest:
         data[head] = value
-    elif head == "goal":
-        goal = data["goal"] if isinstance(data["goal"], dict) else resolve_goal(data["goal"]).model_dump()
-        data["goal"] = merge(goal, _nested(rest, value), where="goal.")
-    elif head in OVERRIDE_SECTIONS:
-        data[head] = merge(data[head], _nested(rest, value), where=f"{head}.")
-    else:
-        raise ConfigError(f"grid key {key!r}: {head} takes a single value; write {head!r} without a dotted suffix")
+        return
+    current = data.get(head, {})
+    if not isinstance(current, dict):  # a field given by name (a trench's goal): the task reads it as a mapping
+        task = data.get("task", catalog.DEFAULT_TASK)
+        current = catalog.plugin(task).as_mapping(head, current, data) if isinstance(task, str) else None
+        if current is None:
+            raise ConfigError(f"grid key {key!r}: {head} takes a single value; write {head!r} without a dotted "
+                              "suffix")
+    data[head] = merge(current, _nested(rest, value), where=f"{head}.")
 
 
 def _fit_task(data: dict, grid_keys: list[str]) -> None:
@@ -122,18 +136,24 @@ def _fit_task(data: dict, grid_keys: list[str]) -> None:
     Raises:
         ConfigError: a grid key (other than ``task``) sets a field of another task while the task varies.
     """
-    task = data.get("task", "trench")
-    fields = EpisodeSpec.model_fields
-    for name, tasks in FIELD_TASKS.items():
-        if task in tasks:
-            continue
-        default = fields[name].get_default(call_default_factory=True)
-        if (keys := [k for k in grid_keys if k.split(".")[0] == name]) and data[name] != default:
+    task = data.get("task", catalog.DEFAULT_TASK)
+    if not isinstance(task, str):
+        return  # the spec's validation says what is wrong
+    plugin = catalog.plugin(task)
+    owners = _task_fields()
+    budgetless = plugin.budget is None and data.get("dig_budget", DEFAULT_BUDGET) != DEFAULT_BUDGET
+    for name in [k for k in data if k not in COMMON_FIELDS and k not in plugin.options.model_fields] + \
+            (["dig_budget"] if budgetless else []):
+        tasks = owners.get(name, [])
+        if keys := [k for k in grid_keys if k.split(".")[0] == name]:
             hint = (f": put it in that task's value, e.g. task: [{{task: {tasks[0]}, {name}: ...}}]"
-                    if "task" in grid_keys else "")
-            raise ConfigError(f"grid key {keys[0]!r} configures task {', '.join(tasks)} only; this episode's task "
-                              f"is {task}{hint}")
-        data[name] = default
+                    if "task" in grid_keys and tasks else "")
+            whose = f"task {', '.join(tasks)} only" if tasks else "the tasks with a budget of digs only"
+            raise ConfigError(f"grid key {keys[0]!r} configures {whose}; this episode's task is {task}{hint}")
+        if name == "dig_budget":
+            data[name] = DEFAULT_BUDGET
+        else:
+            del data[name]
 
 
 def episode_id(spec: EpisodeSpec, params: dict[str, Any]) -> str:
@@ -190,7 +210,7 @@ def check_campaign(spec: CampaignSpec, *, source: str) -> list[Episode]:
         ConfigError: naming ``source``, the grid key, the value and what is wrong.
     """
     try:
-        ResolvedSpec(spec.base)
+        resolve(spec.base)
     except ConfigError as exc:
         raise ConfigError(f"{source}: base: {exc}") from None
     base = spec.base.model_dump()
@@ -200,7 +220,7 @@ def check_campaign(spec: CampaignSpec, *, source: str) -> list[Episode]:
                 data = copy.deepcopy(base)
                 _apply(data, key, value)
                 _fit_task(data, [key])
-                ResolvedSpec(parse_config(data, EpisodeSpec, source=f"grid {key}"))
+                resolve(parse_config(data, EpisodeSpec, source=f"grid {key}"))
             except ConfigError as exc:
                 raise ConfigError(f"{source}: grid key {key!r}, value {value!r}:\n  {exc}") from None
     for keys in spec.report_by:

@@ -13,6 +13,7 @@ from collections.abc import Callable
 from typing import Any
 
 from excavsim.config import load_planner_config
+from excavsim.loop import catalog
 from excavsim.studies.campaign.grid import CampaignSpec, Episode, slug
 
 # how an episode ended, in the order plots stack them ("error": it raised, or its worker died)
@@ -110,26 +111,28 @@ def _outcome(row: dict) -> str:
     return row.get("end", "error") if row["status"] == "ok" else "error"
 
 
-# the task-specific columns of the table: shown when some episode has the metric (loading, truck loading;
-# a truck tuning run's cost of its first and its last window)
-TASK_COLUMNS = (("delivered_l", "deliv. l"), ("spilled_l", "spilled l"), ("dumped_l", "dumped l"),
-                ("missed_l", "missed l"), ("cycle_s", "cycle s"), ("placement_error_cm", "place. cm"),
-                ("first_cost", "cost 1st"), ("cost", "cost"), ("truck_t", "truck t"), ("spill_l", "spill l"),
-                ("truck_s", "truck s"), ("last_cost", "cost last 3"))
+def task_columns() -> list[tuple[str, str]]:
+    """The tasks' own columns of the table (each plug-in's ``columns``, in the catalog's order, each key once):
+    shown when some episode has the metric."""
+    out: dict[str, str] = {}
+    for plugin in catalog.plugins().values():
+        for key, label in plugin.columns:
+            out.setdefault(key, label)
+    return list(out.items())
 
 
 def format_table(spec: CampaignSpec, rows: list[dict[str, Any]]) -> str:
     """A compact text table: one line per condition (grid values other than seed), means over its episodes.
 
     A campaign over tasks has a task and a machine column; the columns of one task's metrics
-    (:data:`TASK_COLUMNS`) appear when some episode has them, with "-" where they do not apply."""
+    (:func:`task_columns`) appear when some episode has them, with "-" where they do not apply."""
     keys = [k for k in spec.grid if k != "seed"]
     if "task" in keys:
         keys.insert(keys.index("task") + 1, "machine")
     groups: dict[tuple, list[dict]] = {}
     for row in rows:
         groups.setdefault(tuple(row[k] for k in keys), []).append(row)
-    extra = [(key, label) for key, label in TASK_COLUMNS if any(r.get(key) is not None for r in rows)]
+    extra = [(key, label) for key, label in task_columns() if any(r.get(key) is not None for r in rows)]
 
     def mean(rs: list[dict], key: str, scale: float = 1.0) -> str:
         vals = [r[key] for r in rs if r["status"] == "ok" and r.get(key) is not None]
@@ -157,7 +160,7 @@ def plot_campaign(spec: CampaignSpec, rows: list[dict[str, Any]], plot_dir: path
     nothing varies. Returns the paths.
     """
     keys = _group_keys(spec)
-    done_at = None if "done_fraction" in spec.grid else spec.base.done_fraction
+    done_at = None if "done_fraction" in spec.grid else getattr(spec.base.options, "done_fraction", None)
     figures = [(f"by_{slug(k)}.png", [_label(r, [k]) for r in rows], k) for k in keys]
     if len(keys) > 1:
         figures.append(("conditions.png", [_label(r, keys) for r in rows], " x ".join(keys)))

@@ -58,21 +58,20 @@ from typing import Any
 
 import yaml
 
+from excavsim.handoff.episode import EpisodeObserver, ObserverGroup
 from excavsim.errors import ConfigError, DependencyError, ExcavsimError, UsageError
-from excavsim.handoff.episode import EpisodeObserver
+from excavsim.processes import exit_with_parent
 from excavsim.studies.campaign import inputs
-from excavsim.studies.campaign.grid import (OVERRIDE_SECTIONS, CampaignSpec, Episode, check_campaign, episode_id,
+from excavsim.studies.campaign.grid import (CampaignSpec, Episode, check_campaign, episode_id,
                                          expand_grid, load_campaign, parse_campaign)
 from excavsim.studies.campaign.report import (format_table, group_table, plot_campaign, summary_rows, write_atomic,
                                            write_tables)
-from excavsim.loop.scenario import EpisodeSpec, dig_rows, episode_summary, run_spec
 from excavsim.loop.catalog import progress_text
+from excavsim.loop.scenario import EpisodeSpec, dig_rows, episode_summary, run_spec
 
-__all__ = ["OVERRIDE_SECTIONS", "CampaignReport", "CampaignSpec", "Episode", "check_campaign", "episode_id",
+__all__ = ["CampaignReport", "CampaignSpec", "Episode", "check_campaign", "episode_id",
            "expand_grid", "load_campaign", "parse_campaign", "result_problem", "run_campaign", "run_episode_task"]
 
-# Makes the observer that records one episode to the given path (excavsim.record.RerunRecorder).
-Recorder = Callable[[pathlib.Path], EpisodeObserver]
 
 STATUSES = ("ok", "error", "failed")  # an episode ran; it raised; its worker process died twice
 ATTEMPTS = 2  # runs of an episode whose worker process dies, before it is recorded as failed
@@ -110,11 +109,16 @@ def _json_safe(obj: Any) -> Any:
     return str(obj)
 
 
-def _task(ep: Episode, out_dir: pathlib.Path, recorder: Recorder | None,
-          files: dict[str, str] | None = None) -> dict[str, Any]:
+# An extra observer of every episode, made in the worker from the episode's result path (picklable: it
+# travels to the worker processes), e.g. a logger of one's own.
+ObserverFactory = Callable[[pathlib.Path], EpisodeObserver]
+
+
+def _task(ep: Episode, out_dir: pathlib.Path, record: bool, files: dict[str, str] | None = None,
+          live: str | None = None, observer: ObserverFactory | None = None) -> dict[str, Any]:
     return {"id": ep.id, "name": ep.name, "params": ep.params, "spec": ep.spec.model_dump(mode="json"),
-            "out_dir": str(out_dir.resolve()), "recording": f"recordings/{ep.id}.rrd" if recorder else None,
-            "recorder": recorder, "inputs": files}
+            "out_dir": str(out_dir.resolve()), "recording": f"recordings/{ep.id}.rrd" if record else None,
+            "live": live, "observer": observer, "inputs": files}
 
 
 class InputsChanged(ExcavsimError):
@@ -126,8 +130,10 @@ def run_episode_task(task: dict[str, Any]) -> dict[str, Any]:
 
     Args:
         task: ``id``, ``name``, ``params``, ``spec`` (an EpisodeSpec as JSON), ``out_dir``,
-            ``recording`` (a path under ``out_dir``, or None), ``recorder`` (the observer factory
-            that records to that path, or None) and ``inputs`` (the campaign's
+            ``recording`` (a path under ``out_dir``, or None: the episode's task records it there with its
+            own recorder), ``live`` (a viewer's address the recording also streams to, or None) and
+            ``observer`` (a factory of an extra observer, called with the episode's result path, or None) and
+            ``inputs`` (the campaign's
             :func:`~excavsim.studies.campaign.inputs.digest` when it started, or None: not checked).
 
     Returns:
@@ -152,12 +158,16 @@ def run_episode_task(task: dict[str, Any]) -> dict[str, Any]:
     try:
         spec = EpisodeSpec.model_validate(task["spec"])
         observer = None
-        if task["recording"] and task.get("recorder") is not None:
+        if task["recording"]:  # the task's own recorder (a task that streams also streams to the viewer)
             path = pathlib.Path(task["out_dir"]) / task["recording"]
             path.parent.mkdir(parents=True, exist_ok=True)
-            observer = task["recorder"](path)
+            live = task.get("live") if "live" in spec.plugin.outputs else None
+            observer = spec.plugin.recorder(str(path), live=live)
+        if task.get("observer") is not None:
+            extra = task["observer"](pathlib.Path(task["out_dir"]) / "episodes" / f"{task['id']}.json")
+            observer = ObserverGroup(observer, extra)
         result = run_spec(spec, progress=log.append, observer=observer)
-        rec["summary"], rec["digs"] = episode_summary(result), dig_rows(result)
+        rec["summary"], rec["digs"] = episode_summary(result, spec.task), dig_rows(result, spec.task)
     except Exception as exc:  # noqa: BLE001 - a failing episode is a result, not the campaign's end
         rec.update(status="error", error=f"{type(exc).__name__}: {exc}", traceback=traceback.format_exc())
     if expected is not None and (moved := inputs.changed(expected, inputs.digest())):
@@ -182,19 +192,6 @@ def _failed_record(task: dict[str, Any], error: str) -> dict[str, Any]:
 
 
 # -- local worker processes ----------------------------------------------------------------------------
-def _exit_with_main() -> None:
-    """In a worker: exit at once when the main process dies (its sentinel closes, also on SIGKILL)."""
-    parent = multiprocessing.parent_process()
-    if parent is None:
-        return
-
-    def watch() -> None:
-        wait([parent.sentinel])
-        os._exit(1)
-
-    threading.Thread(target=watch, name="exit-with-main", daemon=True).start()
-
-
 def threads_per_worker(workers: int, tasks: int, cores: int | None = None) -> int:
     """numba threads for each of ``workers`` local workers running ``tasks`` episodes: the cores this
     process may use (its affinity, so ``taskset`` counts) shared out among the workers that will run."""
@@ -210,7 +207,7 @@ def _worker_main(conn, threads: int = 0) -> None:
     fill the machine would otherwise each start a thread per core and fight over them.
     """
     signal.signal(signal.SIGINT, signal.SIG_IGN)  # the main process decides; it ends its workers itself
-    _exit_with_main()
+    exit_with_parent()
     if threads > 0:
         import numba
 
@@ -439,7 +436,8 @@ def _progress_line(count: int, total: int, rec: dict, eta_s: float) -> str:
         text = f"{head} {str(rec['status']).upper()} {str(rec['error']).splitlines()[0][:200]}"
     else:
         s = rec["summary"]
-        text = f"{head} {s['end']}: {progress_text(s)} ({rec['wall_s']:.0f} s)"
+        task = s.get("task") or rec["spec"]["task"]
+        text = f"{head} {s['end']}: {progress_text(s, task)} ({rec['wall_s']:.0f} s)"
     return f"{text}; ETA {_duration(eta_s)}" if count < total else text
 
 
@@ -471,7 +469,8 @@ def _set_aside_stale(ep_dir: pathlib.Path, ids: set[str], current: str, say: Cal
 
 
 def run_campaign(spec: CampaignSpec, out_dir: str | pathlib.Path, *, workers: int | None = None,
-                 resume: bool = False, ray_address: str | None = None, recorder: Recorder | None = None,
+                 resume: bool = False, ray_address: str | None = None, live: tuple[str, str] | None = None,
+                 observer: ObserverFactory | None = None,
                  progress: Callable[[str], None] | None = print) -> CampaignReport:
     """Run the campaign's episodes in parallel, then write its summary table and plots.
 
@@ -484,17 +483,18 @@ def run_campaign(spec: CampaignSpec, out_dir: str | pathlib.Path, *, workers: in
         ray_address: None for local processes; ``"local"`` for a Ray instance started here,
             ``"auto"`` or ``HOST:PORT`` for a running Ray cluster (needs a shared ``out_dir`` only
             when recording).
-        recorder: what records an episode with ``record: true``: called in the worker with the
-            recording's path, it returns the episode's observer (the CLI hands
-            :class:`excavsim.record.RerunRecorder`); it must be picklable (a class or a module-level
-            function), since it travels to the worker processes.
+        live: (viewer address, episode id): with ``record: true``, that episode's recording also streams to the
+            viewer (when its task's recorder streams). Each episode is recorded by its own task's recorder
+            (:meth:`~excavsim.loop.plugin.TaskPlugin.recorder`).
+        observer: an extra observer of every episode: called in the worker with the episode's result path, it
+            returns the observer; it must be picklable (a class or a module-level function).
         progress: receives one line per finished episode (count, result, ETA) and the summary.
 
     Raises:
         ConfigError: the grid is invalid.
         ExcavsimError: ``out_dir`` holds results and ``resume`` is false, it is in use by another run,
-            ``workers`` is below 1, Ray is missing or unreachable, or ``record: true`` without a
-            ``recorder``. A worker process that dies does not raise (see the module docstring).
+            ``workers`` is below 1, Ray is missing or unreachable, or ``record: true`` over a task that has
+            no recorder. A worker process that dies does not raise (see the module docstring).
         KeyboardInterrupt: on SIGINT or SIGTERM, after the local workers are ended.
     """
     say = progress or (lambda _s: None)
@@ -526,16 +526,17 @@ def run_campaign(spec: CampaignSpec, out_dir: str | pathlib.Path, *, workers: in
         files = inputs.digest()
         _set_aside_stale(ep_dir, done & ids, inputs.combined(files), say, done)
         todo = [e for e in episodes if e.id not in done]
-        if spec.record and todo and recorder is None:
-            raise UsageError(f"campaign {spec.name} has record: true but no recorder was given: pass "
-                             "recorder=excavsim.record.RerunRecorder (the CLI does)")
         write_atomic(out / "campaign.yaml", yaml.safe_dump(spec.model_dump(mode="json"), sort_keys=False))
 
         n = min(workers or os.cpu_count() or 1, max(len(todo), 1))
         where = f"Ray ({ray_address})" if ray_address else f"{n} local process{'es' if n > 1 else ''}"
         say(f"campaign {spec.name}: {len(episodes)} episodes, {len(episodes) - len(todo)} already done, "
             f"{len(todo)} to run on {where}; results in {out}")
-        tasks = [_task(e, out, recorder if spec.record else None, files) for e in todo]
+        if spec.record and (silent := sorted({e.spec.task for e in todo if not e.spec.plugin.can_record})):
+            raise UsageError(f"campaign {spec.name} has record: true, and task {', '.join(silent)} has no recorder; "
+                             "leave record out, or run the other tasks")
+        tasks = [_task(e, out, spec.record, files, live[0] if live and e.id == live[1] else None, observer)
+                 for e in todo]
         results = _ray_results(tasks, ray_address, workers) if ray_address else _local_results(tasks, n, say)
         count, ran, t0 = len(episodes) - len(todo), 0, time.perf_counter()
         try:

@@ -26,7 +26,7 @@ from excavsim.world.scanner import LaserScanner
 from excavsim.world.simulation import Simulation
 
 TESTBED_YAML = constants.CONFIGS_DIR / "sensing_testbed.yaml"
-TRENCH_DEPTH_M = 0.3  # the steep-walled trench of the "trench" terrain
+TRENCH_DEPTH_M = 0.3  # the steep-walled trench of the "trenched" terrain
 
 # name -> the map settings over the testbed config's (which has the pose calibration, the edge filter
 # and levelling on)
@@ -78,11 +78,11 @@ def map_error_table(seeds=range(8), *, terrain: str = "flat", sensing: SensingCo
 
     Args:
         seeds: world and scanner seeds (the scanner's generator is ``(seed, 7)``, as the loop's).
-        terrain: ``flat`` (the box as built) or ``trench`` (:func:`trench_terrain`).
+        terrain: ``flat`` (the box as built) or ``trenched`` (:func:`trench_terrain`: a steep-walled trench dug).
         sensing: the scanner and map settings (default ``configs/sensing_testbed.yaml``).
     """
-    if terrain not in ("flat", "trench"):
-        raise ValueError(f"terrain {terrain!r}; allowed: flat, trench")
+    if terrain not in ("flat", "trenched"):
+        raise ValueError(f"terrain {terrain!r}; allowed: flat, trenched")
     cfg = sensing or load_sensing_config(TESTBED_YAML)
     pipelines = pipelines or PIPELINES
     rms = {k: [] for k in pipelines}
@@ -90,7 +90,7 @@ def map_error_table(seeds=range(8), *, terrain: str = "flat", sensing: SensingCo
     seeds = tuple(seeds)
     for seed in seeds:
         sim = Simulation(seed=seed)
-        if terrain == "trench":
+        if terrain == "trenched":
             sim.soil.grid.heights[:] = trench_terrain(sim)
         sc = LaserScanner(sim.model, sim.soil.grid, cfg.scanner, np.random.default_rng((seed, 7)))
         images = [sc.scan(0.1 * k) for k in range(cfg.map.n_scans)]
@@ -103,10 +103,10 @@ def map_error_table(seeds=range(8), *, terrain: str = "flat", sensing: SensingCo
                      {k: np.array(v) for k, v in bias.items()})
 
 
-def _testbed_scans(seed: int, terrain: str = "trench"):
+def _testbed_scans(seed: int, terrain: str = "trenched"):
     cfg = load_sensing_config(TESTBED_YAML)
     sim = Simulation(seed=seed)
-    if terrain == "trench":
+    if terrain == "trenched":
         sim.soil.grid.heights[:] = trench_terrain(sim)
     sc = LaserScanner(sim.model, sim.soil.grid, cfg.scanner, np.random.default_rng((seed, 7)))
     return cfg, sim, sc, [sc.scan(0.1 * k) for k in range(cfg.map.n_scans)]

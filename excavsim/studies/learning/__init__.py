@@ -3,5 +3,5 @@
 :mod:`~excavsim.studies.learning.collect` digs in the simulator for force data,
 :mod:`~excavsim.studies.learning.compare` cross-validates the predictors and runs the
 nominal-versus-learned campaign. Learning while digging (the episode observer) is the platform's:
-:mod:`excavsim.tasks.trench.online`.
+:mod:`excavsim.rig.online`.
 """

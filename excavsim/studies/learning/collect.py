@@ -1,14 +1,13 @@
 """Collecting force data by digging in the simulator (Singh 1995 §5.2.4: ~4000 samples of 30 digs).
 
-This module and :mod:`excavsim.tasks.trench.online` are where learning meets the world: they run episodes
-(:func:`~excavsim.tasks.trench.task.run_episode`) with an observer that turns every dig into force
-samples. The rest of :mod:`excavsim.learning` is numpy, scipy and scikit-learn on arrays.
+This module and :mod:`excavsim.rig.online` are where learning meets the world: they run episodes (of the
+default task, digging a trench goal) with an observer that turns every dig into force samples. The rest of :mod:`excavsim.learning` is numpy, scipy and scikit-learn on arrays.
 
 :func:`collect_dataset` digs trenches in a fresh soil box ("bed") per ``digs_per_bed`` digs: one
-episode per bed whose digs are **random feasible actions** (seeded,
-:class:`~excavsim.tasks.trench.digs.RandomFeasibleDigs`) among those sweeping at least
+episode per bed whose digs are **random feasible actions** (seeded: the task's ``random`` dig source)
+among those sweeping at least
 ``min_volume_fraction`` of the bucket, instead of the planner's choice, so that the data cover the
-action space and the terrain as the trench deepens; :class:`~excavsim.loop.samples.DigSamples`
+action space and the terrain as the trench deepens; :class:`~excavsim.rig.samples.DigSamples`
 takes the rows of every dig from its execution record.
 """
 
@@ -23,7 +22,7 @@ import numpy as np
 
 from excavsim.errors import ConfigError, GoalError
 from excavsim.learning.dataset import ForceDataset
-from excavsim.loop.samples import DigSamples
+from excavsim.rig.samples import DigSamples
 
 
 class _Collector(DigSamples):
@@ -66,17 +65,16 @@ def collect_dataset(*, soil: str | None = None, digs: int = 30, seed: int = 0, g
     Raises:
         ExcavsimError: ``digs`` or ``digs_per_bed`` below 1, or no feasible dig in a fresh bed.
     """
-    from excavsim.tasks.trench.digs import RandomFeasibleDigs
-    from excavsim.tasks.trench.task import run_episode
-    from excavsim.loop.scenario import EpisodeSpec, ResolvedSpec
+    from excavsim.loop.scenario import EpisodeSpec, resolve
     from excavsim.world.simulation import Simulation
 
     if digs < 1 or digs_per_bed < 1:
         raise ConfigError(f"collect_dataset needs digs >= 1 and digs_per_bed >= 1; given {digs}, {digs_per_bed}")
     say = progress or (lambda _s: None)
-    spec = EpisodeSpec(name="learn", goal=goal, soil=soil, seed=seed, **(overrides or {}))
-    cfg = ResolvedSpec(spec)
-    source = RandomFeasibleDigs(np.random.default_rng((seed, 8)), min_volume_fraction)
+    # digging for data: never done early (done_fraction None), every dig of a bed's budget dug
+    spec = EpisodeSpec(name="learn", goal=goal, soil=soil, seed=seed, done_fraction=None, **(overrides or {}))
+    cfg = resolve(spec)
+    source = spec.plugin.dig_source("random", np.random.default_rng((seed, 8)), min_volume_fraction)
     parts: list[ForceDataset] = []
     bed = 0
     wall0 = time.perf_counter()
@@ -84,9 +82,9 @@ def collect_dataset(*, soil: str | None = None, digs: int = 30, seed: int = 0, g
         sim = Simulation(cfg.robot, cfg.scene, seed=1000 * seed + bed)
         collector = _Collector(parts, digs, bed, wall0, say)
         budget = min(digs_per_bed, digs - len(parts))
-        result = run_episode(sim, seed=1000 * seed + bed, goal=cfg.goal, dig_budget=budget, done_fraction=None,
-                             planner_cfg=cfg.planner, executor_cfg=cfg.executor, sensing_cfg=cfg.sensing, digs=source,
-                             observer=collector)
+        episode = spec.plugin.episode(spec.model_copy(update={"dig_budget": budget}), cfg, observer=collector)
+        episode.reset(1000 * seed + bed, sim=sim, digs=source)
+        result = episode.run()
         if not result.digs:
             raise GoalError(f"no feasible dig sweeping {100 * min_volume_fraction:.0f} % of the bucket in "
                             f"a fresh bed of {sim.scene.soil} for goal {goal!r}: lower min_volume_fraction")

@@ -27,7 +27,7 @@ from excavsim.learning.evaluate import (cross_validate, format_table4, format_ta
                                         measure_costs)
 from excavsim.learning.figures import plot_large_force_errors
 from excavsim.learning.predictors import METHODS, GlobalRegression
-from excavsim.tasks.trench.online import DigLearning, OnlineLearning
+from excavsim.rig.online import DigLearning, OnlineLearning
 
 SPLITS = {"digs": "whole digs held out", "samples": "shuffled samples (the thesis' protocol)"}  # primary first
 FLATTERY = ("Shuffling samples flatters the memory-based methods: neighbouring samples of one dig, a centimetre "

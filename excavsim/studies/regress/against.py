@@ -26,11 +26,15 @@ from collections.abc import Callable, Iterator
 
 from excavsim import constants
 from excavsim.errors import ConfigError, DependencyError, ExcavsimError, UsageError
+from excavsim.processes import OwnedProcess
 
-# Runs in the worktree: reads jobs ({"name", "spec"} per line) from the file argv[2], prints one JSON
-# line per finished episode. Kept to APIs that older commits have too.
+# Runs in the worktree: reads jobs ({"name", "spec"} per line) from the file argv[2] and the renamings
+# ({"tasks": {new: old}, "fields": {new: old}}) from argv[3], prints one JSON line per finished episode.
+# Kept to APIs that older commits have too: a spec the revision refuses is tried once more with the tasks'
+# and fields' older names; episode_summary took the result alone before the tasks were plug-ins; numpy
+# numbers in a summary (an older revision's) are written as Python numbers.
 DRIVER = r"""
-import json, pathlib, sys
+import inspect, json, pathlib, sys
 root = pathlib.Path(sys.argv[1]).resolve()
 import excavsim
 where = pathlib.Path(excavsim.__file__).resolve()
@@ -38,11 +42,28 @@ print(json.dumps({"excavsim": str(where)}), flush=True)
 if root not in where.parents:
     sys.exit(f"excavsim was imported from {where}, not from the checkout {root}")
 from excavsim.loop.scenario import EpisodeSpec, episode_summary, run_spec
+aliases = json.loads(pathlib.Path(sys.argv[3]).read_text())
+with_task = len(inspect.signature(episode_summary).parameters) > 1
+
+def number(x):
+    if hasattr(x, "item"):
+        return x.item()
+    raise TypeError(f"{type(x).__name__} is not JSON")
+
+def older(spec):
+    out = {aliases["fields"].get(k, k): v for k, v in spec.items()}
+    out["task"] = aliases["tasks"].get(spec.get("task"), spec.get("task"))
+    return out
+
 for line in pathlib.Path(sys.argv[2]).read_text().splitlines():
     job = json.loads(line)
-    spec = EpisodeSpec.model_validate(job["spec"])
-    print(json.dumps({"name": job["name"], "seed": spec.seed, "summary": episode_summary(run_spec(spec))}),
-          flush=True)
+    try:
+        spec = EpisodeSpec.model_validate(job["spec"])
+    except Exception:
+        spec = EpisodeSpec.model_validate(older(job["spec"]))
+    res = run_spec(spec)
+    summary = episode_summary(res, spec.task) if with_task else episode_summary(res)
+    print(json.dumps({"name": job["name"], "seed": spec.seed, "summary": summary}, default=number), flush=True)
 """
 
 
@@ -100,14 +121,17 @@ class CheckoutRun:
 
     ``start()`` launches it; ``results()`` waits and returns ``{(name, seed): summary}``; each
     finished episode is also handed to ``on_result(name, seed, summary)`` as it arrives (from a
-    reader thread). Use it as a context manager: leaving kills a subprocess still running.
+    reader thread). Use it as a context manager: leaving ends a subprocess still running, and the
+    subprocess ends with this process however it ends (an :class:`~excavsim.processes.OwnedProcess`).
     """
 
     def __init__(self, checkout: pathlib.Path, jobs: list[dict], *, label: str,
-                 on_result: Callable[[str, int, dict], None] | None = None):
+                 on_result: Callable[[str, int, dict], None] | None = None,
+                 aliases: dict[str, dict[str, str]] | None = None):
         self.checkout = pathlib.Path(checkout).resolve()
         self.jobs, self.label, self.on_result = jobs, label, on_result
-        self.proc: subprocess.Popen | None = None
+        self.aliases = aliases or {"tasks": {}, "fields": {}}
+        self.proc: OwnedProcess | None = None
         self._found: dict[tuple[str, int], dict] = {}
         self._imported: str | None = None
 
@@ -115,11 +139,13 @@ class CheckoutRun:
         """Write the job file and launch the subprocess."""
         job_file = self.checkout / ".excavsim-jobs.jsonl"
         job_file.write_text("".join(json.dumps(j) + "\n" for j in self.jobs))
+        alias_file = self.checkout / ".excavsim-aliases.json"
+        alias_file.write_text(json.dumps(self.aliases))
         env = {**os.environ, "PYTHONPATH": str(self.checkout), "MUJOCO_GL": os.environ.get("MUJOCO_GL", "disable")}
         self._stderr = tempfile.TemporaryFile(mode="w+")
-        self.proc = subprocess.Popen([sys.executable, "-c", DRIVER, str(self.checkout), str(job_file)],
-                                     cwd=self.checkout, env=env, stdout=subprocess.PIPE, stderr=self._stderr,
-                                     text=True)
+        self.proc = OwnedProcess([sys.executable, "-c", DRIVER, str(self.checkout), str(job_file), str(alias_file)],
+                                 cwd=self.checkout, env=env, stdin=subprocess.DEVNULL, stdout=subprocess.PIPE,
+                                 stderr=self._stderr, text=True)
         self._reader = threading.Thread(target=self._read, daemon=True)
         self._reader.start()
         return self
@@ -160,9 +186,9 @@ class CheckoutRun:
         return self.start()
 
     def __exit__(self, *exc) -> None:
-        if self.proc is not None and self.proc.poll() is None:
-            self.proc.kill()
-            self.proc.wait()
-        if self.proc is not None:
-            self.proc.stdout.close()
-        self._stderr.close()
+        try:
+            if self.proc is not None:
+                self.proc.end()
+                self.proc.stdout.close()
+        finally:
+            self._stderr.close()

@@ -3,7 +3,7 @@
 Every ``configs/regress/*.yaml`` is an :class:`~excavsim.loop.scenario.EpisodeSpec` (a golden
 scenario: goal, soil, settings) with one extra field, ``seeds``: a count (the seeds ``seed``,
 ``seed + 1``, ...; default :data:`DEFAULT_SEEDS`) or an explicit list. Each scenario runs once per
-seed, so each metric of :func:`~excavsim.loop.scenario.episode_summary` judged here (:data:`METRICS`)
+seed, so each metric of :func:`~excavsim.loop.scenario.episode_summary` judged here (its task's, :func:`task_metrics`)
 is a sample of per-seed values. Episodes are deterministic for a seed on one machine, but
 floating-point differences between CPUs grow over an episode into different digs, so one episode's
 numbers cannot tell a regression from chaos; a sample can.
@@ -44,8 +44,9 @@ from excavsim import constants
 from excavsim.config import load_config, read_text_file
 from excavsim.errors import ConfigError, DataFileError, ExcavsimError, UsageError, shorten
 from excavsim.studies.regress import stats as rs
+from excavsim.loop import catalog
+from excavsim.loop.plugin import Metric
 from excavsim.loop.scenario import EpisodeSpec, episode_summary, run_spec
-from excavsim.loop.catalog import progress_text
 
 REGRESS_DIR = constants.CONFIGS_DIR / "regress"
 BASELINE_NAME = "baseline.json"
@@ -53,55 +54,20 @@ BASELINE_FORMAT = 2
 DEFAULT_SEEDS = 8
 
 
-@dataclasses.dataclass(frozen=True)
-class Metric:
-    """How one summary metric is judged: ``better`` is "higher" or "lower"; only a worsening by more
-    than ``abs_tol`` + ``rel_tol`` x |reference mean| can be a regression."""
-
-    better: str
-    abs_tol: float
-    rel_tol: float = 0.0
-
-    def tolerance(self, reference_mean: float) -> float:
-        """The practical tolerance against a reference sample of this mean, in the metric's units."""
-        return self.abs_tol + self.rel_tol * abs(reference_mean)
+def catalog_aliases() -> dict[str, dict[str, str]]:
+    """What the tasks and their fields were called before they were renamed (``tasks``: new -> old name;
+    ``fields``: new -> old field), so that a revision from before a renaming runs the same scenarios."""
+    fields = {new: old for p in catalog.plugins().values() for old, new in p.renamed_fields.items()}
+    return {"tasks": {new: old for old, new in catalog.RENAMED.items()}, "fields": fields}
 
 
-METRICS: dict[str, Metric] = {
-    "removed_fraction": Metric("higher", 0.05),
-    "dug_l_per_dig": Metric("higher", 1.0, 0.10),
-    "efficiency": Metric("higher", 0.05),
-    "digs": Metric("lower", 1.0),
-    "stalls": Metric("lower", 0.0),
-    "overdig_max_cm": Metric("lower", 1.0),
-    "underdig_max_cm": Metric("lower", 1.5),
-    "underdig_rms_cm": Metric("lower", 0.5),
-    "peak_wrist_pitch_nm": Metric("lower", 0.0, 0.10),
-    # loading from a pile (task load): the pile's removed_fraction and digs as above, and
-    "delivered_l": Metric("higher", 10.0, 0.10),   # soil poured at the truck [l]
-    "spilled_l": Metric("lower", 20.0, 0.25),      # soil that left the lane otherwise [l]
-    "failed_digs": Metric("lower", 0.0),           # digs that delivered under a tenth of the heaped capacity
-    # truck loading (task truck): one trial of the mass-excavation script
-    "dumped_l": Metric("higher", 1.0, 0.10),       # soil the dump emptied from the bucket [l]
-    "missed_l": Metric("lower", 1.0, 0.25),        # soil dumped beside the truck's bed (the spillage) [l]
-    "cycle_s": Metric("lower", 0.2),               # the script's cycle time (Rowe 1997 §6.2) [s]
-    "placement_error_cm": Metric("lower", 3.0),    # the pile's distance from the target [cm]
-    # a truck loaded by the 25 t excavator (task truck_loading): digs (passes), cycle_s (per bucket) and
-    # placement_error_cm (from the aim in the bed) as above, and
-    "truck_t": Metric("higher", 0.3, 0.05),        # soil in the truck [t]
-    "spill_l": Metric("lower", 30.0, 0.25),        # soil that left the bucket and missed the bed [l]
-}
-TASK_METRICS: dict[str, tuple[str, ...]] = {
-    "trench": ("removed_fraction", "dug_l_per_dig", "efficiency", "digs", "stalls", "overdig_max_cm",
-               "underdig_max_cm", "underdig_rms_cm", "peak_wrist_pitch_nm"),
-    "load": ("removed_fraction", "digs", "failed_digs", "delivered_l", "spilled_l", "efficiency"),
-    "truck": ("dumped_l", "missed_l", "cycle_s", "placement_error_cm"),
-    "truck_loading": ("digs", "truck_t", "spill_l", "cycle_s", "placement_error_cm"),
-}
-"""The metrics judged per task (a scenario's task is its spec's ``task``; a baseline entry without one is trench)."""
+def task_metrics(task: str) -> dict[str, Metric]:
+    """The metrics judged for a scenario of ``task``, with their tolerances (its plug-in's ``metrics``)."""
+    return dict(catalog.plugin(task).metrics)
+
+
 TIMINGS = ("planning_s", "wall_s", "sim_s")  # printed, never judged
-STORED = (*METRICS, "end", "sim_s")  # per seed in the baseline; wall-clock times are machine-dependent
-# (a scenario stores the metrics of its task only, TASK_METRICS)
+# per seed the baseline stores the task's metrics, ``end`` and ``sim_s``; wall-clock times are machine-dependent
 
 
 class GoldenScenario(EpisodeSpec):
@@ -194,11 +160,11 @@ def load_scenarios(directory: pathlib.Path = REGRESS_DIR, *, only: list[str] | N
 @dataclasses.dataclass
 class Sample:
     """One scenario's per-seed results: ``rows[i]`` holds the summary of ``seeds[i]`` (for a
-    baseline, only the :data:`STORED` keys)."""
+    baseline, only the stored keys: the task's metrics, ``end`` and ``sim_s``)."""
 
     seeds: list[int]
     rows: list[dict[str, Any]]
-    task: str = "trench"  # which metrics are judged (TASK_METRICS)
+    task: str  # whose metrics are judged (task_metrics)
 
     def values(self, key: str) -> list | None:
         """Each seed's value of ``key``, or None when some row lacks it."""
@@ -216,10 +182,13 @@ class Sample:
         return sum(v) / len(v) if v else None
 
 
-def _episode_line(prefix: str, name: str, seed: int, r: dict) -> str:
+def _episode_line(prefix: str, name: str, seed: int, r: dict, task: str | None = None) -> str:
+    """One episode's progress line, in its task's words (``task`` default: the summary's)."""
+    task = task or r.get("task")
     wall = r.get("wall_s")
     wall_text = f"{wall:.1f}" if isinstance(wall, int | float) else "?"
-    return f"{prefix}{name} seed {seed}: {progress_text(r)}, ended {r.get('end', '?')} ({wall_text} s wall)"
+    return (f"{prefix}{name} seed {seed}: {catalog.progress_text(r, task)}, ended {r.get('end', '?')} "
+            f"({wall_text} s wall)")
 
 
 def run_goldens(goldens: dict[str, Golden], *, seeds_of: dict[str, Golden] | None = None, label: str = "",
@@ -230,9 +199,9 @@ def run_goldens(goldens: dict[str, Golden], *, seeds_of: dict[str, Golden] | Non
     rows: dict[str, dict[int, dict]] = {g: {} for g in goldens}
     for i, (g, seed) in enumerate(plan, start=1):
         spec = EpisodeSpec.model_validate({**g.spec.model_dump(), "seed": seed})  # checks the seed's range
-        rows[g.name][seed] = episode_summary(run_spec(spec))
+        rows[g.name][seed] = episode_summary(run_spec(spec), spec.task)
         if progress:
-            progress(_episode_line(f"{label}[{i}/{len(plan)}] ", g.name, seed, rows[g.name][seed]))
+            progress(_episode_line(f"{label}[{i}/{len(plan)}] ", g.name, seed, rows[g.name][seed], spec.task))
     return {name: Sample(list(r), list(r.values()), goldens[name].spec.task) for name, r in rows.items()}
 
 
@@ -246,10 +215,8 @@ def write_baseline(path: pathlib.Path, samples: dict[str, Sample]) -> None:
     for name, sample in sorted(samples.items()):
         doc["scenarios"][name] = {
             "seeds": sample.seeds, "end": sample.values("end"), "sim_s": sample.values("sim_s"),
-            "metrics": {m: rs.summarize(sample.values(m)) for m in TASK_METRICS[sample.task]
-                        if sample.values(m) is not None}}
-        if sample.task != "trench":  # a trench entry is written as before the tasks
-            doc["scenarios"][name]["task"] = sample.task
+            "metrics": {m: rs.summarize(sample.values(m)) for m in task_metrics(sample.task)
+                        if sample.values(m) is not None}, "task": sample.task}
     fd, tmp = tempfile.mkstemp(dir=path.parent, prefix=".baseline-", suffix=".json")
     with os.fdopen(fd, "w") as fh:
         json.dump(_json_safe(doc), fh, indent=1, sort_keys=True, allow_nan=False)
@@ -289,7 +256,7 @@ def load_baseline(path: pathlib.Path) -> dict[str, Sample]:
                 if vals is not None and len(vals) == n:
                     for row, v in zip(rows, vals, strict=True):
                         row[key] = v
-            out[name] = Sample(list(sc["seeds"]), rows, sc.get("task", "trench"))
+            out[name] = Sample(list(sc["seeds"]), rows, sc["task"])
     except (KeyError, TypeError, AttributeError, ValueError) as exc:  # a field missing or of another shape
         raise DataFileError(f"{path}: a scenario entry is malformed ({type(exc).__name__}: {shorten(exc)}); "
                             f"re{rewrite}") from None
@@ -328,8 +295,7 @@ def compare(reference: dict[str, Sample], now: dict[str, Sample], *, paired: boo
         if paired and ref is not None:
             by_seed = dict(zip(ref.seeds, ref.rows, strict=True))
             ref = Sample(cur.seeds, [by_seed[s] for s in cur.seeds], cur.task)
-        for metric in TASK_METRICS[cur.task]:
-            rule = METRICS[metric]
+        for metric, rule in task_metrics(cur.task).items():
             now_v = cur.values(metric)
             ref_v = ref.values(metric) if ref is not None else None
             now_s = rs.summarize(now_v) if now_v else None
@@ -433,7 +399,8 @@ class Report:
                     "metrics": {}}
             j = c.judgement
             scen[c.scenario]["metrics"][c.metric] = {
-                "better": METRICS[c.metric].better, "baseline": c.baseline, "now": c.now,
+                "better": task_metrics(self.now[c.scenario].task)[c.metric].better, "baseline": c.baseline,
+                "now": c.now,
                 "tolerance": j.tolerance if j else None, "difference": j.difference if j else None,
                 "interval": list(j.interval) if j else None, "p_value": j.p_value if j else None,
                 "p_improved": j.p_improved if j else None, "verdict": c.verdict}
@@ -545,9 +512,11 @@ def run_against(directory: pathlib.Path = REGRESS_DIR, *, ref: str | None = None
 
     def arrived(name: str, seed: int, summary: dict) -> None:
         if progress:
-            progress(_episode_line(f"{ref} [{next(counter)}/{len(jobs)}] ", name, seed, summary))
+            progress(_episode_line(f"{ref} [{next(counter)}/{len(jobs)}] ", name, seed, summary,
+                                   goldens[name].spec.task))
 
-    with ref_checkout(commit) as checkout, CheckoutRun(checkout, jobs, label=label, on_result=arrived) as run:
+    with ref_checkout(commit) as checkout, CheckoutRun(checkout, jobs, label=label, on_result=arrived,
+                                                       aliases=catalog_aliases()) as run:
         now = run_goldens(goldens, label="now ", progress=progress)
         found = run.results()
     reference = {n: Sample(list(g.seeds), [found[(n, s)] for s in g.seeds], g.spec.task) for n, g in goldens.items()}

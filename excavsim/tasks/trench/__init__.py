@@ -3,7 +3,7 @@
 :mod:`~excavsim.tasks.trench.task` is the task (:class:`~excavsim.tasks.trench.task.TrenchTask`, its
 done test and metrics, :func:`~excavsim.tasks.trench.task.run_episode`); :mod:`~excavsim.tasks.trench.digs`
 its dig sources (the planner and its fallback, random feasible digs, scripted digs);
-:mod:`~excavsim.tasks.trench.demo` the demo's one scripted dig; :mod:`~excavsim.tasks.trench.online`
+:mod:`~excavsim.tasks.trench.demo` the demo's one scripted dig; :mod:`~excavsim.rig.online`
 learning the planner's force model while digging; :mod:`~excavsim.tasks.trench.plan_dig` ``excavsim plan``
 (one dig on a map, outside any episode); :mod:`~excavsim.tasks.trench.timing` Table 7's per-cycle times.
 The mind-side pieces (the planner, the fallback, the experience) stay in :mod:`excavsim.planning`.

@@ -16,7 +16,7 @@ from collections.abc import Callable
 
 from excavsim.handoff.dig import DEMO_ACTION, TrenchAction
 from excavsim.handoff.episode import EpisodeObserver, EpisodeResult
-from excavsim.loop.scenario import resolve_goal
+from excavsim.tasks.trench.spec import resolve_goal
 from excavsim.tasks.trench.digs import ScriptedDigs
 from excavsim.tasks.trench.task import run_episode
 from excavsim.world.simulation import Simulation

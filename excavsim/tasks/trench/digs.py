@@ -24,7 +24,7 @@ import numpy as np
 from excavsim.handoff.dig import Dig, ExecutionRecord, TrenchAction
 from excavsim.handoff.maps import ElevationMap
 from excavsim.loop.digs import Choice, DigSource
-from excavsim.loop.rig import Rig
+from excavsim.rig.core import Rig
 from excavsim.planning import fallback
 from excavsim.planning.experience import DigExperience, Failure
 

@@ -1,6 +1,6 @@
 """``excavsim plan``: plan one dig of a trench on an elevation map, outside any episode, and say why.
 
-The planner is the loop's (:func:`~excavsim.loop.rig.make_planner`), built from the compiled scene
+The planner is the loop's (:func:`~excavsim.rig.core.make_planner`), built from the compiled scene
 model without a world: the arm, the bucket's width and capacity come from the model, the torque
 limits from the robot configuration, the nominal force predictor from a soil preset.
 """
@@ -20,8 +20,8 @@ from excavsim.config import check_goal, get_soil, load_planner_config, load_robo
 from excavsim.errors import shorten
 from excavsim.handoff.goal import SurfaceProfile
 from excavsim.handoff.maps import ElevationMap
-from excavsim.loop.rig import make_planner
-from excavsim.loop.scenario import resolve_goal
+from excavsim.rig.core import make_planner
+from excavsim.tasks.trench.spec import resolve_goal
 from excavsim.robot.extract import arm_from_model
 from excavsim.robot import reachability
 

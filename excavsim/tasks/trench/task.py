@@ -20,6 +20,7 @@ and table (the platform's catalog, :mod:`excavsim.loop.catalog`, names them).
 
 from __future__ import annotations
 
+import dataclasses
 import math
 from collections.abc import Callable
 from typing import Any
@@ -28,26 +29,23 @@ import numpy as np
 
 from excavsim.config import ExecutorConfig, PlannerConfig, RobotConfig, SceneConfig, SensingConfig, TrenchGoal
 from excavsim.handoff.dig import Dig, DigPlan, ExecutionRecord
-from excavsim.handoff.episode import DigMetrics, EpisodeObserver, EpisodeResult, format_episode
+from excavsim.handoff.episode import DigMetrics, EpisodeObserver, EpisodeResult
 from excavsim.handoff.goal import goal_profile
 from excavsim.handoff.maps import ElevationMap
 from excavsim.handoff.observation import Diverged, OutOfTime
-from excavsim.loop.catalog import summary_number
 from excavsim.loop.digs import Choice, DigSource
 from excavsim.loop.episode import Episode, world_failed
-from excavsim.loop.measures import episode_result, trench_footprint
-from excavsim.loop.rig import bucket_witness, go_home, make_rig, park, scan
+from excavsim.rig.measures import episode_result, trench_footprint
+from excavsim.rig.core import bucket_witness, go_home, make_rig, park, scan
 from excavsim.mechanics.wedge import G_M_S2
 from excavsim.planning.experience import DigExperience, failure_kind
 from excavsim.robot.kinematics import PlanarArm
-from excavsim.tasks.trench.digs import PlannedDigs, RandomFeasibleDigs, ScriptedDigs
+from excavsim.tasks.trench.digs import PlannedDigs
 from excavsim.robot.machine import get_machine
 from excavsim.world.machines import make_world
 from excavsim.world.simulation import Simulation
 
 MIN_USEFUL_M3 = 0.001  # a dig that brings up less than 1 l failed (the measure campaigns report)
-DIG_SOURCES = {"planner": PlannedDigs, "random": RandomFeasibleDigs, "scripted": ScriptedDigs}
-"""Trenching's dig sources by name (:func:`excavsim.loop.catalog.dig_source`)."""
 
 
 def map_done(emap: ElevationMap, goal: TrenchGoal, arm: PlanarArm, width: float, *, done_fraction: float,
@@ -69,7 +67,7 @@ class TrenchTask:
     (``machine``: ``tb035``, ``excavator_25t``) out of its pit, in the same loop.
 
     Its world is a :class:`~excavsim.world.simulation.Simulation`, its pieces the loop's
-    :class:`~excavsim.loop.rig.Rig`; it parks the arm out of the scanner's view before each scan,
+    :class:`~excavsim.rig.core.Rig`; it parks the arm out of the scanner's view before each scan,
     is done when the map shows the trench within tolerance, takes its digs from a
     :class:`~excavsim.loop.digs.DigSource` (the planner by default), executes them with the dig
     script and measures them (:class:`~excavsim.handoff.episode.DigMetrics`); its result is an
@@ -84,8 +82,8 @@ class TrenchTask:
             ``configs/``), the world's used when :meth:`reset` is given none.
         machine: the trenching machine (:mod:`excavsim.robot.machine`; default the T3): its world
             (:func:`~excavsim.world.machines.make_world`) and the rig on its joints, planar chain, reach and
-            torque limits (:func:`~excavsim.loop.rig.make_rig`). The configurations and the goal must be the
-            machine's (:class:`~excavsim.loop.scenario.ResolvedSpec` merges ``configs/machines/<machine>.yaml``).
+            torque limits (:func:`~excavsim.rig.core.make_rig`). The configurations and the goal must be the
+            machine's (:class:`~excavsim.tasks.trench.spec.TrenchResolved` merges ``configs/machines/<machine>.yaml``).
     """
 
     final_scan = True
@@ -173,8 +171,9 @@ class TrenchTask:
         return None
 
     def result(self, end, reason, wall_s) -> EpisodeResult:
-        return episode_result(self.sim, self.metrics, end, reason, mask=self.mask, z_goal=self.z_goal,
-                              h0=self._h0, v0=self._v0, wall_s=wall_s)
+        res = episode_result(self.sim, self.metrics, end, reason, mask=self.mask, z_goal=self.z_goal,
+                             h0=self._h0, v0=self._v0, wall_s=wall_s)
+        return dataclasses.replace(res, task="trench")
 
 
 
@@ -234,16 +233,17 @@ def spec_episode(spec, resolved, *, progress: Callable[[str], None] | None = Non
                  observer: EpisodeObserver | None = None) -> Episode:
     """The :class:`~excavsim.loop.episode.Episode` of a trench specification (not yet reset): its
     goal, stopping rules and configurations (``resolved``, a
-    :class:`~excavsim.loop.scenario.ResolvedSpec`), and its observers, with the online learner of
+    :class:`~excavsim.tasks.trench.spec.TrenchResolved`), and its observers, with the online learner of
     ``spec.predictor`` first when it is not the nominal wedge (learned online, from scratch, from this
     episode's digs, §5.2)."""
-    if spec.predictor != "wedge":
+    o = spec.options
+    if o.predictor != "wedge":
         from excavsim.handoff.episode import ObserverGroup
-        from excavsim.tasks.trench.online import OnlineLearning
+        from excavsim.rig.online import OnlineLearning
 
-        observer = ObserverGroup(OnlineLearning(spec.predictor, progress=progress), observer)
+        observer = ObserverGroup(OnlineLearning(o.predictor, progress=progress), observer)
     r = resolved
-    task = TrenchTask(goal=r.goal, done_fraction=spec.done_fraction, tolerance_m=spec.tolerance_m,
+    task = TrenchTask(goal=r.goal, done_fraction=o.done_fraction, tolerance_m=o.tolerance_m,
                       planner_cfg=r.planner, executor_cfg=r.executor, sensing_cfg=r.sensing, robot_cfg=r.robot,
                       scene_cfg=r.scene, machine=r.machine)
     return Episode(task, dig_budget=spec.dig_budget, progress=progress, observer=observer)
@@ -251,7 +251,7 @@ def spec_episode(spec, resolved, *, progress: Callable[[str], None] | None = Non
 
 def spec_digs(spec) -> PlannedDigs:
     """The dig source of a trench specification: the planner, with the memory of failed digs when ``spec.memory``."""
-    return PlannedDigs(DigExperience() if spec.memory else None)
+    return PlannedDigs(DigExperience() if spec.options.memory else None)
 
 
 def episode_timer():
@@ -275,13 +275,6 @@ def dig_rows(res: EpisodeResult) -> list[dict[str, Any]]:
     return rows
 
 
-def progress_text(s: dict[str, Any]) -> str:
-    """One episode's :func:`summary` in a few words, for the progress lines of ``campaign`` and ``regress``
-    (a key missing or not finite prints ``?``)."""
-    num = summary_number(s)
-    return (f"{num('digs')} digs, {num('dug_l_per_dig', fmt='.1f')} l/dig, {num('removed_fraction', 100)} % removed, "
-            f"{num('stalls')} stalls")
-
 def summary(res: EpisodeResult) -> dict[str, Any]:
     """A trenching episode's metrics as a flat dict of JSON numbers and strings (its campaign row; see
     :func:`~excavsim.loop.scenario.episode_summary`)."""
@@ -290,7 +283,7 @@ def summary(res: EpisodeResult) -> dict[str, Any]:
     peaks = [d.peak_torque_nm for d in digs]
     joints = ("waist", "shoulder", "elbow", "wrist_pitch", "wrist_yaw", "wrist_roll")
     out: dict[str, Any] = {
-        "end": res.end, "reason": res.reason, "digs": n, "fallback_digs": sum(d.kind != "planned" for d in digs),
+        "task": res.task or "trench", "end": res.end, "reason": res.reason, "digs": n, "fallback_digs": sum(d.kind != "planned" for d in digs),
         "stalls": sum(d.stall_joint is not None for d in digs),
         "failed_digs": sum(d.failed for d in digs), "failed_fraction": sum(d.failed for d in digs) / n if n else 0.0,
         "no_contact_digs": sum(d.outcome == "no contact" for d in digs),
@@ -311,6 +304,3 @@ def summary(res: EpisodeResult) -> dict[str, Any]:
         out[f"peak_{name}_nm"] = max((float(p[j]) for p in peaks), default=0.0)
     out["dug_l"] = [round(1000 * d.bucket_m3, 3) for d in digs]
     return out
-
-
-format_run = format_episode  # the table ``excavsim trench`` prints

@@ -1,8 +1,8 @@
 """Truck loading with the 25 t excavator, pass after pass until the truck is full (Rowe 1997 §4, §6).
 
 ``task: truck_loading`` of the episode specification (machine ``excavator_25t``). A new task rather than
-``task: truck`` with another machine: ``truck`` is one trial of §6.2's experiment on the T3 (the truck
-moved away, one dump on the ground, its configuration ``configs/truck.yaml``), this is the loading of a
+``task: dump_trial`` with another machine: ``truck`` is one trial of §6.2's experiment on the T3 (the truck
+moved away, one dump on the ground, its configuration ``configs/dump_trial.yaml``), this is the loading of a
 real truck to full, pass after pass, with its own configuration (``configs/truck_loading.yaml``, the
 spec's ``truck_loading:`` overrides) and a pass budget (the spec's ``dig_budget``); keeping them apart
 leaves the T3 trial as it was, bit for bit.
@@ -15,12 +15,13 @@ Each cycle of the platform's :class:`~excavsim.loop.episode.Episode` is one **pa
   of the rated payload, or when one more heaped bucket would overload it by more than half a bucket.
 * decide: where to dig next from the pit's map (:func:`~excavsim.planning.truck_loading.choose_dig`),
   where to dump from the bed's (:func:`~excavsim.planning.truck_loading.choose_dump`), and the tuned
-  parameters (:data:`~excavsim.execution.truck_loading.TUNED`): the computed ones plus noise for the first
+  parameters (:data:`TUNED`): the computed ones plus noise for the first
   ``initial_passes``, then LWR + the simplex on the passes so far
   (:func:`~excavsim.learning.lwr_tuning.select_action`, §6.2), unless ``tune`` is off. The cost is §6.2's:
   its time is the script's (from the end of the dig until the swing is back, as §6.2 measured), its
   placement the deposit's centre against the aim, plus the graded failure.
-* dig: to the dig's start, AutoDig (§4.4), the loading script (Fig. 4 with Fig. 3's clearance angle), the
+* dig: to the dig's start, AutoDig (§4.4, :mod:`excavsim.execution.autodig`), Rowe's script
+  (:mod:`excavsim.execution.rowe_script`: Fig. 4 with Fig. 3's clearance angle, on this machine), the
   soil settles, the bed is scanned again: the pass's deposit centre is measured on the two bed maps.
 
 Metrics per pass (:class:`Pass`) and per truck (:class:`TruckLoad`): time per bucket (to the dig, the dig,
@@ -39,12 +40,16 @@ from typing import Any
 import numpy as np
 
 from excavsim.config import get_soil, load_sensing_config
-from excavsim.config.truck_loading import TruckLoadingFile
+from excavsim.tasks.truck_loading.config import TruckLoadingFile
 from excavsim.errors import ConfigError, GoalError
-from excavsim.execution import truck_loading as tl
+from excavsim.execution.autodig import AutoDigConfig, autodig
+from excavsim.execution.rowe_script.geometry import ClearDump, TruckSite
+from excavsim.execution.rowe_script.listing import ScriptJoints, rowe_script
+from excavsim.execution.rowe_script.params import ScriptRules, compute_params
+from excavsim.execution.rowe_script.runner import approach, run_script
+from excavsim.execution.rowe_script.timing import ProfileTiming, SwingProfile
 from excavsim.handoff.maps import ElevationMap
 from excavsim.learning.lwr_tuning import Memory, Objective, select_action
-from excavsim.loop.catalog import summary_number
 from excavsim.loop.digs import Choice
 from excavsim.planning import truck_loading as plan
 from excavsim.robot.extract import arm_from_model
@@ -54,6 +59,14 @@ from excavsim.world.scanner import LaserScanner
 from excavsim.world.truck import TruckSpec, TruckWorld
 
 MACHINES = ("excavator_25t",)
+#: The script's joints on the excavator: swing, boom, stick, bucket (the servos' order).
+SCRIPT_JOINTS = ScriptJoints(*EXCAVATOR_JOINTS)
+#: The parameters tuned online (Rowe 1997 §6.2; which ones here is assumed), in the learner's order:
+#: the swing profile's acceleration [rad/s^2] (how hard the machine may swing: faster, or overshooting the
+#: truck, §1's "understanding of the machine's own performance abilities"), the dump's radial and swing
+#: offsets [m, rad] (added to the aim computed from the scanned fill) and the bucket's opening share that
+#: sends the swing back.
+TUNED = ("swing_accel", "aim_dr", "aim_dtheta", "return_fraction")
 # The learner's outcomes are the deposit's position about this reference, shifted by the pass's aim (the
 # aim changes from pass to pass as the bed fills; the error from it is what is learnt).
 _REF_R, _REF_THETA = 7.6, math.pi / 2
@@ -65,7 +78,7 @@ class Pass:
 
     index: int
     source: str
-    x: np.ndarray  # the tuned parameters (execution.truck_loading.TUNED), angles [rad]
+    x: np.ndarray  # the tuned parameters (TUNED), angles [rad]
     dig_swing: float
     dig_r: float
     aim_r: float
@@ -159,13 +172,25 @@ def truck_spec(f: TruckLoadingFile) -> TruckSpec:
                      floor_m=t.floor_m, side_m=t.side_m, payload_kg=1000.0 * t.payload_t)
 
 
-def autodig_config(f: TruckLoadingFile, relief_pa: float) -> tl.AutoDigConfig:
+def autodig_config(f: TruckLoadingFile, relief_pa: float) -> AutoDigConfig:
     a = f.autodig
-    return tl.AutoDigConfig(depth_m=a.depth_m, drag_m=a.drag_m, drag_speed_m_s=a.drag_speed_m_s,
-                            penetrate_pa=1e6 * a.penetrate_mpa, slow_pa=1e6 * a.slow_mpa, rise_pa=1e6 * a.rise_mpa,
-                            full_pa=1e6 * a.full_mpa, full_s=a.full_s, full_depth_m=a.full_depth_m,
-                            rise_speed_m_s=a.rise_speed_m_s, relief_pa=relief_pa,
-                            attack_deg=a.attack_deg, capture_deg=a.capture_deg)
+    return AutoDigConfig(depth_m=a.depth_m, drag_m=a.drag_m, drag_speed_m_s=a.drag_speed_m_s,
+                         penetrate_pa=1e6 * a.penetrate_mpa, slow_pa=1e6 * a.slow_mpa, rise_pa=1e6 * a.rise_mpa,
+                         full_pa=1e6 * a.full_mpa, full_s=a.full_s, full_depth_m=a.full_depth_m,
+                         rise_speed_m_s=a.rise_speed_m_s, relief_pa=relief_pa,
+                         attack_deg=a.attack_deg, capture_deg=a.capture_deg)
+
+
+def script_rules(f: TruckLoadingFile) -> ScriptRules:
+    """How the excavator's script parameters are computed (§4.2): the lowest dump clear of the truck's side
+    (the pour's and the open bucket's pitch from the file), and the heuristics ("magic numbers" of §4.2,
+    assumed): the stick goes out at 40 % of the swing, the arm goes back to the next dig past 60 % of the
+    swing's way back, the swing is back within 3 deg; the boom gets ``safety`` of the swing's time to clear.
+    No stick condition on the dump and no "continue to dump" step: boom and stick hold the dump pose until
+    the swing is on its way back."""
+    s = f.script
+    return ScriptRules(ClearDump(math.radians(s.pour_pitch_deg), math.radians(s.open_pitch_deg)), stick_fraction=0.4,
+                       back_fraction=0.6, stop_tol=math.radians(3.0), safety=s.safety)
 
 
 def _units(x: np.ndarray) -> np.ndarray:
@@ -212,15 +237,17 @@ class TruckLoadingTask:
         self.scanner = LaserScanner(w.model, w.soil.grid, scanner_cfg, np.random.default_rng((seed, 7)))
         t = w.truck
         self.bed = plan.BedGeometry(t.x_m, t.y_m, t.heading, t.length_m, t.width_m, t.floor_m, cell_m=0.2)
-        self.site = tl.LoadSite(t.side_top_m, cfg.script.clearance_m,
-                                math.atan2(t.y_m, t.x_m) - 0.5 * t.length_m / math.hypot(t.x_m, t.y_m))
-        self.profile = tl.SwingProfile(cfg.script.swing_accel_rad_s2, cfg.script.swing_speed_rad_s)
+        # the truck across the swing's path: the swing reaches its near end at half its length from its centre
+        self.site = TruckSite(math.hypot(t.x_m, t.y_m), math.atan2(t.y_m, t.x_m), t.side_top_m, 0.5 * t.length_m,
+                              cfg.script.clearance_m)
+        self.rules = script_rules(cfg)
+        self.profile = SwingProfile(cfg.script.swing_accel_rad_s2, cfg.script.swing_speed_rad_s)
         self.dig_cfg = autodig_config(cfg, w.spec.relief_pa)
         self.rng = np.random.default_rng((seed, 34))
         # the learner's inputs: the tuned parameters and the pass's context, the swing's travel from the dig to
         # the aim [rad] (not chosen: held at this pass's value in the search; §6.2 kept the start the same, here
         # the dig moves from pass to pass and the swing's time with it)
-        self.memory = Memory(len(tl.TUNED) + 1)
+        self.memory = Memory(len(TUNED) + 1)
         self.objective = Objective(_REF_R, _REF_THETA, cfg.tuning.w1_per_s, cfg.tuning.w2_per_m2,
                                    failure_cost=cfg.tuning.failure_cost, trust_radius=0.25, uncertainty=False)
         self.passes: list[Pass] = []
@@ -291,7 +318,7 @@ class TruckLoadingTask:
             held = float(np.clip(travel, seen.min(), seen.max()))
             sel = select_action(self.memory, self.objective, lower=np.r_[self.lower, held],
                                 upper=np.r_[self.upper, held])
-            x, pred, source = np.clip(sel.x[:len(tl.TUNED)], self.lower, self.upper), sel.predicted_cost, "learned"
+            x, pred, source = np.clip(sel.x[:len(TUNED)], self.lower, self.upper), sel.predicted_cost, "learned"
         else:
             x = np.clip(base + self.rng.normal(0.0, 1.0, 4) * self.noise, self.lower, self.upper)
             source = "computed + noise"
@@ -320,7 +347,7 @@ class TruckLoadingTask:
         q_start, ok = arm.inverse(start)
         if not ok:
             raise GoalError(f"the dig's start {start.round(2).tolist()} is out of reach")
-        approach_s = tl.approach(w, np.r_[dig.swing, q_start], self.profile)
+        approach_s = approach(w, np.r_[dig.swing, q_start], self.profile)
         # the last load of a truck: a shallower, shorter cut, so that the truck is not overloaded (Rowe 1997 §1:
         # "digging a desired amount of soil to avoid overloading the trucks"): depth and drag scaled by the
         # share of a heaped bucket that fits the payload by the scans, at least a quarter (assumed)
@@ -330,16 +357,14 @@ class TruckLoadingTask:
         if room < heaped:
             share = max(0.25, room / heaped)
             dig_cfg = dataclasses.replace(dig_cfg, drag_m=dig_cfg.drag_m * share, depth_m=dig_cfg.depth_m * share)
-        run = tl.autodig(w, arm, dig.swing, dig.start_r, surface, dig_cfg)
+        run = autodig(w, arm, dig.swing, dig.start_r, surface, dig_cfg)
         loaded = w.volume_account()
         aim_r, aim_theta = c["aim"]
         boom_speed = float(w.spec.joint_speed_limits(run.q_end)[1])
-        swing = tl.SwingProfile(float(x[0]), cfg.script.swing_speed_rad_s)
-        params = tl.compute_params(arm, self.site, run.q_end, dig.swing, aim_r + x[1], aim_theta + x[2], q_start,
-                                   boom_speed=boom_speed, swing=swing,
-                                   return_fraction=x[3], pour_pitch_deg=cfg.script.pour_pitch_deg,
-                                   open_pitch_deg=cfg.script.open_pitch_deg, safety=cfg.script.safety)
-        sr = tl.run_script(w, tl.loading_script(params), swing)
+        swing = SwingProfile(float(x[0]), cfg.script.swing_speed_rad_s)
+        params = compute_params(arm, self.site, self.rules, ProfileTiming(swing, boom_speed), run.q_end[1:4], dig.swing,
+                                dump_at=(aim_r + x[1], aim_theta + x[2]), return_pose=q_start, return_fraction=x[3])
+        sr = run_script(w, rowe_script(params, SCRIPT_JOINTS), SCRIPT_JOINTS, profile=swing, tick_clock=True)
         w.soil.settle_all()
         after = w.volume_account()
         before_depth = self.bed_depth
@@ -347,11 +372,12 @@ class TruckLoadingTask:
         dx, dy, _ = plan.deposit_centre(before_depth, self.bed_depth, self.bed)
         p = Pass(index=index, source=c["source"], x=np.asarray(x, float), dig_swing=dig.swing, dig_r=dig.start_r,
                  aim_r=aim_r, aim_theta=aim_theta, approach_s=approach_s, dig_s=run.duration_s,
-                 script_s=sr.duration_s, outcome=sr.outcome, penetrate_end=run.penetrate_end, drag_end=run.drag_end,
+                 script_s=sr.duration, outcome=sr.outcome, penetrate_end=run.penetrate_end, drag_end=run.drag_end,
                  drag_m=run.drag_m, peak_mpa=tuple(float(v) / 1e6 for v in run.peak_pa),
                  bucket_m3=loaded["bucket"], dumped_m3=loaded["bucket"] - after["bucket"],
                  bed_m3=after["bed"] - loaded["bed"], r=math.hypot(dx, dy), theta=math.atan2(dy, dx),
-                 boom_trigger=params.boom_trigger, boom_clear=params.boom_clear, boom_at_swing=sr.boom_at_swing,
+                 boom_trigger=params.boom_trigger, boom_clear=params.boom_clear,
+                 boom_at_swing=sr.angle_at("swing to truck", SCRIPT_JOINTS.boom),
                  predicted_cost=c["predicted"])
         failed = self._failed(p)
         r_rel, th_rel = _REF_R + (p.r - p.aim_r), _REF_THETA + (p.theta - p.aim_theta)
@@ -392,21 +418,14 @@ class TruckLoadingTask:
 
 
 # -- the platform's views of a result ------------------------------------------------------------------------
-def episode_recorder(path: str):
-    """The Rerun recorder of a truck-loading episode, the platform's hook for ``excavsim run SPEC --record
-    FILE.rrd``: the machine moving, the truck, its bed's fill after each pass, the pit and the per-pass
-    metrics (:class:`~excavsim.record.truck_loading.TruckLoadingRecorder`)."""
-    from excavsim.record.truck_loading import TruckLoadingRecorder
+def episode_recorder(path: str | None, *, live: str | None = None):
+    """The Rerun recorder of a truck-loading episode to ``path`` and/or streamed to the viewer at ``live`` (a
+    gRPC URL): the machine moving, the truck, its bed's fill after each pass, the pit and the per-pass metrics
+    (:class:`~excavsim.tasks.truck_loading.recording.TruckLoadingRecorder`)."""
+    from excavsim.tasks.truck_loading.recording import TruckLoadingRecorder
 
-    return TruckLoadingRecorder(path)
+    return TruckLoadingRecorder(path, live=live)
 
-
-def progress_text(s: dict[str, Any]) -> str:
-    """One episode's :func:`summary` in a few words, for the progress lines of ``campaign`` and ``regress``
-    (a key missing or not finite prints ``?``)."""
-    num = summary_number(s)
-    return (f"{num('digs')} passes, {num('truck_t', fmt='.1f')} t in the truck, {num('spill_l')} l spilled, "
-            f"{num('cycle_s', fmt='.1f')} s a bucket")
 
 def summary(res: TruckLoad) -> dict[str, Any]:
     """A truck's metrics as a flat dict (a campaign row, ``regress``'s sample): ``end``/``reason``, ``digs``

@@ -21,7 +21,7 @@ from excavsim.apps.calibrate import run as calrun
 from excavsim.apps.calibrate import digs as cd
 from excavsim.mechanics.wedge import wedge_force
 from excavsim.mechanics.wedge_inertia import inertial_force
-from excavsim.record import RerunRecorder
+from excavsim.record import TrenchRecorder
 from excavsim.record.reading import read_recording
 
 
@@ -29,7 +29,7 @@ from excavsim.record.reading import read_recording
 def sand(tmp_path_factory):
     """Two quiet digs in the testbed sand, as a force record and as a Rerun recording of the episode."""
     d = tmp_path_factory.mktemp("sand")
-    data = cd.record_digs(d / "sand.npz", digs=2, seed=0, quiet=True, observer=RerunRecorder(d / "sand.rrd"))
+    data = cd.record_digs(d / "sand.npz", digs=2, seed=0, quiet=True, observer=TrenchRecorder(d / "sand.rrd"))
     return d / "sand.npz", d / "sand.rrd", data
 
 

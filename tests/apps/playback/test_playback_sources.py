@@ -97,14 +97,14 @@ def test_a_dig_read_back_from_a_rerun_recording_is_the_executed_cut(tmp_path):
     from excavsim.handoff.episode import ObserverGroup
     from excavsim.apps.playback.machines import adapter_for
     from excavsim.loop.scenario import EpisodeSpec, run_spec
-    from excavsim.record import RerunRecorder
+    from excavsim.record import TrenchRecorder
     from excavsim.record.demo_reading import read_dig
     spec = EpisodeSpec(name="rrd-demo", goal="small", dig_budget=1,
                        sensing={"map": {"n_scans": 1}, "scanner": {"n_azimuth": 60, "n_elevation": 60}},
                        planner={"grid": {"k_min_m": 1.8, "k_max_m": 2.6, "k_step_m": 0.2, "alpha_step_deg": 15.0,
                                          "d1_step_m": 0.04}})
     path, cap = tmp_path / "ep.rrd", Capture()
-    run_spec(spec, observer=ObserverGroup(RerunRecorder(path), cap))
+    run_spec(spec, observer=ObserverGroup(TrenchRecorder(path), cap))
     rec = cap.records[0]
     assert len(rec.executed_path) > 100
     dig = read_dig(path, 1)
@@ -130,9 +130,9 @@ def test_a_teleoperation_session_can_be_recorded_with_its_force_plot(tmp_path):
     from rerun.chunk import RrdReader
 
     from excavsim.apps.playback.teleop import teleoperate
-    from excavsim.record import RerunRecorder
+    from excavsim.record import TrenchRecorder
     path = tmp_path / "teleop.rrd"
-    demo = teleoperate("s" * 12 + "a" * 6, observer=RerunRecorder(path))
+    demo = teleoperate("s" * 12 + "a" * 6, observer=TrenchRecorder(path))
     rows = {}
     for chunk in RrdReader(path).stream().to_chunks():
         if not chunk.is_static:

@@ -117,5 +117,6 @@ def test_the_playback_command_on_the_tb035(tmp_path):
     assert main(["playback", "--machine", "tb035", "--demo", str(t3_rate.save(tmp_path / "t3.json"))]) == 2
     assert main(["playback", "--machine", "tb035", "--teleop", "--keys", "zzk"]) == 2
     assert main(["playback", "--machine", "tb035", "--from-rrd", "x.rrd"]) == 2  # no wrist F/T on it
-    assert main(["playback", "--machine", "tb035", "--teleop", "--live"]) == 2
+    # --live streams the session as on the T3: nothing listens at this address, so it is refused before the world
+    assert main(["playback", "--machine", "tb035", "--teleop", "--keys", "zz", "--live", "127.0.0.1:9"]) == 2
     assert main(["playback", "--machine", "no_such_machine"]) == 2

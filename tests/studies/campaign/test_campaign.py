@@ -18,7 +18,9 @@ from excavsim import constants
 from excavsim.cli import main
 from excavsim.errors import ConfigError, ExcavsimError
 from excavsim.studies.campaign import runner as cmp
-from excavsim.loop.scenario import ResolvedSpec, resolve_goal
+from excavsim.loop.scenario import resolve
+from excavsim.tasks.trench.spec import resolve_goal
+from tests.children import Watch, kill
 
 TINY_YAML = constants.CONFIGS_DIR / "campaigns" / "tiny.yaml"
 TINY_BASE = {
@@ -52,7 +54,7 @@ def test_the_grid_expands_to_its_cartesian_product_with_stable_ids():
     first = episodes[0]
     assert first.params == {"soil": "testbed_sand", "robot.joints.wrist_pitch.torque_limit_nm": 500,
                             "planner.objective": "volume", "seed": 0}
-    resolved = ResolvedSpec(first.spec)
+    resolved = resolve(first.spec)
     assert resolved.robot.joints.wrist_pitch.torque_limit_nm == 500 and resolved.planner.objective == "volume"
     assert resolved.scene.soil == "testbed_sand" and first.spec.seed == 0
     assert resolved.planner.grid.k_step_m == 0.2  # the base's overrides survive the grid's
@@ -64,7 +66,7 @@ def test_the_grid_expands_to_its_cartesian_product_with_stable_ids():
 
 def test_a_dotted_goal_key_varies_the_named_goal():
     spec = cmp.parse_campaign({"name": "depth", "base": {"goal": "small"}, "grid": {"goal.depth_m": [0.1, 0.2]}})
-    goals = [ResolvedSpec(e.spec).goal for e in cmp.expand_grid(spec)]
+    goals = [resolve(e.spec).goal for e in cmp.expand_grid(spec)]
     small = resolve_goal("small")
     assert [g.depth_m for g in goals] == [0.1, 0.2] and all(g.near_x_m == small.near_x_m for g in goals)
 
@@ -112,42 +114,57 @@ def test_a_failing_episode_becomes_an_error_record(monkeypatch):
 
     monkeypatch.setattr(cmp, "run_spec", explode)
     ep = cmp.expand_grid(cmp.load_campaign(TINY_YAML))[0]
-    rec = cmp.run_episode_task(cmp._task(ep, constants.REPO_ROOT, None))
+    rec = cmp.run_episode_task(cmp._task(ep, constants.REPO_ROOT, False))
     assert rec["status"] == "error" and rec["error"] == "RuntimeError: the soil box caught fire"
     assert rec["summary"] is None and "explode" in rec["traceback"] and rec["id"] == ep.id
     json.dumps(rec, allow_nan=False)
 
 
 class FakeRecorder:
-    """A picklable stand-in for the Rerun recorder: remembers the paths it was made for."""
+    """A stand-in for a task's Rerun recorder: remembers the paths it was made for."""
 
     made: list = []
 
-    def __init__(self, path):
-        FakeRecorder.made.append(path)
+    def __init__(self, path, *, live=None):
+        FakeRecorder.made.append((path, live))
 
 
-def test_record_passes_a_recorder_of_the_episode_file(monkeypatch, tmp_path):
-    """The caller hands the recorder to the campaign (loop never imports record); the worker makes
-    one per episode, for that episode's file."""
+def test_record_asks_the_episodes_task_for_its_recorder_of_the_episode_file(monkeypatch, tmp_path):
+    """The worker asks the episode's task for its recorder (the campaign names no recorder), one per episode,
+    for that episode's file; the task's own recorder, whatever the task."""
+    from excavsim.loop import catalog
+
     FakeRecorder.made = []
     seen = []
+    monkeypatch.setattr(catalog.plugin(catalog.DEFAULT_TASK), "recorder", FakeRecorder)
     monkeypatch.setattr(cmp, "run_spec", lambda spec, *, progress, observer: seen.append(observer))
-    monkeypatch.setattr(cmp, "episode_summary", lambda _r: {"digs": 0})
-    monkeypatch.setattr(cmp, "dig_rows", lambda _r: [])
+    monkeypatch.setattr(cmp, "episode_summary", lambda _r, _task: {"digs": 0})
+    monkeypatch.setattr(cmp, "dig_rows", lambda _r, _task: [])
     ep = cmp.expand_grid(cmp.load_campaign(TINY_YAML))[1]
-    task = cmp._task(ep, tmp_path, FakeRecorder)
-    assert pickle.loads(pickle.dumps(task))["recorder"] is FakeRecorder  # it travels to worker processes
+    task = cmp._task(ep, tmp_path, True)
+    pickle.loads(pickle.dumps(task))  # it travels to worker processes
     rec = cmp.run_episode_task(task)
     assert rec["status"] == "ok" and rec["recording"] == f"recordings/{ep.id}.rrd"
-    assert FakeRecorder.made == [tmp_path.resolve() / "recordings" / f"{ep.id}.rrd"]
+    assert FakeRecorder.made == [(str(tmp_path.resolve() / "recordings" / f"{ep.id}.rrd"), None)]
     assert isinstance(seen[0], FakeRecorder)
 
 
-def test_record_without_a_recorder_is_refused_before_anything_runs(tmp_path):
-    spec = cmp.parse_campaign({"name": "rec", "base": {"goal": "small", "dig_budget": 1}, "record": True})
-    with pytest.raises(ExcavsimError, match="record: true but no recorder"):
-        cmp.run_campaign(spec, tmp_path / "out", progress=None)
+def test_record_over_a_task_without_a_recorder_is_refused_before_anything_runs(tmp_path):
+    from excavsim.loop import catalog
+    from excavsim.loop.plugin import TaskPlugin
+
+    class Mute(TaskPlugin):
+        name = "mute_test_task"
+        title = "a task without a recorder"
+        machines = ("t3",)
+
+    catalog.register(Mute)
+    try:
+        spec = cmp.parse_campaign({"name": "rec", "base": {"task": "mute_test_task"}, "record": True})
+        with pytest.raises(ExcavsimError, match="record: true, and task mute_test_task has no recorder"):
+            cmp.run_campaign(spec, tmp_path / "out", progress=None)
+    finally:
+        catalog.unregister("mute_test_task")
     assert not list((tmp_path / "out" / "episodes").glob("*.json"))
 
 
@@ -270,7 +287,12 @@ def test_a_campaign_runs_on_ray(tmp_path):
     if not hasattr(ray, "remote"):
         pytest.skip("a folder named ray shadows the package; Ray is not installed")
     spec = cmp.parse_campaign({"name": "ray", "base": TINY_BASE, "grid": {"seed": [0, 1]}})
-    report = cmp.run_campaign(spec, tmp_path, workers=2, ray_address="local", progress=None)
+    with Watch() as watch:
+        report = cmp.run_campaign(spec, tmp_path, workers=2, ray_address="local", progress=None)
+    assert watch.seen, "the campaign started no Ray process"
+    left = watch.left()  # the Ray runtime the campaign launched is shut down: its processes are gone
+    kill(left)
+    assert not left, [watch.seen[p] for p in left]
     assert report.ran == 2 and report.errors == 0
     assert _summary_ids(tmp_path) == [e.id for e in report.episodes]
     assert all(_strict_json(tmp_path / "episodes" / f"{e.id}.json")["summary"]["digs"] == 1
@@ -279,7 +301,7 @@ def test_a_campaign_runs_on_ray(tmp_path):
 
 def test_progress_lines_count_and_tolerate_numbers_that_were_not_finite():
     rec = {"id": "a", "status": "ok", "wall_s": 3.0,
-           "summary": {"end": "budget", "digs": 12, "dug_l_per_dig": None, "removed_fraction": 0.85}}
+           "summary": {"task": "trench", "end": "budget", "digs": 12, "dug_l_per_dig": None, "removed_fraction": 0.85}}
     assert cmp._progress_line(2, 8, rec, 75.0) == "[2/8] a: budget: 12 digs, ? l/dig, 85 % removed, ? stalls (3 s); " \
                                                  "ETA 1 min 15 s"
     err = {"id": "b", "status": "error", "error": "ExcavsimError: diverged\ntraceback", "wall_s": 1.0}

@@ -14,6 +14,7 @@ import time
 import pytest
 import yaml
 
+from tests.children import descendants, gone, kill, wait_gone
 from tests.studies.campaign.test_campaign import TINY_BASE
 
 from excavsim import constants
@@ -29,18 +30,9 @@ class KillsItsWorker(EpisodeObserver):
 
 
 def doomed_recorder(path: pathlib.Path) -> EpisodeObserver:
-    """The campaign's recorder factory (picklable, it travels to the workers): the seed-0 episode's
-    worker is killed mid-episode, every time; the others record nothing."""
+    """The campaign's extra observer factory (picklable, it travels to the workers): the seed-0 episode's
+    worker is killed mid-episode, every time; the others observe nothing."""
     return KillsItsWorker() if path.stem.startswith("seed0-") else EpisodeObserver()
-
-
-def gone(pid: int) -> bool:
-    """The process ``pid`` no longer runs (it does not exist, or is a zombie waiting to be reaped)."""
-    try:
-        stat = pathlib.Path(f"/proc/{pid}/stat").read_text()
-    except FileNotFoundError:
-        return True
-    return stat.rsplit(")", 1)[1].split()[0] in ("Z", "X")
 
 
 def cpu_s(pid: int) -> float:
@@ -50,24 +42,6 @@ def cpu_s(pid: int) -> float:
     except FileNotFoundError:
         return 0.0
     return (int(fields[11]) + int(fields[12])) / os.sysconf("SC_CLK_TCK")
-
-
-def descendants(pid: int) -> list[int]:
-    """Every live process below ``pid`` (children, their children, ...), from /proc."""
-    parents = {}
-    for stat in pathlib.Path("/proc").glob("[0-9]*/stat"):
-        try:
-            fields = stat.read_text().rsplit(")", 1)[1].split()
-        except OSError:
-            continue
-        if fields[0] not in ("Z", "X"):
-            parents[int(stat.parent.name)] = int(fields[1])
-    out, frontier = [], [pid]
-    while frontier:
-        kids = [p for p, pp in parents.items() if pp in frontier]
-        out += kids
-        frontier = kids
-    return out
 
 
 @pytest.mark.slow
@@ -85,23 +59,19 @@ def test_workers_exit_when_the_main_process_is_killed_or_terminated(tmp_path, si
            "--workers", "2"]
     proc = subprocess.Popen(cmd, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL, cwd=constants.REPO_ROOT,
                             start_new_session=True)
-    below: list[int] = []
+    below = []
     try:
         deadline = time.monotonic() + 120
         # the forkserver and two workers below it, each busy
-        while len(below := descendants(proc.pid)) < 3 or sorted(map(cpu_s, below))[-2] < 2.0:
+        while len(below := descendants(proc.pid)) < 3 or sorted(cpu_s(p) for p, _ in below)[-2] < 2.0:
             assert proc.poll() is None and time.monotonic() < deadline, "the workers never got going"
             time.sleep(0.05)
         os.kill(proc.pid, sig)
         assert proc.wait(timeout=60) == (-signal.SIGKILL if sig == signal.SIGKILL else 130)
-        deadline = time.monotonic() + 60
-        while not all(gone(p) for p in below) and time.monotonic() < deadline:
-            time.sleep(0.05)
-        assert all(gone(p) for p in below), [p for p in below if not gone(p)]
+        left = wait_gone(below, timeout_s=60)
+        assert not left, left
     finally:
-        for p in below:  # never leave one behind, even when the test fails
-            if not gone(p):
-                os.kill(p, signal.SIGKILL)
+        kill(below)  # never leave one behind, even when the test fails
         if proc.poll() is None:
             proc.kill()
             proc.wait()
@@ -148,7 +118,7 @@ def test_a_resumed_campaign_reruns_corrupt_results_and_survives_a_worker_killed_
     """Two episodes, resumed over a result file ``{}`` (seed 0) and a truncated one (seed 1): both are
     moved aside and run again; the seed-0 episode's worker is killed mid-episode on both attempts, so
     it is recorded ``failed`` while seed 1 completes; no worker is left."""
-    spec = cmp.parse_campaign({"name": "doomed", "base": TINY_BASE, "record": True, "grid": {"seed": [0, 1]}})
+    spec = cmp.parse_campaign({"name": "doomed", "base": TINY_BASE, "grid": {"seed": [0, 1]}})
     episodes = cmp.expand_grid(spec)
     ep_dir = tmp_path / "episodes"
     ep_dir.mkdir()
@@ -158,7 +128,7 @@ def test_a_resumed_campaign_reruns_corrupt_results_and_survives_a_worker_killed_
     (ep_dir / "corrupt").mkdir()
     (ep_dir / "corrupt" / f"{episodes[0].id}.json").write_text("an earlier one")  # never replaced
     lines = []
-    report = cmp.run_campaign(spec, tmp_path, workers=2, resume=True, recorder=doomed_recorder,
+    report = cmp.run_campaign(spec, tmp_path, workers=2, resume=True, observer=doomed_recorder,
                               progress=lines.append)
     # the corrupt files: moved aside, named, their episodes run again
     assert (ep_dir / "corrupt" / f"{episodes[0].id}.json").read_text() == "an earlier one"
@@ -186,6 +156,6 @@ def test_a_resumed_campaign_reruns_corrupt_results_and_survives_a_worker_killed_
     assert pids[0] != pids[1], pids
     pids.append(fine["pid"])
     assert fine["pid"] != pids[0] and all(gone(p) for p in pids), pids
-    assert not [p for p in descendants(os.getpid()) if p in pids]
+    assert not [p for p, _ in descendants(os.getpid()) if p in pids]
     again = cmp.run_campaign(spec, tmp_path, workers=2, resume=True, progress=None)  # a failed one is a result
     assert again.ran == 0 and [r["status"] for r in again.rows] == ["failed", "ok"]

@@ -37,7 +37,7 @@ def test_a_model_changed_between_two_episodes_of_one_worker_is_caught_not_mixed_
                                "base": {"task": "truck_loading", "machine": "excavator_25t", "soil": "heavy_clay",
                                         "dig_budget": 1}})
     (ep,) = cmp.expand_grid(spec)
-    task = cmp._task(ep, tmp_path, None, inputs.digest())
+    task = cmp._task(ep, tmp_path, False, inputs.digest())
     first = cmp.run_episode_task(task)
     again = cmp.run_episode_task(task)
     assert _pass_rows(first) == _pass_rows(again) and len(_pass_rows(first)) == 1
@@ -47,7 +47,7 @@ def test_a_model_changed_between_two_episodes_of_one_worker_is_caught_not_mixed_
     text = xml.read_text()
     assert text.count(NEW_ARMATURE) == 2
     xml.write_text(text.replace(NEW_ARMATURE, OLD_ARMATURE))
-    mixed = cmp.run_episode_task(cmp._task(ep, tmp_path, None, None))  # unchecked: the campaign before the fix
+    mixed = cmp.run_episode_task(cmp._task(ep, tmp_path, False, None))  # unchecked: the campaign before the fix
     assert _pass_rows(mixed)[0]["dig_s"] != _pass_rows(first)[0]["dig_s"]
 
     checked = cmp.run_episode_task(task)
@@ -75,8 +75,8 @@ def fake_episodes(tmp_path, monkeypatch):
         return spec.seed
 
     monkeypatch.setattr(cmp, "run_spec", run_spec)
-    monkeypatch.setattr(cmp, "episode_summary", lambda seed: {"end": "budget", "digs": 1, "seed": seed})
-    monkeypatch.setattr(cmp, "dig_rows", lambda _r: [])
+    monkeypatch.setattr(cmp, "episode_summary", lambda seed, task: {"task": task, "end": "budget", "digs": 1, "seed": seed})
+    monkeypatch.setattr(cmp, "dig_rows", lambda _r, _task: [])
     monkeypatch.setattr(cmp, "_local_results", lambda tasks, workers, say: (cmp.run_episode_task(t) for t in tasks))
     monkeypatch.setattr(cmp, "plot_campaign", lambda spec, rows, out: [])
     return edits
@@ -125,8 +125,8 @@ def test_the_digest_names_added_removed_and_changed_files(tmp_path):
     ({"task": "truck_loading", "machine": "excavator_25t", "soil": "heavy_clay", "dig_budget": 1,
       "truck_loading": {"tuning": {"tune": False}}},
      {"soil": "lean_clay", "seed": 3, "truck_loading": {"tuning": {"tune": True}}}),
-    ({"task": "load", "dig_budget": 1}, {"seed": 3}),
-], ids=["truck_loading", "load"])
+    ({"task": "pile_loading", "dig_budget": 1}, {"seed": 3}),
+], ids=["truck_loading", "pile_loading"])
 def test_an_episode_after_another_in_one_worker_is_the_same_as_before_it(base, other):
     """A worker's second episode does not inherit the first's state: episode B, a different episode A, B
     again, in one process, give B's passes (or digs) and summary twice to the bit (wall times aside)."""
@@ -134,7 +134,7 @@ def test_an_episode_after_another_in_one_worker_is_the_same_as_before_it(base, o
         spec = dict(spec)
         grid = {"seed": [spec.pop("seed", 0)]}
         (ep,) = cmp.expand_grid(cmp.parse_campaign({"name": "order", "base": spec, "grid": grid}))
-        rec = cmp.run_episode_task(cmp._task(ep, constants.REPO_ROOT, None, None))
+        rec = cmp.run_episode_task(cmp._task(ep, constants.REPO_ROOT, False, None))
         assert rec["status"] == "ok", rec["error"]
         return ({k: v for k, v in rec["summary"].items() if not k.endswith("wall_s")}, _pass_rows(rec))
 

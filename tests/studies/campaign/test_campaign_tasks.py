@@ -1,4 +1,4 @@
-"""Campaigns over tasks: a grid that varies the task (trench, load, truck), one table, resumable."""
+"""Campaigns over tasks: a grid that varies the task (trench, pile_loading, dump_trial), one table, resumable."""
 
 from __future__ import annotations
 
@@ -20,7 +20,7 @@ from excavsim.errors import ConfigError
 from excavsim.studies.campaign import runner as cmp
 from excavsim.studies.campaign.report import format_table, group_table, summary_rows
 
-TASKS = [{"task": "load", "machine": "shovel", "loading": {"n_scans": 1}}, "truck", "trench"]
+TASKS = [{"task": "pile_loading", "machine": "shovel", "pile_loading": {"n_scans": 1}}, "dump_trial", "trench"]
 
 
 def _spec(grid, base=TINY_BASE):
@@ -30,26 +30,27 @@ def _spec(grid, base=TINY_BASE):
 def test_the_base_trench_fields_go_to_the_trench_episodes_only():
     eps = cmp.expand_grid(_spec({"task": TASKS, "seed": [0]}))
     by = {e.spec.task: e.spec for e in eps}
-    assert [e.name for e in eps] == ["task=load_shovel seed=0", "task=truck seed=0", "task=trench seed=0"]
-    assert [e.id.rsplit("-", 1)[0] for e in eps] == ["load_shovel-seed0", "truck-seed0", "trench-seed0"]
-    assert by["trench"].goal == "small" and by["trench"].dig_budget == 1 and by["trench"].planner
-    assert by["load"].goal == "sand" and by["load"].planner == {} and by["load"].dig_budget == 1
-    assert by["load"].machine_name == "shovel" and by["load"].loading == {"n_scans": 1}
-    assert by["truck"].dig_budget == 20 and by["truck"].sensing == {}  # a truck trial has no dig budget
+    assert [e.name for e in eps] == ["task=pile_loading_shovel seed=0", "task=dump_trial seed=0", "task=trench seed=0"]
+    assert [e.id.rsplit("-", 1)[0] for e in eps] == ["pile_loading_shovel-seed0", "dump_trial-seed0", "trench-seed0"]
+    trench, load, trial = by["trench"], by["pile_loading"], by["dump_trial"]
+    assert trench.options.goal == "small" and trench.dig_budget == 1 and trench.options.planner
+    assert not hasattr(load.options, "goal") and not hasattr(load.options, "planner") and load.dig_budget == 1
+    assert load.machine_name == "shovel" and load.options.pile_loading == {"n_scans": 1}
+    assert trial.dig_budget == 20 and set(trial.options.model_fields) == {"dump_trial"}  # a trial has no dig budget
     # a grid key of one task's field beside a varied task is refused (it would run the others twice)
     with pytest.raises(ConfigError, match="grid key 'planner.grid.k_step_m' configures task trench only; this "
-                                          "episode's task is load: put it in that task's value"):
-        _spec({"task": ["trench", "load"], "planner.grid.k_step_m": [0.2, 0.3]})
+                                          "episode's task is pile_loading: put it in that task's value"):
+        _spec({"task": ["trench", "pile_loading"], "planner.grid.k_step_m": [0.2, 0.3]})
     with pytest.raises(ConfigError, match="a mapping value must name its task"):
         _spec({"task": [{"machine": "shovel"}]})
-    with pytest.raises(ConfigError, match="machine 'shovel' does not do task truck"):
-        _spec({"task": [{"task": "truck", "machine": "shovel"}]})
+    with pytest.raises(ConfigError, match="machine 'shovel' does not do task dump_trial"):
+        _spec({"task": [{"task": "dump_trial", "machine": "shovel"}]})
 
 
 def test_the_tasks_campaign_file_is_valid_and_a_trench_grid_keeps_its_ids():
     spec = cmp.load_campaign(constants.CONFIGS_DIR / "campaigns" / "tasks.yaml")
     assert {(e.spec.task, e.spec.machine_name) for e in cmp.expand_grid(spec)} == {
-        ("trench", "t3"), ("load", "loader"), ("load", "shovel"), ("truck", "t3")}
+        ("trench", "t3"), ("pile_loading", "loader"), ("pile_loading", "shovel"), ("dump_trial", "t3")}
     tiny = cmp.expand_grid(cmp.load_campaign(constants.CONFIGS_DIR / "campaigns" / "tiny.yaml"))
     assert [e.id for e in tiny] == ["seed0-c0a3876c9b", "seed1-1cc21bd3a5", "seed2-3ecfd50299", "seed3-81f00c9260"]
 
@@ -60,20 +61,20 @@ def test_one_table_with_each_tasks_metrics_where_they_apply(tmp_path):
     ep_dir = tmp_path / "episodes"
     ep_dir.mkdir()
     for ep in eps:
-        rec = cmp.run_episode_task(cmp._task(ep, tmp_path, None))
+        rec = cmp.run_episode_task(cmp._task(ep, tmp_path, False))
         assert rec["status"] == "ok", rec["error"]
         (ep_dir / f"{ep.id}.json").write_text(json.dumps(rec))
     rows = summary_rows(eps, ep_dir)
-    assert [(r["task"], r["machine"]) for r in rows] == [("load", "shovel"), ("truck", "t3")]
+    assert [(r["task"], r["machine"]) for r in rows] == [("pile_loading", "shovel"), ("dump_trial", "t3")]
     lines = [re.split(r"\s{2,}", line.strip()) for line in format_table(spec, rows).splitlines()]
     head = lines[0]
     assert head[:2] == ["task", "machine"] and "deliv. l" in head and "cycle s" in head
     load, truck = (dict(zip(head, line, strict=True)) for line in lines[1:])
-    assert load["task"] == "load" and float(load["deliv. l"]) > 100 and load["cycle s"] == "-"
-    assert truck["task"] == "truck" and truck["deliv. l"] == "-" and 1 < float(truck["cycle s"]) < 20
+    assert load["task"] == "pile_loading" and float(load["deliv. l"]) > 100 and load["cycle s"] == "-"
+    assert truck["task"] == "dump_trial" and truck["deliv. l"] == "-" and 1 < float(truck["cycle s"]) < 20
     assert truck["done"] == "1" and truck["removed %"] == "-" and float(truck["dumped l"]) > 5
     grouped = [line.split() for line in group_table(rows, ["task"], ep_dir).splitlines()[1:]]  # report_by too
-    assert [g[0] for g in grouped] == ["load", "truck"] and grouped[1][2] == "1/1"
+    assert [g[0] for g in grouped] == ["dump_trial", "pile_loading"] and grouped[0][2] == "1/1"
 
 
 @pytest.mark.slow
@@ -109,6 +110,6 @@ def test_a_killed_campaign_over_tasks_resumes_without_duplicates_or_gaps(tmp_pat
     assert {p.name: p.read_bytes() for p in ep_dir.glob("*.json") if p.name in before} == before
     recs = [json.loads((ep_dir / f"{i}.json").read_text()) for i in ids]
     assert [r["status"] for r in recs] == ["ok"] * 6
-    assert [r["summary"].get("task", "trench") for r in recs] == ["load", "load", "truck", "truck", "trench", "trench"]
+    assert [r["summary"]["task"] for r in recs] == ["pile_loading", "pile_loading", "dump_trial", "dump_trial", "trench", "trench"]
     table = resumed.stdout[resumed.stdout.index("task "):].splitlines()
-    assert [line.split()[:2] for line in table[1:4]] == [["load", "shovel"], ["truck", "t3"], ["trench", "t3"]]
+    assert [line.split()[:2] for line in table[1:4]] == [["pile_loading", "shovel"], ["dump_trial", "t3"], ["trench", "t3"]]

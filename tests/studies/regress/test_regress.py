@@ -15,7 +15,8 @@ from excavsim.cli import main
 from excavsim.config import ConfigError
 from excavsim.errors import ExcavsimError
 from excavsim.studies.regress import stats as rs
-from excavsim.studies.regress.suite import (BASELINE_FORMAT, METRICS, TASK_METRICS, Sample, compare, load_baseline,
+from excavsim.loop import catalog
+from excavsim.studies.regress.suite import (BASELINE_FORMAT, Sample, compare, load_baseline,
                                            load_scenarios, parse_seeds, write_baseline)
 
 # one dig of the small trench, a coarse planner grid, a small scanner: about half a second an episode
@@ -96,9 +97,13 @@ def test_bootstrap_intervals_are_reproducible_and_cover_the_shift():
 
 
 # -- samples, the baseline file, seeds ----------------------------------------------------------------
+TASK_METRICS = {name: tuple(p.metrics) for name, p in catalog.plugins().items()}  # every task's judged metrics
+METRICS = {m for ms in TASK_METRICS.values() for m in ms}
+
+
 def _sample(seeds, **columns):
     rows = [{k: v[i] for k, v in columns.items()} for i in range(len(seeds))]
-    return Sample(list(seeds), rows)
+    return Sample(list(seeds), rows, catalog.DEFAULT_TASK)
 
 
 def test_compare_pairs_by_seed_and_knows_new_and_missing_scenarios():
@@ -107,7 +112,7 @@ def test_compare_pairs_by_seed_and_knows_new_and_missing_scenarios():
     now = _sample([4, 3, 2, 1, 0], **{m: v[::-1] for m, v in values.items()})  # the same episodes, listed backwards
     assert {c.verdict for c in compare({"s": ref}, {"s": now}, paired=True)} == {"same"}
     rows = compare({"s": ref, "gone": ref}, {"s": now, "fresh": now})
-    assert [c.verdict for c in rows if c.scenario == "fresh"] == ["new"] * len(TASK_METRICS["trench"])
+    assert [c.verdict for c in rows if c.scenario == "fresh"] == ["new"] * len(TASK_METRICS[catalog.DEFAULT_TASK])
     assert [(c.scenario, c.verdict) for c in rows if c.metric == "-"] == [("gone", "missing")]
     assert not [c for c in compare({"s": ref, "gone": ref}, {"s": now}, partial=True) if c.scenario == "gone"]
 
@@ -121,12 +126,12 @@ def test_each_task_is_judged_on_its_metrics_and_the_baseline_keeps_its_task(tmp_
     rows = compare(samples, samples)
     for task, metrics in TASK_METRICS.items():
         assert tuple(c.metric for c in rows if c.scenario == task) == metrics
-    assert "cycle_s" in TASK_METRICS["truck"] and "delivered_l" in TASK_METRICS["load"]
+    assert "cycle_s" in TASK_METRICS["dump_trial"] and "delivered_l" in TASK_METRICS["pile_loading"]
     assert not {"cycle_s", "delivered_l", "failed_digs"} & set(TASK_METRICS["trench"])
     write_baseline(tmp_path / "b.json", samples)
     doc = json.loads((tmp_path / "b.json").read_text())
-    assert "task" not in doc["scenarios"]["trench"] and doc["scenarios"]["truck"]["task"] == "truck"
-    assert set(doc["scenarios"]["load"]["metrics"]) == set(TASK_METRICS["load"])
+    assert doc["scenarios"]["trench"]["task"] == "trench" and doc["scenarios"]["dump_trial"]["task"] == "dump_trial"
+    assert set(doc["scenarios"]["pile_loading"]["metrics"]) == set(TASK_METRICS["pile_loading"])
     back = load_baseline(tmp_path / "b.json")
     assert {n: s.task for n, s in back.items()} == {t: t for t in TASK_METRICS}
 
@@ -280,9 +285,9 @@ def test_a_scenario_with_a_bad_override_names_the_field(tmp_path, capsys):
 
 @pytest.mark.parametrize("bad", [{"soil": "peat"}, {"goal": "zigzag"}, {"planner": {"grid": 3}}])
 def test_episode_specs_refuse_bad_input_clearly(tmp_path, bad, capsys):
-    from excavsim.loop.scenario import EpisodeSpec, ResolvedSpec
+    from excavsim.loop.scenario import EpisodeSpec, resolve
 
     spec = {k: v for k, v in TINY.items() if k != "seeds"}
     with pytest.raises(ConfigError) as err:
-        ResolvedSpec(EpisodeSpec.model_validate({**spec, **bad}))
+        resolve(EpisodeSpec.model_validate({**spec, **bad}))
     assert any(word in str(err.value) for word in ("peat", "zigzag", "grid"))

@@ -7,16 +7,16 @@ import pytest
 
 from excavsim import constants
 from excavsim.config import ConfigError
-from excavsim.loop.scenario import EpisodeSpec, ResolvedSpec, episode_summary, run_spec
+from excavsim.loop.scenario import EpisodeSpec, resolve, episode_summary, run_spec
 
 
 def test_a_tb035_spec_resolves_its_goal_in_its_pit_and_its_own_numbers():
-    r = ResolvedSpec(EpisodeSpec(machine="tb035", executor={"path_speed_m_s": 0.2}))
+    r = resolve(EpisodeSpec(machine="tb035", executor={"path_speed_m_s": 0.2}))
     assert r.machine == "tb035" and r.goal.name == "tb035_sand" and r.goal.surface_z_m == 0.0
     assert r.scene.initial_soil_height_m == pytest.approx(1.5)  # the pit full to the ground
     assert r.executor.spoil_waist_deg == 90.0 and r.planner.grid.k_max_m == 4.0  # configs/machines/tb035.yaml
     assert r.executor.path_speed_m_s == 0.2  # the spec's own override on top
-    t3 = ResolvedSpec(EpisodeSpec())
+    t3 = resolve(EpisodeSpec())
     assert t3.machine == "t3" and t3.goal.name == "sand" and t3.executor.spoil_waist_deg == 40.0
 
 
@@ -28,12 +28,12 @@ def test_a_bad_machine_is_refused_naming_the_allowed_ones():
 
 def test_what_the_tb035_cannot_take_is_refused():
     with pytest.raises(ConfigError, match="robot: overrides configs/robot.yaml, the T3's servos; machine tb035"):
-        ResolvedSpec(EpisodeSpec(machine="tb035", robot={"control_rate_hz": 50.0}))
+        resolve(EpisodeSpec(machine="tb035", robot={"control_rate_hz": 50.0}))
     with pytest.raises(ConfigError, match="unknown trench goal of machine tb035 'straight'; .* one of: sand, small"):
-        ResolvedSpec(EpisodeSpec(machine="tb035", goal="straight"))
+        resolve(EpisodeSpec(machine="tb035", goal="straight"))
     # the T3's goal, in its box's coordinates, lies half a metre above the TB035's ground
     with pytest.raises(ConfigError, match="surface_z_m: 0.5 m lies above the initial soil at 0 m"):
-        ResolvedSpec(EpisodeSpec(machine="tb035", goal=str(constants.TRENCHES_DIR / "sand.yaml")))
+        resolve(EpisodeSpec(machine="tb035", goal=str(constants.TRENCHES_DIR / "sand.yaml")))
 
 
 def test_a_tb035_episode_of_two_digs_removes_soil_with_the_account_closed():

@@ -1,36 +1,22 @@
-"""Rowe's truck loading with the 25 t excavator: the truck's volume account, the clearance angle of Fig. 3
-against a hand derivation, AutoDig's pressure threshold, a one-pass episode and (slow) a full truck."""
+"""Rowe's truck loading with the 25 t excavator: the truck's volume account, a one-pass episode and (slow) a
+full truck. The script's geometry and runner are tested in tests/execution/test_rowe_script.py, AutoDig in
+tests/execution/test_autodig.py."""
 
 from __future__ import annotations
 
 import math
 
-import mujoco
 import numpy as np
 import pytest
 
-from excavsim.config.truck_loading import load_truck_loading_file
+from excavsim.tasks.truck_loading.config import load_truck_loading_file
 from excavsim.errors import ConfigError
-from excavsim.execution import truck_loading as tl
 from excavsim.loop.episode import Episode
-from excavsim.loop.scenario import EpisodeSpec, ResolvedSpec, episode_summary, load_spec, run_spec
-from excavsim.robot.excavators import EXCAVATOR_25T
-from excavsim.robot.extract import arm_from_model
+from excavsim.loop.scenario import EpisodeSpec, episode_summary, load_spec, resolve, run_spec
 from excavsim.tasks.truck_loading.task import TruckLoadingTask, truck_spec
-from excavsim.world.hydraulics import EXCAVATOR_JOINTS
-from excavsim.world.truck import TruckBed, TruckSpec, TruckWorld
+from excavsim.world.truck import TruckBed, TruckSpec
 
 SPEC = "configs/specs/excavator_truck.yaml"
-
-
-@pytest.fixture(scope="module")
-def world():
-    return TruckWorld("excavator_25t", "dry_sand", seed=0)
-
-
-@pytest.fixture(scope="module")
-def arm25(world):
-    return arm_from_model(world.model, joints=EXCAVATOR_JOINTS)
 
 
 def test_the_bed_catches_what_falls_over_it_and_passes_on_the_rest():
@@ -47,63 +33,6 @@ def test_the_bed_catches_what_falls_over_it_and_passes_on_the_rest():
     assert caught == pytest.approx(0.5, abs=1e-12) and rest[0] == pytest.approx(0.0, abs=1e-12)
     u, v = bed.centroid_offset()
     assert abs(u) < 0.2 and -0.5 < v < 0.0  # the first pour pulled the centre towards the near side
-
-
-def test_clearance_angle_matches_the_hand_derivation(arm25):
-    """Fig. 3 for the tip alone: z_f + A sin(theta + psi) = h + c with A e^(i psi) = l1 + l2 e^(i q2) +
-    l3 e^(i (q2 + q3)), from the spec's link lengths and the truck's height."""
-    a = EXCAVATOR_25T.arm
-    h, c = TruckSpec().side_top_m, 0.3
-    for q2, q3 in ((-1.7, -1.5), (-1.5, -1.8), (-1.9, -1.2)):
-        v = a.boom_m + a.stick_m * np.exp(1j * q2) + a.bucket_m * np.exp(1j * (q2 + q3))
-        hand = math.asin((h + c - a.boom_foot[1]) / abs(v)) - np.angle(v)
-        got = tl.clearance_boom_angle(arm25, q2, q3, h, c, outline=False)
-        assert got == pytest.approx(hand, abs=1e-9)
-        # the whole bucket: its lowest point is exactly at h + c, and lower just below the angle
-        full = tl.clearance_boom_angle(arm25, q2, q3, h, c)
-        assert full >= got - 1e-12
-        low = arm25.bucket_points(arm25.forward(np.array([full, q2, q3])))[:, 1].min()
-        assert low == pytest.approx(h + c, abs=1e-9)
-        assert arm25.bucket_points(arm25.forward(np.array([full - 0.01, q2, q3])))[:, 1].min() < h + c
-
-
-def test_clearance_angle_in_mujoco(world, arm25):
-    """The model's own bucket tip, posed at the tip-only clearance angle, is at the truck's height plus the clearance."""
-    h, c, q2, q3 = TruckSpec().side_top_m, 0.3, -1.7, -1.5
-    boom = tl.clearance_boom_angle(arm25, q2, q3, h, c, outline=False)
-    d = mujoco.MjData(world.model)
-    d.qpos[world._qpos] = [1.0, boom, q2, q3]
-    mujoco.mj_kinematics(world.model, d)
-    assert d.site_xpos[world.model.site("bucket_tip").id][2] == pytest.approx(h + c, abs=1e-6)
-
-
-class _Rig:
-    """A machine that goes where it is told at once, with a stick pressure set by how far the drag went."""
-
-    control_dt = 0.02
-
-    def __init__(self, arm, resist_after_m: float, x0: float):
-        self.arm, self.q, self.resist, self.x0 = arm, np.array([0.0, 0.4, -1.2, -0.8]), resist_after_m, x0
-
-    def joint_angles(self):
-        return self.q.copy()
-
-    def step(self, target):
-        self.q = np.asarray(target, float).copy()
-        return self.q.copy()
-
-    def cylinder_pressures(self):
-        x = float(self.arm.forward(self.q[1:])[0])
-        return np.array([5e6, -40e6 if self.x0 - x > self.resist else -5e6, 5e6])
-
-
-def test_autodig_ends_the_drag_on_the_stick_pressure(arm25):
-    cfg = tl.AutoDigConfig(depth_m=0.4, drag_m=3.0, full_pa=30e6, full_s=0.3)
-    run = tl.autodig(_Rig(arm25, 1.0, 7.5), arm25, 0.0, 7.5, lambda r: 0.0, cfg)
-    assert run.drag_end == "stick pressure (full)"
-    assert 1.0 < run.drag_m < 1.8  # the filter's lag and the hold time past the 1 m where resistance rose
-    easy = tl.autodig(_Rig(arm25, 10.0, 7.5), arm25, 0.0, 7.5, lambda r: 0.0, cfg)
-    assert easy.drag_end == "length" and easy.drag_m == pytest.approx(3.0, abs=0.05)
 
 
 def test_one_pass_puts_soil_in_the_bed_and_the_account_closes():
@@ -128,14 +57,14 @@ def test_one_pass_puts_soil_in_the_bed_and_the_account_closes():
 def test_the_spec_and_its_refusals():
     spec = load_spec(SPEC)
     assert spec.task == "truck_loading" and spec.machine_name == "excavator_25t"
-    assert ResolvedSpec(spec).truck_loading.truck.payload_t == pytest.approx(12.0)
+    assert resolve(spec).truck.payload_t == pytest.approx(12.0)
     with pytest.raises(ConfigError, match="does not do task truck_loading"):
         EpisodeSpec(task="truck_loading", machine="t3")
     with pytest.raises(ConfigError, match="truck_loading"):
         EpisodeSpec(task="trench", truck_loading={"truck": {"payload_t": 10.0}})
-    bad = spec.model_copy(update={"truck_loading": {"truck": {"payload_t": -1.0}}})
+    bad = EpisodeSpec.model_validate({**spec.model_dump(), "truck_loading": {"truck": {"payload_t": -1.0}}})
     with pytest.raises(ConfigError, match="payload_t"):
-        ResolvedSpec(bad)
+        resolve(bad)
     assert truck_spec(load_truck_loading_file()).payload_kg == pytest.approx(12000.0)
 
 

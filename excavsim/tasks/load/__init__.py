@@ -1,6 +1,0 @@
-"""Loading from a pile: the 2-D simulation and the MuJoCo one (Singh 1995 §7.2.1).
-
-:mod:`~excavsim.tasks.load.planar` is the 2-D simulation, :mod:`~excavsim.tasks.load.task` the
-MuJoCo episode with the front loader or the front shovel. The mind-side pieces (the loading planner)
-stay in :mod:`excavsim.planning` so that the truth/belief contracts cover them.
-"""

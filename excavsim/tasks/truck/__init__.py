@@ -1,7 +1,0 @@
-"""Truck loading by the mass-excavation script, self-tuned online (Rowe 1997 §4.3, §5, §6.2).
-
-:mod:`~excavsim.tasks.truck.trial` runs one trial; :mod:`~excavsim.tasks.truck.tuning` the tuning over
-trials (the tuner is the truck task's dig source); :mod:`~excavsim.tasks.truck.episode` is the task of
-an episode specification (the catalog's entry);
-:mod:`~excavsim.tasks.truck.campaign` compares tuned and untuned runs over seeds and soils.
-"""
