@@ -30,8 +30,8 @@ the playback as the T3's servos: joint encoders and cylinder forces (with the tr
 
 **The demonstration** (:meth:`CylinderArm.record_demonstration`) is scripted: the tip driven by IK along a cut
 in the pit (:meth:`CylinderRig.cut`: entry, down to the depth, a drag towards the machine, a curl; the TB035's
-cut, scaled by the machine's reach on another excavator) in the demonstration soil, the measured tip pose and estimated force sampled every control step; a 10 cm free
-descent is prepended as on the T3. Teleoperation makes one too: the keys move the tip in the arm plane and
+cut, scaled by the machine's reach on another excavator) in the demonstration soil, the measured tip pose and
+estimated force sampled every control step; a 10 cm free descent is prepended as on the T3. Teleoperation makes one too: the keys move the tip in the arm plane and
 z/c swing the cab (DiMaio §4.2's cylindrical endpoint coordinates), from 10 cm above the cut's entry.
 """
 
