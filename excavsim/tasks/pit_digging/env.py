@@ -9,9 +9,9 @@ does). :class:`PitDigEnv` is its Gymnasium face (:class:`~excavsim.envs.dig_env.
 
 from __future__ import annotations
 
-import math
 import pathlib
 from collections.abc import Mapping
+from types import SimpleNamespace
 from typing import Any
 
 import gymnasium as gym
@@ -92,8 +92,8 @@ class PitCore(DigLevelCore):
         gained, self._litres = now - self._litres, now
         stalled = dug[1].stall_joint is not None
         w = self.weights
-        self._last = {"metrics": dug[1], "lane": self._episode.choice.dig.lane, "reward": float(w["removed_per_l"] * gained[0] - w["overdig_per_l"] * gained[1]
-                                                         - w["stall"] * stalled),
+        reward = w["removed_per_l"] * gained[0] - w["overdig_per_l"] * gained[1] - w["stall"] * stalled
+        self._last = {"metrics": dug[1], "lane": self._episode.choice.dig.lane, "reward": float(reward),
                       "terms": {"removed_l": float(gained[0]), "overdig_l": float(gained[1]), "stalled": stalled}}
 
     def _observation(self) -> dict[str, np.ndarray]:
@@ -106,20 +106,11 @@ class PitCore(DigLevelCore):
     def _info(self, decision, first: bool = False) -> dict[str, Any]:
         info: dict[str, Any] = {}
         if not first and self._last is not None:
-            m = self._last["metrics"]
             info.update(lane_used=self._last["lane"], reward_terms=dict(self._last["terms"]),
-                        dig={k: (None if isinstance(v, float) and math.isnan(v) else v)
-                             for k, v in dig_rows(_OneDig(m))[0].items()})
+                        dig=dig_rows(SimpleNamespace(digs=[self._last["metrics"]]))[0])
         if decision.result is not None:
             info["episode"] = {k: v for k, v in summary(decision.result).items() if k != "wall_s"}
         return info
-
-
-class _OneDig:
-    """A result of one dig, for :func:`~excavsim.tasks.pit_digging.task.dig_rows`."""
-
-    def __init__(self, dig):
-        self.digs = [dig]
 
 
 class PitDigEnv(DigStepEnv):

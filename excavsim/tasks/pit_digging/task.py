@@ -43,6 +43,7 @@ NAME = "pit_digging"
 BASES = {"scene": (load_scene_config, SceneConfig), "planner": (load_planner_config, PlannerConfig),
          "executor": (load_executor_config, ExecutorConfig), "sensing": (load_sensing_config, SensingConfig)}
 """The configuration files a specification may override, with their models."""
+SPOIL_CLEARANCE_M = 0.3  # the spoil's pile (about 0.4 m in radius for the small pit's 40 l at 30 degrees) and the pit
 
 
 @dataclasses.dataclass(frozen=True)
@@ -73,6 +74,13 @@ def resolve(spec) -> PitResolved:
         raise GoalError(f"{spec.name}: pit: the opening x {pit.near_x_m:g}..{pit.far_x_m:g} m, y {pit.y_min_m:g}.."
                         f"{pit.y_max_m:g} m is not inside the soil box (allowed: x in [{box.x_min:g}, {box.x_max:g}] m, "
                         f"y in [{box.y_min:g}, {box.y_max:g}] m)")
+    reach, waist = cfg["executor"].dump_pose[0], math.radians(cfg["executor"].spoil_waist_deg)
+    spoil = np.array([reach * math.cos(waist), reach * math.sin(waist)])  # where the script dumps [m]
+    gap = np.hypot(*np.clip(spoil, [pit.near_x_m, pit.y_min_m], [pit.far_x_m, pit.y_max_m]) - spoil)
+    if gap < SPOIL_CLEARANCE_M:
+        raise GoalError(f"{spec.name}: pit: the spoil the dig script dumps at ({spoil[0]:.2f}, {spoil[1]:.2f}) m "
+                        f"(configs/executor.yaml: spoil_waist_deg, dump_pose) lies {gap:.2f} m from the opening "
+                        f"(allowed: at least {SPOIL_CLEARANCE_M:g} m; move the pit or the spoil)")
     lanes = tuple(pit_lanes(pit, bucket_width_m()))
     for lane in lanes:
         check_goal(lane, cfg["scene"], source=f"{spec.name}: pit, {lane.name}")

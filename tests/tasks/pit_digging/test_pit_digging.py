@@ -16,7 +16,7 @@ from excavsim import constants
 from excavsim.cli import main
 from excavsim.errors import ConfigError, EnvError
 from excavsim.loop import catalog
-from excavsim.loop.scenario import EpisodeSpec, episode_summary, load_spec, run_spec
+from excavsim.loop.scenario import EpisodeSpec, episode_summary, load_spec, resolve, run_spec
 from excavsim.tasks.pit_digging.goal import PitGoal, bucket_width_m, pit_lanes, pit_surface
 from tests.record.test_task_recordings import T3_GRID, TINY_SENSING, verify
 
@@ -54,7 +54,7 @@ def test_the_pit_surface_is_its_bottom_inside_its_walls_and_the_surface_outside(
     np.testing.assert_allclose(z, [0.4, 0.5, 0.5, 0.5, 0.5 - 0.05 * math.tan(math.radians(30))], atol=1e-12)
 
 
-def test_a_pit_too_narrow_for_the_bucket_or_outside_the_box_is_refused_naming_what_is_allowed(tmp_path, capsys):
+def test_a_pit_too_narrow_outside_the_box_or_under_the_spoil_is_refused_naming_what_is_allowed(tmp_path, capsys):
     with pytest.raises(ConfigError, match=r"opening at least 0\.47 m wide"):
         pit_lanes(PitGoal(y_min_m=-0.15, y_max_m=0.15), bucket_width_m())
     spec = yaml.safe_load(SPEC.read_text())
@@ -64,6 +64,8 @@ def test_a_pit_too_narrow_for_the_bucket_or_outside_the_box_is_refused_naming_wh
     assert main(["validate", str(path)]) == 2
     err = capsys.readouterr().err
     assert "pit_small: pit: the opening x 1.8..3.9 m" in err and "not inside the soil box" in err
+    with pytest.raises(ConfigError, match=r"the spoil the dig script dumps at \(1.30, 1.09\) m .* lies 0.09 m from"):
+        resolve(EpisodeSpec(task="pit_digging", pit={"near_x_m": 1.0, "y_max_m": 1.0}))  # the dumps would refill it
 
 
 def test_validate_accepts_the_specification_and_the_golden_scenario(capsys):
