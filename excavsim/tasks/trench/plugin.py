@@ -33,7 +33,7 @@ the T3, a scan every simulated second (the done rule reads the scan)."""
 
 
 def _check_goal(path: pathlib.Path) -> str:
-    from excavsim.config.machines import machine_box, machine_scene
+    from excavsim.tasks.trench.machines import machine_box, machine_scene
     from excavsim.tasks.trench.spec import T3
 
     # configs/trenches/<machine>/ holds another machine's goals, in its pit's coordinates
@@ -45,13 +45,13 @@ def _check_goal(path: pathlib.Path) -> str:
 
 
 def _machine_model():
-    from excavsim.config.machines import MachineConfig
+    from excavsim.tasks.trench.machines import MachineConfig
 
     return MachineConfig
 
 
 def _check_machine(path: pathlib.Path) -> str:
-    from excavsim.config.machines import MachineConfig
+    from excavsim.tasks.trench.machines import MachineConfig
     from excavsim.loop.scenario import merge
 
     cfg = c.load_config(path, MachineConfig)
