@@ -9,7 +9,6 @@ does). :class:`PitDigEnv` is its Gymnasium face (:class:`~excavsim.envs.dig_env.
 
 from __future__ import annotations
 
-import pathlib
 from collections.abc import Mapping
 from types import SimpleNamespace
 from typing import Any
@@ -17,25 +16,16 @@ from typing import Any
 import gymnasium as gym
 import numpy as np
 
-from excavsim.config import parse_config
-from excavsim.envs.core import DIG_WEIGHTS, DigLevelCore, Field, TrueTrench, check_weights
+from excavsim.envs.core import DigLevelCore, Field, as_spec, check_weights
 from excavsim.envs.dig_env import DigStepEnv
 from excavsim.errors import EnvError
-from excavsim.loop.scenario import EpisodeSpec, load_spec, resolve
+from excavsim.loop.scenario import resolve
 from excavsim.tasks.pit_digging.digs import LaneDigs, lane_soil_m3
 from excavsim.tasks.pit_digging.task import NAME, dig_rows, spec_episode, summary
 
-
-def as_pit_spec(spec: EpisodeSpec | Mapping | str | pathlib.Path | None) -> EpisodeSpec:
-    """A pit-digging specification from itself, a mapping of its fields, a YAML path, or None (the defaults)."""
-    if spec is None or isinstance(spec, Mapping):
-        spec = parse_config({"task": NAME, **(spec or {})}, EpisodeSpec, source="PitDig-v0's spec")
-    elif isinstance(spec, (str, pathlib.Path)):
-        spec = load_spec(spec)
-    if not isinstance(spec, EpisodeSpec) or spec.task != NAME:
-        raise EnvError(f"PitDig-v0 digs a pit: its spec must be of task {NAME} (an EpisodeSpec, a mapping or a YAML "
-                       f"path); given {getattr(spec, 'task', type(spec).__name__)!r}")
-    return spec
+PIT_WEIGHTS = {"removed_per_l": 1.0, "overdig_per_l": 2.0, "stall": 5.0}
+"""The default reward weights (the trench's dig environment's): per litre removed from the pit, per litre dug
+below its goal, per stalled dig."""
 
 
 class PitCore(DigLevelCore):
@@ -49,17 +39,18 @@ class PitCore(DigLevelCore):
     without wall times) at the end.
 
     Args:
-        spec: the episode (see :func:`as_pit_spec`).
-        weights: reward weights over :data:`~excavsim.envs.core.DIG_WEIGHTS`.
+        spec: the episode: an :class:`~excavsim.loop.scenario.EpisodeSpec` of the task, a mapping of its fields, a
+            YAML path, or None (the task's defaults: the small pit).
+        weights: reward weights over :data:`PIT_WEIGHTS`.
         observer: an extra observer of the episode (a recorder, say).
     """
 
     action_label = "the lane"
 
     def __init__(self, spec=None, *, weights: Mapping[str, float] | None = None, observer=None):
-        self.spec = as_pit_spec(spec)
+        self.spec = as_spec(spec, NAME)
         self.resolved = resolve(self.spec)
-        self.weights = check_weights(weights, DIG_WEIGHTS, "pit")
+        self.weights = check_weights(weights, PIT_WEIGHTS, "pit")
         self.observer = observer
         n = len(self.resolved.lanes)
         self.action_low, self.action_high = np.zeros(1), np.array([n - 1.0])
@@ -72,8 +63,14 @@ class PitCore(DigLevelCore):
         self._episode = ep = spec_episode(self.spec, self.resolved, observer=self.observer)
         ep.reset(seed, digs=LaneDigs())
         self._sim = ep.sim
-        self._truth = TrueTrench(ep.sim, ep.task.mask, ep.task.z_goal)
-        self._litres = np.zeros(2)  # removed above and dug below the goal so far [l]
+        self._litres = self._truth()
+
+    def _truth(self) -> np.ndarray:
+        """(removed above the pit's goal, dug below it) so far on the true terrain [l] (privileged: for the reward)."""
+        t = self._episode.task
+        h, h0, goal = (a[t.mask] for a in (t.sim.soil.grid.heights, t.initial_heights, t.z_goal))
+        return 1000 * t.sim.soil.grid.cell_area * np.array([np.clip(h0 - np.maximum(h, goal), 0, None).sum(),
+                                                            np.clip(goal - h, 0, None).sum()])
 
     def _advance(self):
         if not self._episode.over:
@@ -88,7 +85,7 @@ class PitCore(DigLevelCore):
         dug = self._episode.dig()
         if dug is None:  # the world failed on the way to the dig
             return
-        now = 1000 * np.array(self._truth.measure())
+        now = self._truth()
         gained, self._litres = now - self._litres, now
         stalled = dug[1].stall_joint is not None
         w = self.weights

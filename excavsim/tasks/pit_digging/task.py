@@ -120,7 +120,8 @@ class PitTask:
         self._at = (xs[inside], ys[inside], self.z_goal[inside])
         self.source = digs or LaneDigs()
         self.metrics: list[DigMetrics] = []
-        self._h0, self._v0, self._witness = sim.soil.grid.heights.copy(), sim.soil.initial_volume, bucket_witness(sim)
+        self.initial_heights, self._v0 = sim.soil.grid.heights.copy(), sim.soil.initial_volume
+        self._witness = bucket_witness(sim)
         self.wall_limit_s = base.executor_cfg.episode_wall_limit_s
         self.emap = None
         return sim, self.rig, self.mask, self.z_goal, self.lanes, r.pit
@@ -166,8 +167,8 @@ class PitTask:
         return f"{budget} digs spent before the pit was done"
 
     def result(self, end, reason, wall_s) -> EpisodeResult:
-        res = episode_result(self.sim, self.metrics, end, reason, mask=self.mask, z_goal=self.z_goal, h0=self._h0,
-                             v0=self._v0, wall_s=wall_s)
+        res = episode_result(self.sim, self.metrics, end, reason, mask=self.mask, z_goal=self.z_goal,
+                             h0=self.initial_heights, v0=self._v0, wall_s=wall_s)
         return dataclasses.replace(res, task=NAME)
 
 
