@@ -25,6 +25,7 @@ from excavsim.envs.batched import BatchedJointEnv, watch_ok
 from excavsim.envs.render import RenderModeError, offscreen_error
 from excavsim.tasks.pile_loading.config_planar import load_loading_config
 from excavsim.tasks.pile_loading.envs import LOAD_DIG_ENV_ID
+from excavsim.tasks.pit_digging.plugin import PIT_DIG_ENV_ID
 from excavsim.tasks.trench.envs import DIG_ENV_ID, JOINT_DIG_ENV_ID, JOINT_ENV_ID
 
 _LOADING = load_loading_config()
@@ -42,6 +43,7 @@ SHORT = {  # each environment with a tiny spec and, at the joint level, 0.3 s ep
         "pile": {"height": 0.6, "top": 0.3, "foot": 1.5}, "n_scans": 1, "scanner": {"n_azimuth": 80, "n_elevation": 20}}},
         "loading_config": _LOADING.model_copy(update={"planner": _LOADING.planner.model_copy(  # a coarse planner grid
             update={"k_step": 0.2, "alpha_deg": [-30.0, 40.0, 10.0]})})},
+    PIT_DIG_ENV_ID: {"spec": {"dig_budget": 1, "sensing": TINY["sensing"], "planner": TINY["planner"]}},
 }
 DIG_DOWN = np.array([0.0, -0.3, -0.4, 0.3], np.float32)  # shoulder and elbow down, wrist curling: the bucket cuts
 
@@ -153,7 +155,8 @@ def test_spaces_are_float32_with_no_zero_dimensional_box():
     for env_id in ENV_IDS:
         env = gym.make(env_id, **kwargs_of(env_id))
         try:
-            assert env.action_space.dtype == np.float32, env_id
+            # a box of actions is float32; a choice among a few (the pit's lane) is Discrete
+            assert isinstance(env.action_space, gym.spaces.Discrete) or env.action_space.dtype == np.float32, env_id
             for name, space in env.observation_space.spaces.items():
                 if isinstance(space, gym.spaces.Box):
                     assert space.dtype == np.float32 and space.shape != (), (env_id, name)

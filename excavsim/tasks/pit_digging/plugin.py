@@ -20,6 +20,8 @@ from excavsim.loop.plugin import EnvEntry, Metric, TaskPlugin
 from excavsim.tasks.pit_digging.goal import PitGoal
 
 NAME = "pit_digging"
+PIT_DIG_ENV_ID = "excavsim/PitDig-v0"
+"""The task's Gymnasium environment (:class:`~excavsim.tasks.pit_digging.env.PitDigEnv`)."""
 
 
 def _task():
@@ -55,7 +57,7 @@ class PitDigging(TaskPlugin):
         "underdig_rms_cm": Metric("lower", 0.5),       # soil left above the goal, RMS over the pit [cm]
     }
     columns = (("lanes_dug", "lanes"), ("overdig_max_cm", "over cm"), ("underdig_rms_cm", "under cm"))
-    environments = (EnvEntry("excavsim/PitDig-v0", "excavsim.tasks.pit_digging.env:PitDigEnv"),)
+    environments = (EnvEntry(PIT_DIG_ENV_ID, "excavsim.tasks.pit_digging.env:PitDigEnv"),)
     dig_sources = {"lanes": "excavsim.tasks.pit_digging.digs:LaneDigs"}
 
     def resolve(self, spec, *, robot_path=None, scene_path=None):

@@ -18,6 +18,7 @@ from excavsim.errors import ConfigError, EnvError
 from excavsim.loop import catalog
 from excavsim.loop.scenario import EpisodeSpec, episode_summary, load_spec, resolve, run_spec
 from excavsim.tasks.pit_digging.goal import PitGoal, bucket_width_m, pit_lanes, pit_surface
+from excavsim.tasks.pit_digging.plugin import PIT_DIG_ENV_ID
 from tests.record.test_task_recordings import T3_GRID, TINY_SENSING, verify
 
 SPEC = constants.CONFIGS_DIR / "specs" / "pit_small.yaml"
@@ -116,7 +117,7 @@ def test_the_environment_is_registered_passes_gymnasiums_checker_and_digs_the_ag
 
     import excavsim.envs  # noqa: F401  (registers every plug-in's environments)
 
-    env = gymnasium.make("excavsim/PitDig-v0", spec={"dig_budget": 2, **QUICK})
+    env = gymnasium.make(PIT_DIG_ENV_ID, spec={"dig_budget": 2, **QUICK})
     check_env(env.unwrapped, skip_render_check=True)
     obs, info = env.reset(seed=0)
     assert env.action_space == gymnasium.spaces.Discrete(3) and obs["soil_l"].shape == (3,) and info == {}
