@@ -43,7 +43,8 @@ MODULES: dict[str, str] = {
     "excavsim.loop.plan_dig": "excavsim.tasks.trench.plan_dig",
     "excavsim.loop.timing": "excavsim.tasks.trench.timing",
     # applications
-    "excavsim.loop.playback": "excavsim.apps.playback.play",
+    "excavsim.loop.playback": "excavsim.apps.playback.driver",
+    "excavsim.apps.playback.play": "excavsim.apps.playback.driver",  # one driver for any machine (issue 41)
     "excavsim.loop.teleop": "excavsim.apps.playback.teleop",
     "excavsim.loop.calibrate": "excavsim.apps.calibrate.fit",
     "excavsim.loop.calibrate_digs": "excavsim.apps.calibrate.digs",

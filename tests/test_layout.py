@@ -49,7 +49,7 @@ def test_the_package_keeps_every_contract():
     ("tasks/trench/task.py", "import excavsim.tasks.dump_trial.trial", "No task imports another"),
     ("loop/scenario.py", "import excavsim.studies.campaign.runner", "Layers"),
     ("tasks/dump_trial/trial.py", "import excavsim.tasks.pile_loading.planar", "No task imports another"),
-    ("apps/calibrate/fit.py", "import excavsim.apps.playback.play", "No application imports another"),
+    ("apps/calibrate/fit.py", "import excavsim.apps.playback.driver", "No application imports another"),
     ("studies/bench.py", "import excavsim.studies.regress.suite", "No study imports another"),
     # inside a task's folder: its mind side never reaches the truth, its world side never the mind
     ("tasks/pile_loading/mind/planner.py", "import excavsim.world.soil", "A task's mind"),

@@ -50,7 +50,7 @@ def _cmd_calibrate(args: argparse.Namespace) -> int:
 
 
 def _cmd_playback(args: argparse.Namespace) -> int:
-    from excavsim.apps.playback import play as playback
+    from excavsim.apps.playback import driver
 
     modes = [name for name, on in (("--teleop", args.teleop), ("--from-rrd", args.from_rrd), ("--demo", args.demo))
              if on]
@@ -70,27 +70,12 @@ def _cmd_playback(args: argparse.Namespace) -> int:
         if args.teleop or args.from_rrd or args.seed is not None:
             raise UsageError("playback: --seeds runs the chapter-6 experiment on several seeds; it cannot be "
                              "combined with --seed, --teleop or --from-rrd (give --seeds alone, or with --demo)")
-        seeds = playback.seed_range(args.seeds)
-    seed = args.seed if args.seed is not None else 0
-    if args.machine == "tb035":
-        if args.seeds is not None or args.from_rrd or args.live is not None:
-            raise UsageError("playback --machine tb035: --seeds, --from-rrd and --live are the T3's; give --seed, "
-                             "--demo FILE.json or --teleop [--keys SEQUENCE] [--record FILE.rrd] with it")
-        from excavsim.apps.playback import excavator
-
-        excavator.command(args.out, seed=seed, demo_path=args.demo, teleop=args.teleop, keys=args.keys,
-                          record=args.record)
-        return 0
-    if args.teleop:
-        from excavsim.apps.playback.teleop import teleop_session
-
-        with live_viewer(args.live) as live:  # a viewer window that --live spawns ends with the command
-            teleop_session(args.out, keys=args.keys, seed=seed, record=args.record, live=live,
-                           say=lambda line: print(line, flush=True))
-    elif args.from_rrd:
-        playback.demonstration_from_recording(args.from_rrd, args.dig or 1, args.out)
-    else:
-        playback.run_chapter6(args.out, seed=seed, seeds=seeds, sweep=not args.no_sweep, demo_path=args.demo)
+        seeds = driver.seed_range(args.seeds)
+    with live_viewer(args.live) as live:  # a viewer window that --live spawns ends with the command
+        driver.command(args.out, machine=args.machine, seed=args.seed if args.seed is not None else 0, seeds=seeds,
+                       sweep=not args.no_sweep, demo_path=args.demo, teleop=args.teleop, keys=args.keys,
+                       record=args.record, live=live, from_rrd=args.from_rrd, dig=args.dig,
+                       say=lambda line: print(line, flush=True))
     return 0
 
 
@@ -156,9 +141,12 @@ def register(sub: argparse._SubParsersAction) -> None:
                     "(excavsim trench --record); writes DIR/rrd_demonstration.json")
     pb.add_argument("--dig", type=int_in(1, 100_000), metavar="N", help="with --from-rrd: which dig (default 1)")
     pb.add_argument("--demo", metavar="FILE.json", help="play back this demonstration file instead of recording one")
-    pb.add_argument("--machine", choices=["t3", "tb035"], default="t3",
-                    help="the machine: the T3 (default; Table 6.5's impedance) or DiMaio's TB035 mini-excavator "
-                    "(Table 4.1's impedance; with --teleop the keys z/c also swing the cab)")
+    from excavsim.apps.playback import DEFAULT_MACHINE, MACHINE_NAMES
+
+    pb.add_argument("--machine", choices=MACHINE_NAMES, default=DEFAULT_MACHINE,
+                    help=f"the machine, one of {', '.join(MACHINE_NAMES)} (default {DEFAULT_MACHINE}): with joint "
+                    "servos and a wrist F/T it plays back with Table 6.5's impedance, with cylinders (an excavator) "
+                    "with Table 4.1's, and with --teleop the keys z/c also swing its cab")
     pb.add_argument("--out", metavar="DIR", default="runs/playback", type=out_dir,
                     help="output directory (default runs/playback)")
     pb.set_defaults(func=_cmd_playback)

@@ -35,7 +35,7 @@ class TrenchAction(NamedTuple):
 
 # k [m], alpha [rad], d1 [m], d2 [m]: about a bucketful from the flat 0.5 m fill, 13 cm deep. The
 # hand-picked dig of ``excavsim demo`` (:mod:`excavsim.tasks.trench.demo`) and the cut whose record is
-# the playback's demonstration (:mod:`excavsim.apps.playback.play`): shared by a task and an application.
+# the playback's demonstration on the T3 (:mod:`excavsim.apps.playback.servo_arm`): shared by a task and an application.
 DEMO_ACTION = TrenchAction(2.2, math.radians(40.0), 0.2, 0.4)
 
 

@@ -10,7 +10,7 @@ around them is the same.
 
 from __future__ import annotations
 
-from excavsim.config import RobotConfig, SceneConfig
+from excavsim.config import RobotConfig, SceneConfig, SoilParams
 from excavsim.robot.excavators import MACHINES as EXCAVATORS
 from excavsim.robot.machine import get_machine
 from excavsim.world.hydraulics import ExcavatorWorld
@@ -18,7 +18,7 @@ from excavsim.world.simulation import Simulation
 
 
 def make_world(machine: str, robot: RobotConfig | None = None, scene: SceneConfig | None = None, *,
-               seed: int = 0) -> Simulation | ExcavatorWorld:
+               soil: SoilParams | str | None = None, seed: int = 0) -> Simulation | ExcavatorWorld:
     """The world of trenching machine ``machine`` with ``seed``.
 
     Args:
@@ -26,11 +26,15 @@ def make_world(machine: str, robot: RobotConfig | None = None, scene: SceneConfi
         robot: the T3's servos (``configs/robot.yaml`` when None); an excavator's are its model's.
         scene: soil preset, settlement, truth terms and bucket handling (``configs/scene.yaml`` when None);
             an excavator's pit starts filled flush with the ground (its ``initial_soil_height_m`` is the pit's).
+        soil: the soil's parameters or a preset name instead of the scene's ``soil`` preset (e.g. a preset
+            with its terms scaled, as the playback's stiffer and softer soils).
 
     Raises:
         ConfigError: ``machine`` is unknown (the message lists the allowed ones).
     """
     get_machine(machine)  # raises with the allowed names
     if machine in EXCAVATORS:
-        return ExcavatorWorld(machine, scene.soil if scene is not None else None, scene, seed=seed)
-    return Simulation(robot, scene, seed=seed)
+        if soil is None and scene is not None:
+            soil = scene.soil
+        return ExcavatorWorld(machine, soil, scene, seed=seed)
+    return Simulation(robot, scene, soil, seed=seed)

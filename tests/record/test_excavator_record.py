@@ -9,8 +9,10 @@ import numpy as np
 import pytest
 from rerun.chunk import RrdReader
 
-from excavsim.apps.playback import excavator as ex
+from excavsim.apps.playback.machines import adapter_for
+from excavsim.apps.playback.teleop import teleoperate
 from excavsim.cli import main
+from excavsim.config import get_soil
 from excavsim.errors import ExcavsimError
 from excavsim.execution.teleop import FINISH
 from excavsim.record.excavator import ExcavatorRecorder
@@ -23,7 +25,7 @@ MOVING = ("upper", "boom", "stick", "bucket", "rocker", "link")
 def recording(tmp_path_factory):
     path = tmp_path_factory.mktemp("exc") / "tb035.rrd"
     recorder = ExcavatorRecorder(path, rate_hz=10.0, soil_period_s=0.5)
-    demo = ex.teleoperate_tb035("z" * 6 + "s" * 12 + "a" * 10 + FINISH, observer=recorder)
+    demo = teleoperate("z" * 6 + "s" * 12 + "a" * 10 + FINISH, machine="tb035", observer=recorder)
     return path, demo
 
 
@@ -66,7 +68,7 @@ def bucket_positions(path) -> np.ndarray:
 def test_the_bucket_is_logged_where_the_world_has_it(tmp_path):
     """A swing of the world recorded at 10 Hz: the bucket's logged positions follow the world's, sample by
     sample, and its last bearing is the swing angle."""
-    rig = ex.TB035Rig("testbed_sand", 0)
+    rig = adapter_for("tb035").rig(get_soil("testbed_sand"), 0)
     path = tmp_path / "swing.rrd"
     recorder = ExcavatorRecorder(path, rate_hz=10.0)
     recorder.started(rig.world)

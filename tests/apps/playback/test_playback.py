@@ -113,16 +113,24 @@ def test_a_demonstration_round_trips_and_a_bad_file_is_refused(tmp_path):
 
 @pytest.fixture(scope="module")
 def recorded():
-    from excavsim.apps.playback.play import record_demonstration
+    from excavsim.apps.playback.driver import record_demonstration
     return record_demonstration(0)
+
+
+def table_6_5():
+    """The T3's impedance (Table 6.5), from its adapter."""
+    from excavsim.apps.playback.servo_arm import TABLE_6_5
+    return TABLE_6_5
 
 
 def test_playback_in_the_demonstration_soil_reproduces_it(recorded):
     from excavsim.config import get_soil
-    from excavsim.apps.playback.play import DEMO_SOIL, MASS, K_MAX, play
+    from excavsim.apps.playback.adapter import DEMO_SOIL
+    from excavsim.apps.playback.driver import play
+    imp = table_6_5()
     d = recorded.with_approach(0.10, 1.0)
     assert len(recorded.times) > 300 and "completed" in recorded.source
-    run = play(d, get_soil(DEMO_SOIL), "same", FixedImpedance("position", MASS, K_MAX))
+    run, _ = play(d, get_soil(DEMO_SOIL), "same", FixedImpedance("position", imp.mass_kg, imp.k_high_n_m))
     e = run.errors(1e6)
     assert run.outcome == "completed"
     assert e["pos_max_m"] < 0.03  # the tip path within 3 cm
@@ -137,10 +145,12 @@ def test_the_variable_controller_reproduces_the_demonstration_in_its_own_soil(re
     # it missed by 1.5 cm / 183 N (seed 0; 161-199 N on seeds 0-7: r = |fe| / (G |v|) ~ 9 softened it in its own
     # soil); with the chapter's G = 2000 1.5 cm / 109 N (95-120 N on seeds 0-7; position control 86-112 N).
     from excavsim.config import get_soil
-    from excavsim.apps.playback.play import DEMO_SOIL, G_VARIABLE, K_MAX, K_MIN, MASS, W, play
+    from excavsim.apps.playback.adapter import DEMO_SOIL, W
+    from excavsim.apps.playback.driver import play
+    imp = table_6_5()
     d = recorded.with_approach(0.10, 1.0)
-    run = play(d, get_soil(DEMO_SOIL), "same", VariableImpedance("variable", MASS, K_MIN, K_MAX, G_VARIABLE,
-                                                                 depth=DepthDual(w=W)))
+    run, _ = play(d, get_soil(DEMO_SOIL), "same", VariableImpedance("variable", imp.mass_kg, imp.k_low_n_m,
+                                                                    imp.k_high_n_m, imp.g_n_s_m, depth=DepthDual(w=W)))
     e = run.errors(W)
     assert run.outcome == "completed"
     assert e["pos_rms_m"] < 0.02 and e["pos_max_m"] < 0.035
@@ -184,14 +194,17 @@ def test_the_depth_law_is_the_static_minimiser_of_eq_3_14_in_the_depth():
 
 
 def test_position_control_fails_in_the_changed_soils_and_variable_impedance_beats_both_fixed_ones(recorded):
-    from excavsim.apps.playback.play import DEMO_SOIL, G_VARIABLE, K_MAX, K_MIN, MASS, SOFTER, STIFFER, W, play, scaled_soil
+    from excavsim.apps.playback.adapter import DEMO_SOIL, SOFTER, STIFFER, W, scaled_soil
+    from excavsim.apps.playback.driver import play
+    imp = table_6_5()
+    MASS, K_MIN, K_MAX, G_VARIABLE = imp.mass_kg, imp.k_low_n_m, imp.k_high_n_m, imp.g_n_s_m
     d = recorded.with_approach(0.10, 1.0)
     soils = {"stiffer": scaled_soil(DEMO_SOIL, STIFFER), "softer": scaled_soil(DEMO_SOIL, SOFTER)}
     e = {}
     for name, soil in soils.items():
         for law in (FixedImpedance("position", MASS, K_MAX), FixedImpedance("force", MASS, K_MIN),
                     VariableImpedance("variable", MASS, K_MIN, K_MAX, G_VARIABLE, depth=DepthDual(w=W))):
-            run = play(d, soil, name, law)
+            run, _ = play(d, soil, name, law)
             assert run.outcome == "completed"
             e[name, law.name] = run.errors(W)
     demo_peak = e["stiffer", "position"]["demo_force_peak_n"]

@@ -11,7 +11,10 @@ import pytest
 
 from excavsim.cli import main
 from excavsim.errors import ExcavsimError
-from excavsim.apps.playback.play import FORCE, POSITION, VARIABLE, seed_range, seed_table, seed_verdict
+from excavsim.apps.playback.driver import seed_range, seed_table, seed_verdict
+from excavsim.apps.playback.servo_arm import TABLE_6_5
+
+FORCE, POSITION, VARIABLE = TABLE_6_5.low, TABLE_6_5.position, TABLE_6_5.variable
 
 
 def test_seed_range_reads_ranges_and_lists_and_refuses_bad_specs():
@@ -49,7 +52,7 @@ def test_the_closing_note_counts_the_seeds_on_which_the_variable_impedance_wins(
 @pytest.fixture(scope="module")
 def short_demo(tmp_path_factory):
     """The chapter's demonstration cut short (the approach, the entry and 1 s of drag) to keep the test fast."""
-    from excavsim.apps.playback.play import record_demonstration
+    from excavsim.apps.playback.driver import record_demonstration
     d = record_demonstration(0).with_approach(0.10, 1.0)
     n = 200
     short = dataclasses.replace(d, times=d.times[:n], pose=d.pose[:n], force=d.force[:n])
@@ -59,10 +62,10 @@ def short_demo(tmp_path_factory):
 @pytest.mark.slow
 def test_playback_over_seeds_prints_each_seed_and_the_mean_and_writes_them(short_demo, tmp_path, capsys,
                                                                           monkeypatch):
-    from excavsim.apps.playback import play as playback
+    from excavsim.apps.playback import driver
     # the three controllers the closing note compares (the moderate one left out: each playback builds a world)
-    three = [law for law in playback.controllers(False) if law.name in (POSITION, FORCE, VARIABLE)]
-    monkeypatch.setattr(playback, "controllers", lambda sweep=True: three)
+    three = [law for law in driver.controllers(TABLE_6_5, False) if law.name in (POSITION, FORCE, VARIABLE)]
+    monkeypatch.setattr(driver, "controllers", lambda impedance, sweep=True: three)
     out = tmp_path / "o"
     assert main(["playback", "--demo", str(short_demo), "--seeds", "0,3", "--no-sweep", "--out", str(out)]) == 0
     text = capsys.readouterr().out

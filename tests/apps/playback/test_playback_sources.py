@@ -45,7 +45,7 @@ def test_a_teleoperated_key_sequence_writes_a_demonstration_that_validates(tmp_p
     assert demo.pose[0, 0] - demo.pose[-1, 0] == pytest.approx(0.30, abs=0.06)
     assert np.linalg.norm(demo.force, axis=1).max() > 100.0  # the drag was in the soil and the F/T felt it
     # the file plays back (what `excavsim playback --demo FILE` runs, here without the figures)
-    from excavsim.apps.playback.play import run_playback
+    from excavsim.apps.playback.driver import run_playback
     lines = []
     table = run_playback(None, demo=load_demonstration(tmp_path / "teleop.json"), sweep=False, progress=lines.append)
     assert len(table) == 12 and {s for s, _ in table} == {"same", "stiffer x3", "softer x0.3"}
@@ -95,7 +95,7 @@ class Capture:
 
 def test_a_dig_read_back_from_a_rerun_recording_is_the_executed_cut(tmp_path):
     from excavsim.handoff.episode import ObserverGroup
-    from excavsim.apps.playback.play import demonstration_from_signals
+    from excavsim.apps.playback.machines import adapter_for
     from excavsim.loop.scenario import EpisodeSpec, run_spec
     from excavsim.record import TrenchRecorder
     from excavsim.record.demo_reading import read_dig
@@ -108,8 +108,8 @@ def test_a_dig_read_back_from_a_rerun_recording_is_the_executed_cut(tmp_path):
     rec = cap.records[0]
     assert len(rec.executed_path) > 100
     dig = read_dig(path, 1)
-    demo = demonstration_from_signals(dig.joint_times, dig.joints, dig.ft_times, dig.ft_tip, dig.path_world,
-                                      source=f"{path}, dig 1")
+    demo = adapter_for().demonstration_from_signals(dig.joint_times, dig.joints, dig.ft_times, dig.ft_tip,
+                                                    dig.path_world, source=f"{path}, dig 1")
     ref = demonstration_from_record(rec, arm=cap.rig.arm, ft=cap.rig.executor.ft, waist=demo.waist,
                                     dt=cap.sim.control_dt)
     # the same cut: its length within two recorder samples (10 Hz), the ends within 3 cm, the force peak within 15 %
