@@ -100,7 +100,10 @@ def record_envs(out: pathlib.Path) -> None:
     import gymnasium as gym
 
     import excavsim.envs  # noqa: F401  (registers the environments)
-    from excavsim.envs.dm import DmTrenchDig
+    try:
+        from excavsim.tasks.trench.envs.dm import DmTrenchDig
+    except ImportError:  # a checkout from before the environments moved into their tasks' folders
+        from excavsim.envs.dm import DmTrenchDig
 
     out.mkdir(parents=True, exist_ok=True)
     spec = {"goal": "small", "dig_budget": 3, "sensing": {"map": {"n_scans": 2}}}

@@ -1,73 +1,92 @@
-"""Reinforcement-learning environments on the trenching testbed, at two levels.
+"""Reinforcement-learning environments on the excavsim platform: each task's, and the joint level's.
 
-* ``excavsim/TrenchDig-v0`` (:class:`~excavsim.envs.dig_env.TrenchDigEnv`): one step per dig, the
-  action Singh's trenching action (k, alpha, d1); the episode is the loop of ``excavsim trench``
-  with the agent in the planner's place.
-* ``excavsim/LoadDig-v0`` (:class:`~excavsim.envs.load_env.LoadDigEnv`): loading from a pile in
-  MuJoCo, one step per dig, the action the loading planner's (k, alpha); the episode is the loop of
-  ``excavsim trench --spec`` with ``task: pile_loading`` and the agent in the loading planner's place.
-* The joint level, one environment for any trenching machine (:class:`~excavsim.envs.joint_env.JointEnv`
-  over :class:`~excavsim.envs.joint_core.JointCore`): one step per control period, the action the set-point
-  rates of the machine's four digging joints; the machine is the spec's (or ``machine=``). Three ids,
-  each a goal with its defaults (:data:`JOINT_ENV_KWARGS`):
+An environment is something a task contributes: its plug-in's ``environments``
+(:class:`~excavsim.loop.plugin.EnvEntry`: an id, its entry point, its keywords and its batched vector
+implementation), whose classes live in the task's folder. :func:`register` registers every registered
+task's environments with Gymnasium (asking the catalog, :func:`excavsim.loop.catalog.plugins`) and the
+platform's own (:data:`PLATFORM_ENVIRONMENTS`); importing this module does it. Each id's entry point is in
+:func:`environments` (``gymnasium.make("excavsim/TrenchDig-v0", spec=...)``; install ``excavsim[envs]``).
 
-  * ``excavsim/TrenchJoint-v0`` and ``excavsim/TrenchJointDig-v0``: the spec's trench (the T3's by
-    default); the first the whole trench (3,000 steps on the T3), the second one dig (600 steps, the
-    single-dig task the PPO baseline learns). Both start with the bucket just above the soil.
-  * ``excavsim/ExcavatorJoint-v0``: a region of the pit emptied by a hydraulic excavator (DiMaio 1998's
-    TB035 by default, or ``machine="excavator_25t"``) at 50 Hz, the action its four valves.
+This package is the machinery they share, and names no task and no machine:
 
-Importing this module registers them with Gymnasium (``gymnasium.make("excavsim/TrenchDig-v0",
-spec=...)``; install ``excavsim[envs]``). :mod:`excavsim.envs.dm` has the same environments with a
-dm_env face (:class:`~excavsim.envs.dm.DmTrenchDig`, :class:`~excavsim.envs.dm.DmJoint`,
-:class:`~excavsim.envs.dm.DmLoadDig`), which needs only dm-env. The cores (:mod:`excavsim.envs.core`,
-:mod:`excavsim.envs.joint_core`, :mod:`excavsim.envs.load_core`) know neither library.
+* the dig level (one step per dig, the action a task planner's): :class:`~excavsim.envs.core.DigLevelCore`
+  (the core's stepping), :class:`~excavsim.envs.dig_env.DigStepEnv` (the Gymnasium face),
+  :class:`~excavsim.envs.dig_env.PlannerPolicy` (a task's planner as a policy); each task subclasses them;
+* the joint level, one environment for any machine (:class:`~excavsim.envs.joint_env.JointEnv` over
+  :class:`~excavsim.envs.joint_core.JointCore`): one step per control period, the action the set-point rates
+  of the machine's four digging joints, a goal (a class named by its entry point in the id's keywords, a
+  task's or the platform's region goal, :class:`~excavsim.envs.joint_region.JointRegion`) saying what the
+  episode is for; its batched vector environment :class:`~excavsim.envs.batched.BatchedJointEnv`;
+* the faces' parts: observation fields (:class:`~excavsim.envs.core.Field`), Gymnasium spaces
+  (:mod:`~excavsim.envs.spaces`), offscreen frames (:mod:`~excavsim.envs.render`) and the dm_env face
+  (:mod:`~excavsim.envs.dm`, which needs only dm-env).
+
+The platform's own id is ``excavsim/ExcavatorJoint-v0``: a region of the pit emptied by a hydraulic
+excavator (DiMaio 1998's TB035 by default, or ``machine=`` another of the registry's) at 50 Hz, the action its
+four valves. The cores know neither RL library.
 """
 
 from __future__ import annotations
 
-from excavsim.envs.core import DIG_WEIGHTS, OUTCOMES, DigCore, EnvError
-from excavsim.envs.joint_core import JOINT_GOALS, JointCore
+from excavsim.envs.core import EnvError, Field
+from excavsim.envs.joint_core import JOINT_ENTRY_POINT, JointCore, joint_goals
 from excavsim.envs.joint_region import EXCAVATOR_WEIGHTS
-from excavsim.envs.joint_trench import DIG_TASK, JOINT_WEIGHTS, TRENCH_TASK
+from excavsim.errors import ConfigError
+from excavsim.loop import catalog
+from excavsim.loop.plugin import EnvEntry
 
-__all__ = ["DIG_WEIGHTS", "DIG_ENV_ID", "ENV_IDS", "EXCAVATOR_JOINT_ENV_ID", "EXCAVATOR_WEIGHTS", "JOINT_DIG_ENV_ID",
-           "JOINT_ENV_ID", "JOINT_ENV_KWARGS", "JOINT_GOALS", "JOINT_WEIGHTS", "LOAD_DIG_ENV_ID", "OUTCOMES", "DigCore",
-           "EnvError", "JointCore", "register"]
+__all__ = ["ENV_IDS", "EXCAVATOR_JOINT_ENV_ID", "EXCAVATOR_WEIGHTS", "PLATFORM_ENVIRONMENTS", "EnvError", "Field",
+           "JointCore", "environments", "joint_goals", "register"]
 
-DIG_ENV_ID = "excavsim/TrenchDig-v0"
-JOINT_ENV_ID = "excavsim/TrenchJoint-v0"
-JOINT_DIG_ENV_ID = "excavsim/TrenchJointDig-v0"
-LOAD_DIG_ENV_ID = "excavsim/LoadDig-v0"
+BATCHED_ENTRY_POINT = "excavsim.envs.batched:BatchedJointEnv"
+"""The joint-level ids' ``vector_entry_point``: the batched vector environment."""
 EXCAVATOR_JOINT_ENV_ID = "excavsim/ExcavatorJoint-v0"
-ENV_IDS = (DIG_ENV_ID, JOINT_ENV_ID, JOINT_DIG_ENV_ID, LOAD_DIG_ENV_ID, EXCAVATOR_JOINT_ENV_ID)
-"""Every environment this package registers."""
-JOINT_ENV_KWARGS = {JOINT_ENV_ID: {"goal": "trench", **TRENCH_TASK}, JOINT_DIG_ENV_ID: {"goal": "trench", **DIG_TASK},
-                    EXCAVATOR_JOINT_ENV_ID: {"goal": "region"}}
-"""The joint-level ids: each a registration of :class:`~excavsim.envs.joint_env.JointEnv` with these keywords
-(a goal of :data:`~excavsim.envs.joint_core.JOINT_GOALS` and its defaults); ``gymnasium.make(id, machine=...)``
-picks the machine (the region's default is the TB035, the trench's the spec's machine, the T3 by default)."""
+PLATFORM_ENVIRONMENTS = (
+    EnvEntry(EXCAVATOR_JOINT_ENV_ID, JOINT_ENTRY_POINT, {"goal": "excavsim.envs.joint_region:JointRegion"},
+             BATCHED_ENTRY_POINT),
+)
+"""The environments of no task: the joint level with the platform's region goal (its machine and soil by
+default the goal's, :attr:`JointRegion.SPEC_DEFAULTS <excavsim.envs.joint_region.JointRegion.SPEC_DEFAULTS>`)."""
+
+
+def environments() -> dict[str, EnvEntry]:
+    """Every environment, by id: each registered task's (its plug-in's ``environments``, in the catalog's
+    order), then :data:`PLATFORM_ENVIRONMENTS`.
+
+    Raises:
+        ConfigError: two tasks (or a task and the platform) contribute the same id.
+    """
+    found: dict[str, EnvEntry] = {}
+    owner: dict[str, str] = {}
+    sources = [(name, plugin.environments) for name, plugin in catalog.plugins().items()]
+    for source, entries in [*sources, ("the platform", PLATFORM_ENVIRONMENTS)]:
+        for entry in entries:
+            if entry.id in found:
+                raise ConfigError(f"environment {entry.id!r} is contributed by {owner[entry.id]} and by {source}; "
+                                  "allowed: one owner per id")
+            found[entry.id], owner[entry.id] = entry, source
+    return found
 
 
 def register() -> bool:
-    """Register the environments of :data:`ENV_IDS` with Gymnasium (done on import); False when
-    Gymnasium is not installed. The joint-level ones also register the batched vector environment
-    (:class:`~excavsim.envs.batched.BatchedJointEnv`) as their ``vector_entry_point``, which
-    ``gymnasium.make_vec`` uses by default (and with ``vectorization_mode="vector_entry_point"``)."""
+    """Register every environment of :func:`environments` with Gymnasium (done on import; call it again after
+    registering a task at run time); False when Gymnasium is not installed. The joint-level ones also register
+    the batched vector environment (:class:`~excavsim.envs.batched.BatchedJointEnv`) as their
+    ``vector_entry_point``, which ``gymnasium.make_vec`` uses by default (and with
+    ``vectorization_mode="vector_entry_point"``)."""
     try:
         import gymnasium
     except ImportError:
         return False
     registry = gymnasium.envs.registration.registry
-    if DIG_ENV_ID not in registry:
-        gymnasium.register(DIG_ENV_ID, entry_point="excavsim.envs.dig_env:TrenchDigEnv")
-    if LOAD_DIG_ENV_ID not in registry:
-        gymnasium.register(LOAD_DIG_ENV_ID, entry_point="excavsim.envs.load_env:LoadDigEnv")
-    for env_id, kwargs in JOINT_ENV_KWARGS.items():
+    for env_id, entry in environments().items():
         if env_id not in registry:
-            gymnasium.register(env_id, entry_point="excavsim.envs.joint_env:JointEnv", kwargs=dict(kwargs),
-                               vector_entry_point="excavsim.envs.batched:BatchedJointEnv")
+            gymnasium.register(env_id, entry_point=entry.entry_point, kwargs=dict(entry.kwargs),
+                               vector_entry_point=entry.vector_entry_point)
     return True
 
+
+ENV_IDS = tuple(environments())
+"""Every environment's id when this module was imported (:func:`environments` has those of tasks registered later)."""
 
 register()

@@ -1,10 +1,12 @@
 """N copies of the joint-level world stepped together in one process: Gymnasium's ``vector_entry_point``.
 
-:class:`BatchedJointEnv` is what ``gymnasium.make_vec("excavsim/TrenchJointDig-v0", num_envs=N)``
-gives (its default vectorization mode, or ``vectorization_mode="vector_entry_point"``), for every
-joint-level id. Each copy is a :class:`~excavsim.envs.joint_core.JointCore` with its own world. The T3 on
-the trench goal (the copies' worlds :class:`~excavsim.world.simulation.Simulation`, their drive four
-symmetric servos and two held ones) takes the compiled path; one step of the batch:
+:class:`BatchedJointEnv` is what ``gymnasium.make_vec(id, num_envs=N)`` gives for a joint-level id (its
+default vectorization mode, or ``vectorization_mode="vector_entry_point"``). Each copy is a
+:class:`~excavsim.envs.joint_core.JointCore` with its own world. Copies take the **compiled path** when their
+machine's world is the servo :class:`~excavsim.world.simulation.Simulation` (no hydraulics, the wrist F/T,
+four symmetric driven servos first and two held ones after: the T3) and their goal has a compiled part (its
+``BATCH``, a class in the goal's own folder: the goal's measures and observation entries of all copies at
+once); one step of the batch:
 
 1. the actions of all copies are checked at once and turned into the servos' set-point rates, written
    into every copy's ``data.ctrl`` in one compiled call (:func:`servo_rates`);
@@ -14,9 +16,9 @@ symmetric servos and two held ones) takes the compiled path; one step of the bat
 3. MuJoCo steps each copy's physics (``mj_step`` over the control period's substeps, the soil's
    wrench held); one compiled check (:func:`watch_ok`) passes the copies the world's watchdog would
    pass, and the watchdog itself looks at the others;
-4. the true trench of all copies is measured in one gather (:func:`gather_cells`) and one numpy
-   pass, the rewards are accounted per copy, and the height patches of all copies are computed in
-   one compiled pass (:func:`patch_kernel`) on their maps stacked.
+4. the goal's part measures the copies' true terrain at once (:meth:`Batch.measure`), the rewards are
+   accounted per copy, and the observations of all copies are read together: the machine's entries here,
+   the goal's by its part (:meth:`Batch.observe`).
 
 The copies step exactly as N single environments do, to the bit (tests/envs/test_rl.py checks it):
 the world's per-step operations on each copy are the same, in the same order. A copy whose soil uses DiMaio's model
@@ -32,8 +34,7 @@ episode ended resets it (its action is ignored, its reward 0) and returns its fi
 
 from __future__ import annotations
 
-import math
-from typing import Any
+from typing import Any, Protocol
 
 import gymnasium as gym
 import mujoco
@@ -44,10 +45,10 @@ from numba.typed import List
 
 from excavsim.envs.core import EnvError, check_seed
 from excavsim.envs.joint_core import JointCore
-from excavsim.envs.joint_trench import JointTrench
 from excavsim.envs.render import RENDER_MODES, FrameRenderer, check_render_mode
 from excavsim.envs.spaces import dict_space
 from excavsim.handoff.observation import Diverged
+from excavsim.loop.plugin import load_entry
 from excavsim.world.kernels import soil_step
 
 _OBJ_BODY = mujoco.mjtObj.mjOBJ_BODY
@@ -95,77 +96,6 @@ def servo_rates(active, a, ctrls, qposs, act, qadr, hold, limit, gain):
 
 
 @numba.njit(cache=True)
-def gather_cells(heights, rows, cols, out):
-    """``out[i, j] = heights[i][rows[j], cols[j]]``: the footprint's cells of every copy's true terrain."""
-    for i in range(len(heights)):
-        h = heights[i]
-        for j in range(rows.shape[0]):
-            out[i, j] = h[rows[j], cols[j]]
-
-
-@numba.njit(cache=True, inline="always")
-def _bilinear(h, x, y, x0, y0, cell, ny, nx):
-    """:meth:`PatchLayout.heights_at <excavsim.envs.joint_trench.PatchLayout.heights_at>` at one point
-    of one map, the same operations in the same order."""
-    u = (x - x0) / cell - 0.5
-    u = min(max(u, 0.0), nx - 1.0)
-    v = (y - y0) / cell - 0.5
-    v = min(max(v, 0.0), ny - 1.0)
-    c0 = min(np.int64(u), nx - 2)
-    r0 = min(np.int64(v), ny - 2)
-    fu, fv = u - c0, v - r0
-    return ((1 - fu) * (1 - fv) * h[r0, c0] + fu * (1 - fv) * h[r0, c0 + 1]
-            + (1 - fu) * fv * h[r0 + 1, c0] + fu * fv * h[r0 + 1, c0 + 1])
-
-
-@numba.njit(cache=True)
-def patch_kernel(heights, tips, off_x, off_y, grid, goal, terrain, goal_out, depth, inside):
-    """:meth:`PatchLayout.patches <excavsim.envs.joint_trench.PatchLayout.patches>` of every copy in
-    one compiled pass, element by element with the same arithmetic (so the same numbers, to the bit).
-
-    Args:
-        heights: (N, ny, nx) the copies' maps; tips: (N, 3) their tips [m]; off_x, off_y: (P, P) offsets [m].
-        grid: (x0, y0, cell) of the maps; goal: (cos waist, sin waist, half width, near x, far x,
-            surface z, surface z - depth, tan near wall, tan far wall).
-        terrain, goal_out: (N, P, P) written; depth: (N,) written; inside: (N,) bool written.
-    """
-    x0, y0, cell = grid[0], grid[1], grid[2]
-    cw, sw, hw, near, far, z_ref, z_bottom, tan_near, tan_far = (goal[0], goal[1], goal[2], goal[3], goal[4],
-                                                                 goal[5], goal[6], goal[7], goal[8])
-    ny, nx = heights.shape[1], heights.shape[2]
-    for n in range(heights.shape[0]):
-        h = heights[n]
-        tx, ty, tz = tips[n, 0], tips[n, 1], tips[n, 2]
-        for a in range(off_x.shape[0]):
-            for b in range(off_x.shape[1]):
-                px, py = tx + off_x[a, b], ty + off_y[a, b]
-                terrain[n, a, b] = _bilinear(h, px, py, x0, y0, cell, ny, nx) - tz
-                radial = px * cw + py * sw
-                lateral = -px * sw + py * cw
-                z = z_ref
-                if abs(lateral) <= hw and radial >= near and radial <= far:
-                    z_near = z_ref - (radial - near) * tan_near
-                    z_far = z_ref - (far - radial) * tan_far
-                    z = max(max(z_near, z_far), z_bottom)
-                goal_out[n, a, b] = z - tz
-        t_radial = tx * cw + ty * sw
-        t_lateral = -tx * sw + ty * cw
-        inside[n] = abs(t_lateral) <= hw and t_radial >= near and t_radial <= far
-        depth[n] = _bilinear(h, tx, ty, x0, y0, cell, ny, nx) - tz
-
-
-def _layout_constants(layout) -> tuple[np.ndarray, np.ndarray]:
-    """The grid and goal numbers :func:`patch_kernel` takes, computed as :class:`PatchLayout` and
-    :func:`~excavsim.handoff.goal.goal_profile` compute them."""
-    g = layout.goal
-    grid = np.array([layout.x0, layout.y0, layout.cell], dtype=np.float64)
-    goal = np.array([layout.cw, layout.sw, layout.half_width, g.near_x_m, g.far_x_m, g.surface_z_m,
-                     g.surface_z_m - g.depth_m, math.tan(math.radians(g.near_wall_deg)),
-                     math.tan(math.radians(g.far_wall_deg))], dtype=np.float64)
-    return grid, goal
-
-
-@numba.njit(cache=True)
 def watch_ok(stepped, counts, base, qposs, qvels, before, after, dt, half_step, ok):
     """A conservative batched watchdog: ``ok[i]`` True only where copy ``i``'s step is surely fine by
     :meth:`Simulation._watchdog <excavsim.world.simulation.Simulation._watchdog>`'s rules (no MuJoCo
@@ -203,9 +133,31 @@ def _soil_arrays(sim) -> dict[str, Any]:
             "boxes": soil._box_body}
 
 
+class Batch(Protocol):
+    """A goal's part of the compiled path (the goal's ``BATCH``, made with the copies' cores): what the goal
+    computes for all copies at once, with the same numbers as each copy's goal alone."""
+
+    def attach(self, i: int) -> None:
+        """Copy ``i`` was reset: point at its goal's fresh state."""
+
+    def reset_info(self, i: int) -> dict[str, Any]:
+        """Copy ``i``'s info at its reset (numbers, as the batched infos hold them)."""
+
+    def measure(self, heights) -> list[Any] | None:
+        """Every copy's true measures for :meth:`JointCore.account <excavsim.envs.joint_core.JointCore.account>`
+        given their soil's heights (a typed list, one array per copy), or None (each copy measures itself)."""
+
+    def accounted(self, i: int) -> None:
+        """Copy ``i``'s goal has accounted its step (it may have rescanned)."""
+
+    def observe(self, which: np.ndarray, readings: list[Any], out: dict[str, np.ndarray]) -> None:
+        """Write the goal's entries of the observations of copies ``which`` from their ``readings`` into ``out``
+        ((N, ...) float32 arrays), and leave each copy's goal as its own :meth:`observe` would."""
+
+
 class BatchedJointEnv(gym.vector.VectorEnv):
-    """``num_envs`` copies of :class:`~excavsim.envs.joint_env.JointEnv` stepped in one process, for the T3's
-    trench the soil in one compiled call (see the module docstring).
+    """``num_envs`` copies of :class:`~excavsim.envs.joint_env.JointEnv` stepped in one process; where the
+    machine and the goal allow, the soil of all copies in one compiled call (see the module docstring).
 
     Spaces: the single environment's, batched (``Dict`` of (N, ...) float32 boxes; actions (N, 4)
     float32 in [-1, 1]). ``infos`` hold the single environment's numbers as (N,) arrays with
@@ -233,7 +185,8 @@ class BatchedJointEnv(gym.vector.VectorEnv):
         self.render_mode = check_render_mode(render_mode)
         self.cores = [JointCore(spec, **kwargs) for _ in range(self.num_envs)]
         core = self.cores[0]
-        self._compiled = _compiled_path(core)
+        self._batch: Batch | None = _batch_of(self.cores)
+        self._compiled = self._batch is not None
         self.single_observation_space = dict_space(core.fields)
         self.single_action_space = gym.spaces.Box(-1.0, 1.0, shape=core.action_low.shape, dtype=np.float32)
         self.observation_space = batch_space(self.single_observation_space, self.num_envs)
@@ -245,8 +198,6 @@ class BatchedJointEnv(gym.vector.VectorEnv):
         self._soil: dict[str, List] | None = None
         self._vel = np.zeros((self.num_envs, 6))
         self._clear = np.zeros(self.num_envs, dtype=np.bool_)
-        self._maps: np.ndarray | None = None
-        self._map_of: list[Any] = [None] * self.num_envs
         self._obs: dict[str, np.ndarray] | None = None
         self._resets = 0
         # the per-copy constants of the compiled servo rates, and the views they write (set at each reset)
@@ -262,8 +213,6 @@ class BatchedJointEnv(gym.vector.VectorEnv):
         self._base: List | None = None
         self._qvels = List([np.zeros(1)] * self.num_envs)
         self._ok = np.zeros(self.num_envs, dtype=np.bool_)
-        self._h0: np.ndarray | None = None  # (N, cells) the footprint's first heights, when the copies share it
-        self._cells: np.ndarray | None = None
 
     # -- reset ----------------------------------------------------------------------------------
     def reset(self, *, seed: int | list[int] | None = None, options: dict[str, Any] | None = None):
@@ -298,15 +247,11 @@ class BatchedJointEnv(gym.vector.VectorEnv):
         for i, s in enumerate(seeds):
             self.cores[i].reset(s, options)
             self._attach(i)
-            infos = self._add_info(infos, self._reset_info(i), i)
+            infos = self._add_info(infos, self._batch.reset_info(i), i)
         self._obs = self._observe(np.ones(self.num_envs, dtype=bool), [c.reading for c in self.cores])
         for i in range(self.num_envs):
             self.cores[i].goal.started()
         return self._copy_obs(), infos
-
-    def _reset_info(self, i: int) -> dict[str, Any]:
-        goal = self.cores[i].goal
-        return {"time_s": 0.0, "map_removed_fraction": goal._frac, "map_done": bool(goal._done)}
 
     def _attach(self, i: int) -> None:
         """Point the batched kernel's lists at copy ``i``'s fresh world."""
@@ -317,11 +262,6 @@ class BatchedJointEnv(gym.vector.VectorEnv):
         else:
             for name in _SOIL_LISTS:
                 self._soil[name][i] = arrays[name]
-        emap = self.cores[i].goal.emap
-        if self._maps is None or self._maps.shape[1:] != emap.heights.shape:
-            self._maps = np.zeros((self.num_envs,) + emap.heights.shape)
-        self._maps[i] = emap.heights
-        self._map_of[i] = emap
         core = self.cores[i]
         d = sim.data
         self._ctrls[i], self._qposs[i] = d.ctrl, d.qpos
@@ -332,24 +272,7 @@ class BatchedJointEnv(gym.vector.VectorEnv):
         self._act[i], self._qadr[i] = sim._act, sim.index.qpos
         self._hold[i], self._limit[i] = core._hold, np.r_[core._hi, core._held_limit]
         self._gain[i] = core._gain
-        truth, first = core.goal.truth, self.cores[0].goal.truth
-        if self._h0 is None or self._h0.shape[1] != len(truth.h0):
-            self._h0 = np.zeros((self.num_envs, len(truth.h0)))
-            self._cells = np.zeros_like(self._h0)
-        self._h0[i] = truth.h0
-        self._shared = all(_same_footprint(c.goal.truth, first) for c in self.cores if hasattr(c.goal, "truth"))
-
-    def _measure(self) -> tuple[np.ndarray, np.ndarray] | None:
-        """Every copy's :meth:`TrueTrench.measure <excavsim.envs.core.TrueTrench.measure>` at once
-        (the same numbers: the same operations on the rows of stacked arrays), or None when the
-        copies' footprints differ (then each copy measures itself)."""
-        if not self._shared:
-            return None
-        first = self.cores[0].goal.truth
-        gather_cells(self._soil["heights"], first.idx[0], first.idx[1], self._cells)
-        removed = np.clip(self._h0 - np.maximum(self._cells, first.z_goal), 0, None).sum(axis=1) * first.cell_area
-        over = np.clip(first.z_goal - self._cells, 0, None).sum(axis=1) * first.cell_area
-        return removed, over
+        self._batch.attach(i)
 
     # -- step -----------------------------------------------------------------------------------
     def step(self, actions):
@@ -374,7 +297,7 @@ class BatchedJointEnv(gym.vector.VectorEnv):
         for i in np.flatnonzero(resetting):
             self.cores[i].reset(int(self.np_random.integers(0, 2**32)))
             self._attach(i)
-            infos = self._add_info(infos, self._reset_info(i), i)
+            infos = self._add_info(infos, self._batch.reset_info(i), i)
         soil = self._soil
         batched = np.zeros(n, dtype=bool)
         stepping = np.flatnonzero(active).tolist()  # Python ints: cheaper indices than numpy's
@@ -420,8 +343,8 @@ class BatchedJointEnv(gym.vector.VectorEnv):
             except Diverged as exc:
                 diverged[i] = exc
         steps: dict[int, dict[str, Any]] = {}
-        measured = self._measure()
-        removed, over = (None, None) if measured is None else (measured[0].tolist(), measured[1].tolist())
+        batch = self._batch
+        measured = batch.measure(soil["heights"])
         for i in stepping:
             core = cores[i]
             if i in diverged:
@@ -429,11 +352,8 @@ class BatchedJointEnv(gym.vector.VectorEnv):
                 observations[i] = core.reading
                 infos = self._add_info(infos, info, i)
                 continue
-            steps[i] = core.account(observations[i], None if measured is None else (removed[i], over[i]))
-            emap = core.goal.emap
-            if emap is not self._map_of[i]:  # rescanned
-                self._maps[i] = emap.heights
-                self._map_of[i] = emap
+            steps[i] = core.account(observations[i], None if measured is None else measured[i])
+            batch.accounted(i)
         for i in np.flatnonzero(resetting):
             observations[i] = self.cores[i].reading
         obs = self._observe(np.ones(n, dtype=bool), observations)
@@ -503,43 +423,23 @@ class BatchedJointEnv(gym.vector.VectorEnv):
         return out
 
     def _observe(self, which: np.ndarray, observations: list[Any]) -> dict[str, np.ndarray]:
-        """The observations of all copies (the single environment's, computed together), and each
-        copy's tip depth for its shaping."""
+        """The observations of all copies (the single environment's, computed together): the machine's
+        entries here, the goal's by its part of the compiled path."""
         n = self.num_envs
         core0 = self.cores[0]
-        p = core0.goal.patch_size
-        tips = np.zeros((n, 3))
-        out = {"q": np.zeros((n, 6), np.float32), "qdot": np.zeros((n, 6), np.float32),
-               "ft": np.zeros((n, 6), np.float32), "tip": np.zeros((n, 4), np.float32),
-               "patch": np.zeros((n, 2, p, p), np.float32), "time_left": np.zeros((n, 1), np.float32)}
-        q, qdot, ft, tip4 = np.zeros((n, 6)), np.zeros((n, 6)), np.zeros((n, 6)), np.zeros((n, 4))
-        time_left = [0.0] * n
+        out = {name: np.zeros((n,) + f.shape, np.float32) for name, f in core0.fields.items()}
+        m = core0.machine  # the joints' bounds, as the single observation clips them
+        joints = len(m.joints)
+        q, qdot, ft = np.zeros((n, joints)), np.zeros((n, joints)), np.zeros((n, 6))
         for i in np.flatnonzero(which).tolist():  # gathered in float64, cast to float32 once per field
             core, obs = self.cores[i], observations[i]
-            tip, pitch = core.goal.tip(obs)
-            tips[i] = tip
             q[i] = obs.q
             qdot[i] = obs.qdot
             ft[i] = core.wrench(obs)
-            tip4[i] = (tip[0], tip[1], tip[2], pitch)
-            time_left[i] = max(core.max_time_s - core.goal.elapsed(), 0.0)
-        m = core0.machine  # the joints' bounds, as the single observation clips them
         out["q"][:] = np.clip(q, -m.angle_bound_rad, m.angle_bound_rad)
         out["qdot"][:] = np.clip(qdot, -m.speed_bound_rad_s, m.speed_bound_rad_s)
-        out["ft"][:], out["tip"][:] = ft, tip4
-        out["time_left"][:, 0] = time_left
-        layout = core0.goal.layout
-        if getattr(self, "_layout", None) is not layout:
-            self._layout, (self._grid, self._goal) = layout, _layout_constants(layout)
-            self._terrain, self._goal_patch = np.zeros((n, p, p)), np.zeros((n, p, p))
-            self._depth, self._inside = np.zeros(n), np.zeros(n, dtype=np.bool_)
-        patch_kernel(self._maps, tips, layout.off_x, layout.off_y, self._grid, self._goal, self._terrain,
-                     self._goal_patch, self._depth, self._inside)
-        depth, inside = self._depth, self._inside
-        out["patch"][:, 0] = self._terrain
-        out["patch"][:, 1] = self._goal_patch
-        for i in np.flatnonzero(which):
-            self.cores[i].goal._tip_depth, self.cores[i].goal._tip_inside = float(depth[i]), bool(inside[i])
+        out["ft"][:] = ft
+        self._batch.observe(which, observations, out)
         return out
 
     def _copy_obs(self) -> dict[str, np.ndarray]:
@@ -593,15 +493,20 @@ def _after_physics(sim, ok: bool, before: float):
     return sim.observe()
 
 
-def _compiled_path(core: JointCore) -> bool:
-    """Whether ``core``'s copies take the compiled path: the trench goal on a machine whose world is the
-    T3's :class:`~excavsim.world.simulation.Simulation` (no hydraulics), its four driven servos first and
-    two held ones after (the layout :func:`servo_rates` writes); its servos' ranges are symmetric (the robot
-    configuration's flow limits, :func:`~excavsim.world.scene.build_physics`), so that ``a * limit`` is the
-    core's rate for either sign."""
+def _batch_of(cores: list[JointCore]) -> Batch | None:
+    """The goal's part of the compiled path for copies ``cores``, or None when they step copy by copy: the
+    compiled path needs a goal with a ``BATCH`` and a machine whose world is the servo
+    :class:`~excavsim.world.simulation.Simulation` (no hydraulics) with the wrist F/T, its four driven servos
+    first and two held ones after (the layout :func:`servo_rates` writes); its servos' ranges are symmetric
+    (the robot configuration's flow limits, :func:`~excavsim.world.scene.build_physics`), so that
+    ``a * limit`` is the core's rate for either sign."""
+    core = cores[0]
     m = core.machine
-    return (isinstance(core.goal, JointTrench) and m.hydraulics is None and core.driven.tolist() == [0, 1, 2, 3]
-            and core.held.tolist() == [4, 5])
+    entry = getattr(type(core.goal), "BATCH", None)
+    if (entry is None or m.hydraulics is not None or m.force_reading != "ft" or core.driven.tolist() != [0, 1, 2, 3]
+            or core.held.tolist() != [4, 5]):
+        return None
+    return load_entry(entry)(cores)
 
 
 def _stacked(observations: list[dict[str, np.ndarray]]) -> dict[str, np.ndarray]:
@@ -609,10 +514,4 @@ def _stacked(observations: list[dict[str, np.ndarray]]) -> dict[str, np.ndarray]
     return {k: np.stack([o[k] for o in observations]) for k in observations[0]}
 
 
-def _same_footprint(a, b) -> bool:
-    """Whether two copies' true-trench measures read the same cells against the same goal."""
-    return (a.cell_area == b.cell_area and a.idx[0].shape == b.idx[0].shape and np.array_equal(a.idx[0], b.idx[0])
-            and np.array_equal(a.idx[1], b.idx[1]) and np.array_equal(a.z_goal, b.z_goal))
-
-
-__all__ = ["BatchedJointEnv", "gather_cells", "patch_kernel", "servo_rates", "soil_steps", "watch_ok"]
+__all__ = ["Batch", "BatchedJointEnv", "servo_rates", "soil_steps", "watch_ok"]

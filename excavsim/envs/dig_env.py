@@ -1,8 +1,8 @@
-"""``excavsim/TrenchDig-v0``: Singh's trenching action as the action, one step per dig (Gymnasium).
+"""The dig-level environments' Gymnasium face: one step per dig, the action a planner's (Gymnasium).
 
-:class:`TrenchDigEnv` is the Gymnasium face of :class:`~excavsim.envs.core.DigCore` (the episode
-loop of ``excavsim trench`` with the agent choosing each trenching action); :class:`PlannerPolicy`
-is the planner used as a policy through it.
+:class:`DigStepEnv` is what every dig-level environment shares around its task's core (a
+:class:`~excavsim.envs.core.DigLevelCore`); each task that offers one subclasses it in its own folder.
+:class:`PlannerPolicy` is a task's planner used as a policy through such an environment.
 """
 
 from __future__ import annotations
@@ -12,7 +12,7 @@ from typing import Any
 import gymnasium as gym
 import numpy as np
 
-from excavsim.envs.core import DigCore, EnvError, check_seed, check_vector
+from excavsim.envs.core import EnvError, check_seed, check_vector
 from excavsim.envs.render import RENDER_MODES, FrameRenderer, check_render_mode
 from excavsim.envs.spaces import dict_space
 
@@ -22,11 +22,15 @@ class DigStepEnv(gym.Env):
     units or normalized to [-1, 1]): spaces from the core's fields, seeding, the normalized action's
     mapping, rendering between digs and closing. A subclass names its core (:attr:`core_class`), its
     id for messages (:attr:`env_id`), what its action is (:attr:`action_noun`) and where its world is
-    (:meth:`_world`)."""
+    (:meth:`_world`).
+
+    Seeding: ``reset(seed=s)`` runs the episode with seed ``s``, so the same seed and actions give the same
+    episode bit for bit; ``reset()`` without a seed runs the spec's seed first, then seeds drawn from
+    :attr:`np_random` (:func:`episode_seed`)."""
 
     metadata = {"render_modes": list(RENDER_MODES), "render_fps": 1}  # a frame per dig
-    core_class: type = DigCore
-    env_id = "TrenchDig-v0"
+    core_class: type  # a DigLevelCore
+    env_id: str  # the id without its namespace, for messages
     action_noun = "dig action"
 
     def __init__(self, spec=None, *, render_mode: str | None = None, normalize_action: bool = False,
@@ -56,7 +60,7 @@ class DigStepEnv(gym.Env):
         """
         if options:
             raise EnvError(f"{self.env_id} takes no reset options; given {sorted(options)}")
-        return self.core.reset(_episode_seed(self, seed))
+        return self.core.reset(episode_seed(self, seed))
 
     def step(self, action):
         """Dig ``action``; returns (observation, reward, terminated, truncated, info)."""
@@ -95,74 +99,29 @@ class DigStepEnv(gym.Env):
             core.close()
 
 
-class TrenchDigEnv(DigStepEnv):
-    """A trenching episode, one step per dig: the action is (k, alpha, d1) [m, rad, m].
-
-    See :class:`~excavsim.envs.core.DigCore` for the rules (snapping to the planner's grid, the
-    nearest allowed cell for an infeasible one, the fallback). Spaces:
-
-    * action: ``Box(3,)`` float32 from the planner grid's (k_min, alpha_min, d1_min) to its maxima
-      (in metres and radians, deliberately: the planner's units); with ``normalize_action=True``
-      ``Box(3,)`` in [-1, 1], mapped linearly onto that box (-1 the minima, 1 the maxima);
-    * observation: ``Dict`` of ``elevation``, ``goal_mask``, ``goal_depth`` (lateral x radial
-      float32 grids around the goal, from the scanned map), ``ft`` (the last dig's peak and mean F/T
-      force in the soil [N]), ``outcome`` (``Discrete``, an index of
-      :data:`~excavsim.envs.core.OUTCOMES`) and ``digs_left`` (``Discrete``).
-
-    Reward per dig: ``removed_per_l`` x litres removed above the goal inside its footprint, less
-    ``overdig_per_l`` x litres dug below the goal profile, less ``stall`` for a stalled dig (true
-    terrain, after settlement). ``terminated`` when the episode ends ``done`` (the map shows the
-    trench within tolerance), ``no_dig`` or ``diverged``; ``truncated`` when the dig budget (or the
-    episode's wall-clock limit) is spent. ``info``: ``planner_action`` (the planner's (k, alpha,
-    d1) on the current map, None when it has no trenching dig), ``planner_fell_back``,
-    ``map_removed_fraction``; after a dig ``dig`` (the row of the ``trench`` table: action, planned and
-    dug litres, efficiency, outcome, failure, stall, predicted and measured wrist peaks),
-    ``reward_terms``, ``action_used``, ``executed_cell`` and ``snapped_to_allowed``; at the end
-    ``episode`` (:func:`~excavsim.loop.scenario.episode_summary` without its wall-clock times).
-    The whole :class:`~excavsim.handoff.episode.EpisodeResult` is :attr:`result` once it ended.
-
-    Seeding: ``reset(seed=s)`` runs the episode with seed ``s`` (the world's soil, sensor noise and
-    scanner drift), so the same seed and actions give the same episode bit for bit; ``reset()``
-    without a seed runs the spec's seed first, then seeds drawn from :attr:`np_random`.
-
-    Args:
-        spec, weights, fallback, window_margin_m, window_half_width_m, observer, robot_path, scene_path:
-            as :class:`~excavsim.envs.core.DigCore`.
-        normalize_action: the action in [-1, 1] (above) instead of the planner's units.
-        render_mode: None (the default) or ``"rgb_array"``: :meth:`render` returns a frame of the
-            world between digs from MuJoCo's offscreen renderer (:mod:`excavsim.envs.render`); to
-            record whole episodes use ``observer=excavsim.record.TrenchRecorder(...)``.
-        render_size: (width, height) of the frames [pixels].
-    """
-
-    core_class = DigCore
-    env_id = "TrenchDig-v0"
-    action_noun = "dig action"
-
-
-def _episode_seed(env: gym.Env, seed: int | None) -> int:
+def episode_seed(env: gym.Env, seed: int | None) -> int:
     """The seed of the episode ``env.reset(seed=seed)`` starts: ``seed``; without one, the spec's
     on the first reset (which also seeds ``np_random`` with it), then draws from ``np_random``."""
     if seed is not None:
         check_seed(seed)
         gym.Env.reset(env, seed=seed)
-        episode_seed = seed
+        chosen = seed
     elif env._resets == 0:
-        episode_seed = env.core.spec.seed
-        gym.Env.reset(env, seed=episode_seed)
+        chosen = env.core.spec.seed
+        gym.Env.reset(env, seed=chosen)
     else:
         gym.Env.reset(env)
-        episode_seed = int(env.np_random.integers(0, 2**32))
+        chosen = int(env.np_random.integers(0, 2**32))
     env._resets += 1
-    return episode_seed
+    return chosen
 
 
 class PlannerPolicy:
-    """The planner as a policy of :class:`TrenchDigEnv`: the planner's (k, alpha, d1) on the current
+    """A task's planner as a policy of its dig-level environment: the planner's action on the current
     map (``info["planner_action"]``), and the middle of the action space in a cycle where the planner
-    has no trenching dig (there the environment digs the loop's fallback and does not use it).
+    has none (there the environment digs what the task's loop digs and does not use the action).
 
-    Through the environment it reproduces ``excavsim trench`` for the same spec and seed.
+    Through the environment it reproduces the task's own episode for the same spec and seed.
 
     Args:
         action_space: the environment's action space.

@@ -1,7 +1,7 @@
-"""The environments with a dm_env face: :class:`DmTrenchDig`, :class:`DmJoint` and :class:`DmLoadDig`.
+"""The environments' dm_env face: :class:`DmFace` around any core, :class:`DmJoint` at the joint level.
 
-The same cores as the Gymnasium environments (:mod:`excavsim.envs.core`), with dm_env's
-conventions: ``reset()`` returns a ``FIRST`` time step; ``step`` on a fresh environment or after a
+The same cores as the Gymnasium environments (:mod:`excavsim.envs.core`), with dm_env's conventions (each
+task's dig-level faces subclass :class:`DmFace` in the task's folder): ``reset()`` returns a ``FIRST`` time step; ``step`` on a fresh environment or after a
 ``LAST`` one starts an episode (the action is ignored); a terminated episode ends with discount 0,
 a truncated one (the dig budget, the time limit) with discount 1. Observations are dicts of numpy
 arrays with :meth:`observation_spec` as the Gymnasium faces' spaces; a discrete entry is a
@@ -20,9 +20,8 @@ import dm_env
 import numpy as np
 from dm_env import specs
 
-from excavsim.envs.core import MAX_SEED, DigCore, Field, check_seed
+from excavsim.envs.core import MAX_SEED, Field, check_seed
 from excavsim.envs.joint_core import JointCore
-from excavsim.envs.load_core import LoadCore
 
 
 def field_spec(name: str, field: Field) -> specs.Array:
@@ -33,10 +32,11 @@ def field_spec(name: str, field: Field) -> specs.Array:
                               np.full(field.shape, field.high, dtype=field.dtype), name=name)
 
 
-class _DmFace(dm_env.Environment):
-    """dm_env's episode protocol around a core with ``reset(seed)``, ``step(action)`` and ``close()``."""
+class DmFace(dm_env.Environment):
+    """dm_env's episode protocol around a core with ``reset(seed)``, ``step(action)`` and ``close()`` (a
+    subclass names it: :attr:`_core_class`)."""
 
-    _core_class: type = DigCore
+    _core_class: type
 
     def __init__(self, spec=None, *, seed: int | None = None, **kwargs: Any):
         self.core = self._core_class(spec, **kwargs)
@@ -85,28 +85,16 @@ class _DmFace(dm_env.Environment):
         self.core.close()
 
     def __del__(self):
-        core = getattr(self, "core", None)  # as TrenchDigEnv: a dropped environment ends its episode
+        core = getattr(self, "core", None)  # as the Gymnasium faces: a dropped environment ends its episode
         if core is not None:
             core.close()
 
 
-class DmTrenchDig(_DmFace):
-    """``TrenchDig`` with a dm_env face: one step per dig, the action (k, alpha, d1) [m, rad, m]
-    (see :class:`~excavsim.envs.core.DigCore` and :class:`~excavsim.envs.dig_env.TrenchDigEnv`).
-
-    Args:
-        spec: the episode; seed: the first episode's seed (see the module docstring); the rest as
-            :class:`~excavsim.envs.core.DigCore`.
-    """
-
-    _core_class = DigCore
-
-
-class DmJoint(_DmFace):
+class DmJoint(DmFace):
     """The joint level with a dm_env face, any machine and goal: one step per control period, the action
     four set-point rates in [-1, 1] (see :class:`~excavsim.envs.joint_core.JointCore` and
-    :class:`~excavsim.envs.joint_env.JointEnv`): ``DmJoint(spec)`` is ``TrenchJoint``'s world,
-    ``DmJoint(goal="region")`` ``ExcavatorJoint``'s.
+    :class:`~excavsim.envs.joint_env.JointEnv`): ``DmJoint(spec)`` is the default task's goal (digging the
+    spec's trench), ``DmJoint(goal="region")`` ``ExcavatorJoint``'s.
 
     Args:
         spec: the world; seed: the first episode's seed (see the module docstring); the rest as
@@ -114,16 +102,3 @@ class DmJoint(_DmFace):
     """
 
     _core_class = JointCore
-
-
-class DmLoadDig(_DmFace):
-    """``LoadDig`` with a dm_env face: one step per dig of loading from a pile, the action the loading
-    planner's (k, alpha) [m, rad] (see :class:`~excavsim.envs.load_core.LoadCore` and
-    :class:`~excavsim.envs.load_env.LoadDigEnv`).
-
-    Args:
-        spec: the episode (task pile_loading); seed: the first episode's seed (see the module docstring); the
-            rest as :class:`~excavsim.envs.load_core.LoadCore`.
-    """
-
-    _core_class = LoadCore

@@ -13,10 +13,12 @@ dm_env face :class:`~excavsim.envs.dm.DmJoint`, its batched vector face
   limits, an excavator's valves' swing and cylinder speeds); the pumps that share their flow between
   functions (a machine with hydraulics, Rowe 1997 §4.0); how it senses force (the wrist F/T about the tip, or
   the cylinders' pressures) and the bounds of its readings;
-* **the goal's** (:data:`JOINT_GOALS`): the start, what is observed of the task, the reward, the ends and
-  the clock: ``trench`` (:class:`~excavsim.envs.joint_trench.JointTrench`, the spec's trench goal seen
-  through scanned maps) or ``region`` (:class:`~excavsim.envs.joint_region.JointRegion`, a box of the pit
-  in front of an excavator, privileged).
+* **the goal's**: the start, what is observed of the task, the reward, the ends and the clock. A goal is
+  a class (:class:`JointGoal`'s protocol) named by its entry point ``module:Class`` (what an environment
+  id's ``goal`` keyword holds) or by a name of :func:`joint_goals`: each task's own (the goal of the
+  joint-level environments its plug-in contributes, named as the task: a trench goal seen through
+  scanned maps, in the trench task's folder) and the platform's ``region``
+  (:class:`~excavsim.envs.joint_region.JointRegion`, a box of the pit in front of an excavator, privileged).
 
 One step: the action (4,) in [-1, 1] becomes the actuators' set-point rates (:meth:`JointCore.checked_rates`:
 arrays in, arrays out, no branch on the values), the world steps one control period, the goal accounts the
@@ -29,17 +31,17 @@ from __future__ import annotations
 
 import math
 from collections.abc import Mapping
-from typing import Any, NamedTuple
+from typing import Any, ClassVar, NamedTuple, Protocol
 
 import mujoco
 import numpy as np
 
 from excavsim.config import parse_config
 from excavsim.envs.core import EnvError, Field, as_spec, check_seed, check_vector, check_weights
-from excavsim.envs.joint_region import JointRegion
-from excavsim.envs.joint_trench import JointTrench
-from excavsim.errors import ExcavsimError
+from excavsim.errors import ConfigError, ExcavsimError
 from excavsim.handoff.observation import Diverged, OutOfTime
+from excavsim.loop import catalog
+from excavsim.loop.plugin import load_entry
 from excavsim.loop.scenario import EpisodeSpec, resolve
 from excavsim.readouts import element_id, keyframe_qpos
 from excavsim.robot.cylinders import share_pump_flow
@@ -50,11 +52,85 @@ from excavsim.sensing.ft import ForceSensor
 from excavsim.world.hydraulics import CONTROL_RATE_HZ as HYDRAULIC_RATE_HZ
 from excavsim.world.machines import make_world
 
-JOINT_GOALS = {"trench": JointTrench, "region": JointRegion}
-"""The joint-level goals by name: what an episode starts from, observes of its task, is rewarded for and
-ends on."""
+JOINT_ENTRY_POINT = "excavsim.envs.joint_env:JointEnv"
+"""The joint-level environment's Gymnasium face, by entry point (every joint-level id registers it)."""
+PLATFORM_GOALS = {"region": "excavsim.envs.joint_region:JointRegion"}
+"""The joint-level goals of no task, by name: entry points ``module:Class``."""
 SPEC_KEYWORDS = ("machine", "soil", "seed")
 """The spec's fields :class:`JointCore` also takes as keywords (they override the spec's)."""
+
+
+class JointGoal(Protocol):
+    """What :class:`JointCore` asks of its goal: what an episode starts from, observes of its task, is rewarded
+    for and ends on (:class:`~excavsim.envs.joint_region.JointRegion` is one).
+
+    Class attributes: ``NAME`` (for messages), ``TASK`` (the task whose episode specification configures the
+    world: its machine, soil and configuration files), ``WEIGHTS`` (the reward's default weights),
+    ``MAX_TIME_S`` (the default episode length [s]), ``SPEC_DEFAULTS`` (the spec's fields it sets when neither
+    the spec nor a keyword does), ``OPTIONS`` (its settings, keywords of the core), ``READS_TORQUES`` (whether
+    it reads the world's full sensor reading) and ``BATCH`` (None, or the entry point of the goal's part of
+    the batched environment's compiled path, :mod:`excavsim.envs.batched`). ``lookat`` is where a camera
+    looks [m]."""
+
+    NAME: ClassVar[str]
+    TASK: ClassVar[str]
+    WEIGHTS: ClassVar[Mapping[str, float]]
+    MAX_TIME_S: ClassVar[float]
+    SPEC_DEFAULTS: ClassVar[Mapping[str, Any]]
+    OPTIONS: ClassVar[tuple[str, ...]]
+    READS_TORQUES: ClassVar[bool]
+    BATCH: ClassVar[str | None]
+    lookat: tuple[float, float, float]
+
+    def fields(self) -> dict[str, Field]: ...
+    def start(self, seed: int, options: Mapping[str, Any] | None) -> Any: ...
+    def reset(self, sim, seed: int, start: Any) -> dict[str, Any]: ...
+    def started(self) -> None: ...
+    def elapsed(self) -> float: ...
+    def account(self, reading, measured: Any = None) -> dict[str, Any]: ...
+    def finish(self, terms: dict[str, float]) -> None: ...
+    def observe(self, reading) -> dict[str, np.ndarray]: ...
+
+
+def joint_goals() -> dict[str, str]:
+    """Every joint-level goal by name, as entry points ``module:Class``: each task's (the ``goal`` of the first
+    joint-level environment its plug-in contributes, named as the task), then :data:`PLATFORM_GOALS`."""
+    goals: dict[str, str] = {}
+    for name, plugin in catalog.plugins().items():
+        for env in plugin.environments:
+            goal = env.kwargs.get("goal")
+            if env.entry_point == JOINT_ENTRY_POINT and isinstance(goal, str) and ":" in goal:
+                goals.setdefault(name, goal)
+    return {**goals, **PLATFORM_GOALS}
+
+
+def goal_class(goal: str | type | None) -> type:
+    """The goal class ``goal`` stands for: itself (a class), an entry point ``module:Class``, or a name of
+    :func:`joint_goals` (None: the default task's, :data:`~excavsim.loop.catalog.DEFAULT_TASK`).
+
+    Raises:
+        EnvError: an unknown name, or an entry point that cannot be loaded or is not a class.
+    """
+    if isinstance(goal, type):
+        return goal
+    if goal is None:
+        goal = catalog.DEFAULT_TASK
+    if not isinstance(goal, str):
+        raise EnvError(f"goal must be a name, an entry point module:Class or a goal class; given {goal!r}")
+    entry = goal
+    if ":" not in goal:
+        names = joint_goals()
+        if goal not in names:
+            raise EnvError(f"goal must be one of {', '.join(map(repr, names))} or an entry point module:Class; "
+                           f"given {goal!r} (what a task's episode digs is its spec's own field)")
+        entry = names[goal]
+    try:
+        found = load_entry(entry)
+    except ConfigError as exc:
+        raise EnvError(f"goal {goal!r}: {exc}") from None
+    if not isinstance(found, type):
+        raise EnvError(f"goal {goal!r} is not a class; allowed: a goal class (excavsim.envs.joint_core.JointGoal)")
+    return found
 
 
 class Encoders(NamedTuple):
@@ -87,33 +163,32 @@ class JointCore:
     pushing, clipped to the relief limits); then the goal's entries (see its class).
 
     Args:
-        spec: the world (machine, soil, seed, the trench goal, configuration overrides; see :func:`as_spec`);
-            its dig budget is not used.
-        goal: a name of :data:`JOINT_GOALS`.
+        spec: the world (machine, soil, seed, the task's own fields such as a trench goal, configuration
+            overrides), an episode specification of the goal's ``TASK`` (see
+            :func:`~excavsim.envs.core.as_spec`); its dig budget is not used.
+        goal: the goal (:func:`goal_class`): a class, its entry point ``module:Class``, or a name of
+            :func:`joint_goals`; None: the default task's goal.
         machine, soil, seed: the spec's fields of those names (when given, they override the spec's); a
             field neither gives takes the goal's default (the region's: the TB035 in dry sand), else the spec's.
         weights: reward weights over the goal's ``WEIGHTS``.
         max_time_s: the episode's length in simulated time [s] (default: the goal's ``MAX_TIME_S``).
         robot_path, scene_path: other robot and scene configurations (``configs/robot.yaml``, ``scene.yaml``).
-        options: the goal's own settings (the trench's ``scan_period_s``, ``patch_size``, ``patch_spacing_m``,
-            ``start``; the region has none).
+        options: the goal's own settings (its ``OPTIONS``: the trench goal's ``scan_period_s``, ``patch_size``,
+            ``patch_spacing_m``, ``start``; the region has none).
 
     Raises:
         EnvError: an unknown goal or goal setting, a bad weight or time, a machine the goal has no place for.
         ConfigError: the spec (with the keywords) is not valid, e.g. an unknown machine.
     """
 
-    def __init__(self, spec=None, *, goal: str = "trench", machine: str | None = None, soil: str | None = None,
-                 seed: int | None = None, weights: Mapping[str, float] | None = None, max_time_s: float | None = None,
-                 robot_path=None, scene_path=None, **options: Any):
-        if goal not in JOINT_GOALS:
-            raise EnvError(f"goal must be one of {', '.join(map(repr, JOINT_GOALS))}; given {goal!r} (the trench "
-                           "to dig is the spec's goal field)")
-        kind = JOINT_GOALS[goal]
-        self.spec = _with_fields(as_spec(spec), kind, {"machine": machine, "soil": soil, "seed": seed})
+    def __init__(self, spec=None, *, goal: str | type | None = None, machine: str | None = None,
+                 soil: str | None = None, seed: int | None = None, weights: Mapping[str, float] | None = None,
+                 max_time_s: float | None = None, robot_path=None, scene_path=None, **options: Any):
+        kind = goal_class(goal)
+        self.spec = _with_fields(as_spec(spec, kind.TASK), kind, {"machine": machine, "soil": soil, "seed": seed})
         self.machine: Machine = get_machine(self.spec.machine_name)
         self.resolved = resolve(self.spec, robot_path=robot_path, scene_path=scene_path)
-        self.weights = check_weights(weights, kind.WEIGHTS, goal)
+        self.weights = check_weights(weights, kind.WEIGHTS, kind.NAME)
         max_time_s = kind.MAX_TIME_S if max_time_s is None else max_time_s
         if isinstance(max_time_s, bool) or not isinstance(max_time_s, (int, float)) or not (
                 math.isfinite(max_time_s) and max_time_s > 0):
@@ -129,10 +204,10 @@ class JointCore:
                                  else HYDRAULIC_RATE_HZ)  # refined by the world at reset
         unknown = sorted(set(options) - set(kind.OPTIONS))
         if unknown:
-            raise EnvError(f"unknown setting(s) {unknown} of the {goal} goal; allowed: "
+            raise EnvError(f"unknown setting(s) {unknown} of the {kind.NAME} goal; allowed: "
                            f"{', '.join(kind.OPTIONS) or 'none'} (and JointCore's own keywords)")
         machine_fields = self._machine_fields()
-        self.goal = kind(self, **options)
+        self.goal: JointGoal = kind(self, **options)
         self.fields = {**machine_fields, **self.goal.fields()}
         self._observes = m.force_reading == "ft" or kind.READS_TORQUES  # what :meth:`read` reads
         self.sim = None

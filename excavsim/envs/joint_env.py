@@ -1,7 +1,7 @@
-"""The joint-level environments' Gymnasium face: ``excavsim/TrenchJoint-v0``, ``excavsim/TrenchJointDig-v0``
-and ``excavsim/ExcavatorJoint-v0``, any machine's digging joints at its control rate.
+"""The joint-level environments' Gymnasium face: any machine's digging joints at its control rate.
 
-:class:`JointEnv` is the Gymnasium face of :class:`~excavsim.envs.joint_core.JointCore`; the ids are
+:class:`JointEnv` is the Gymnasium face of :class:`~excavsim.envs.joint_core.JointCore`; the joint-level ids
+(the platform's ``excavsim/ExcavatorJoint-v0``, the tasks' own: a task's plug-in contributes them) are
 registrations of it with their goal and defaults (:mod:`excavsim.envs`).
 """
 
@@ -12,7 +12,7 @@ from typing import Any
 import gymnasium as gym
 import numpy as np
 
-from excavsim.envs.dig_env import _episode_seed
+from excavsim.envs.dig_env import episode_seed
 from excavsim.envs.joint_core import JointCore
 from excavsim.envs.render import RENDER_MODES, FrameRenderer, check_render_mode
 from excavsim.envs.spaces import dict_space
@@ -23,8 +23,8 @@ class JointEnv(gym.Env):
     the set-point rates of its waist or swing and its planar three joints.
 
     See :class:`~excavsim.envs.joint_core.JointCore` for the machine's part (the action, the
-    proprioception) and its goals (:class:`~excavsim.envs.joint_trench.JointTrench`,
-    :class:`~excavsim.envs.joint_region.JointRegion`) for the start, the task's observation entries and the
+    proprioception) and its goals (a task's, such as :class:`~excavsim.tasks.trench.envs.joint.JointTrench`,
+    or the platform's :class:`~excavsim.envs.joint_region.JointRegion`) for the start, the task's observation entries and the
     reward term by term. Spaces (docs/environments.md has the tables):
 
     * action: ``Box(4,)`` float32 in [-1, 1]: the driven joints' set-point rates as fractions of their ranges
@@ -34,10 +34,11 @@ class JointEnv(gym.Env):
       the region's ``tip``, ``bucket_soil``, ``region_soil``, ``time_left``.
 
     ``terminated`` when the goal is reached or the world diverged; ``truncated`` after ``max_time_s``.
-    ``info["reward_terms"]`` splits each reward. Seeding as :class:`~excavsim.envs.dig_env.TrenchDigEnv`:
+    ``info["reward_terms"]`` splits each reward. Seeding as :class:`~excavsim.envs.dig_env.DigStepEnv`:
     ``reset(seed=s)`` starts episode ``s``; the first reset without a seed starts the spec's ``seed``, later
     ones draw from ``np_random``; the same seed gives the same episode. ``reset(options=...)`` takes the
-    trench's :data:`~excavsim.envs.joint_trench.START_OPTIONS` (the region takes none).
+    goal's reset options (the trench's :data:`~excavsim.tasks.trench.envs.joint.START_OPTIONS`; the region takes
+    none).
 
     Args:
         spec, goal, machine, soil, seed, weights, max_time_s, robot_path, scene_path, and the goal's settings
@@ -72,7 +73,7 @@ class JointEnv(gym.Env):
         Raises:
             EnvError: a seed outside [0, 2**32 - 1] or a bad option.
         """
-        return self.core.reset(_episode_seed(self, seed), options)
+        return self.core.reset(episode_seed(self, seed), options)
 
     def step(self, action):
         """One control step; returns (observation, reward, terminated, truncated, info)."""

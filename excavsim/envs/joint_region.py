@@ -1,9 +1,9 @@
 """The joint-level region goal: an excavator empties a box of its pit (``excavsim/ExcavatorJoint-v0``).
 
-:class:`JointRegion` is one of :class:`~excavsim.envs.joint_core.JointCore`'s goals: a box in the pit in
-front of the machine at swing 0, from the ground down to a depth (:data:`REGIONS`, one per machine that
-has one), measured on the true terrain; the agent observes the soil left in it and in the bucket
-(privileged truth; a scanned estimate is the loop's job).
+:class:`JointRegion` is one of :class:`~excavsim.envs.joint_core.JointCore`'s goals, the platform's own (no
+task's): a box in the pit in front of the machine at swing 0, from the ground down to a depth
+(:data:`REGIONS`, one per machine of the registry that has one), measured on the true terrain; the agent
+observes the soil left in it and in the bucket (privileged truth; a scanned estimate is the loop's job).
 """
 
 from __future__ import annotations
@@ -14,16 +14,23 @@ from typing import Any
 import numpy as np
 
 from excavsim.envs.core import EnvError, Field
+from excavsim.loop.catalog import DEFAULT_TASK
+from excavsim.robot.excavators import EXCAVATOR_25T, TB035
 from excavsim.robot.extract import arm_from_model
 
 EXCAVATOR_WEIGHTS = {"removed_per_l": 1.0, "overdig_per_l": 2.0, "relief_per_s": 0.1, "time_per_s": 0.0}
 """The region goal's reward weights (each term in :class:`JointRegion`'s docstring): per litre removed from
 the region (above the goal depth inside its footprint), per litre dug below the goal depth, per second of
 each cylinder at its relief force, per second of the episode."""
-REGIONS = {"tb035": {"near_x_m": 2.6, "far_x_m": 3.8, "half_width_m": 0.35, "depth_m": 0.3},
-           "excavator_25t": {"near_x_m": 5.0, "far_x_m": 7.5, "half_width_m": 0.7, "depth_m": 0.8}}
-"""The goal region of each machine that has one, in its arm plane at swing 0: radial extent [m], half width
-[m], depth below the ground [m]."""
+REGIONS = {TB035.name: {"near_x_m": 2.6, "far_x_m": 3.8, "half_width_m": 0.35, "depth_m": 0.3},
+           EXCAVATOR_25T.name: {"near_x_m": 5.0, "far_x_m": 7.5, "half_width_m": 0.7, "depth_m": 0.8}}
+"""The goal region of each machine that has one (by its name in the machine registry,
+:mod:`excavsim.robot.excavators`), in its arm plane at swing 0: radial extent [m], half width [m], depth
+below the ground [m]."""
+DEFAULT_MACHINE = TB035.name
+"""The machine of an episode whose spec and keywords name none: DiMaio 1998's TB035."""
+DEFAULT_SOIL = "dry_sand"
+"""The soil of an episode whose spec and keywords name none (a preset of configs/soils.yaml)."""
 RELIEF = 0.97  # a cylinder at this fraction of its relief force counts as at relief
 DONE_FRACTION = 0.05  # the episode terminates when this fraction of the region's soil is left
 TIP_BOUND_M = 20.0  # the tip observation's bound [m, rad] (readings are clipped to it)
@@ -50,7 +57,9 @@ class JointRegion:
     the episode's seed (moved there from the ``home`` keyframe by the drive in 2 s of simulated time before
     the first observation; the clock then starts at 0); it terminates when 5 % of the region's soil is left
     or the world diverges, and is truncated after ``max_time_s`` (control steps times the control period).
-    Without a machine or soil in the spec the goal takes the TB035 in dry sand (:attr:`SPEC_DEFAULTS`).
+    Without a machine or soil in the spec the goal takes the TB035 in dry sand (:attr:`SPEC_DEFAULTS`). The
+    world is configured by an episode specification of the default task (:attr:`TASK`: its machine, soil and
+    configuration files).
 
     Args:
         core: the core it is the goal of (its machine must have a region in :data:`REGIONS`).
@@ -59,11 +68,14 @@ class JointRegion:
         EnvError: the machine has no region.
     """
 
+    NAME = "region"
+    TASK = DEFAULT_TASK
     WEIGHTS = EXCAVATOR_WEIGHTS
     MAX_TIME_S = 20.0
-    SPEC_DEFAULTS = {"machine": "tb035", "soil": "dry_sand"}
+    SPEC_DEFAULTS = {"machine": DEFAULT_MACHINE, "soil": DEFAULT_SOIL}
     OPTIONS = ()
     READS_TORQUES = False  # the relief term reads the cylinders' forces
+    BATCH = None  # no compiled path: the batched environment steps it copy by copy
 
     def __init__(self, core):
         name = core.machine.name

@@ -663,7 +663,6 @@ def bench_envs(*, copies: int = 8, steps: int = 200, seed: int = 0) -> list[Row]
 
     import excavsim.envs  # noqa: F401 - registers the environments
     from excavsim.envs.joint_core import JointCore
-    from excavsim.envs.joint_trench import DIG_TASK
 
     env_id = "excavsim/TrenchJointDig-v0"
     horizon = {"max_time_s": 2 * steps / 100 + 10}  # no episode ends while timed
@@ -684,7 +683,7 @@ def bench_envs(*, copies: int = 8, steps: int = 200, seed: int = 0) -> list[Row]
         return rate_cpu if cpu_valid else rate_wall
 
     # bare MuJoCo: the same scene and control steps, the servos' rates of the random actions
-    core = JointCore(None, **{**DIG_TASK, **horizon})
+    core = JointCore(None, **{**gym.spec(env_id).kwargs, **horizon})  # the id's goal and defaults
     core.reset(seed)
     sim = core.sim
     model, data, substeps = sim.model, sim.data, sim.substeps

@@ -1,4 +1,4 @@
-"""The environments of excavsim.envs: the ecosystem's own checkers (Gymnasium's check_env and async
+"""The trench's environments (excavsim.tasks.trench.envs, on excavsim.envs): the ecosystem's own checkers (Gymnasium's check_env and async
 vector envs, dm_env's EnvironmentTestMixin), seeding, the planner as a policy against
 ``excavsim trench``, and the rules of the actions and rewards.
 
@@ -22,10 +22,12 @@ from gymnasium.utils.env_checker import check_env, data_equivalence
 
 import excavsim.envs
 from excavsim import cli
-from excavsim.envs import DIG_ENV_ID, JOINT_ENV_ID, EnvError
+from excavsim.envs import EnvError
 from excavsim.envs.dig_env import PlannerPolicy
-from excavsim.envs.dm import DmJoint, DmTrenchDig
+from excavsim.envs.dm import DmJoint
 from excavsim.envs.render import offscreen_error
+from excavsim.tasks.trench.envs import DIG_ENV_ID, JOINT_ENV_ID
+from excavsim.tasks.trench.envs.dm import DmTrenchDig
 from excavsim.handoff.episode import format_episode
 from excavsim.loop.scenario import EpisodeSpec, dig_rows, episode_summary, run_spec
 
@@ -74,7 +76,7 @@ def test_gymnasium_check_env_passes(env_id, kwargs):
 def test_async_vector_envs_run_two_copies_of_each():
     # forkserver, not fork: numba's OpenMP threads (the scanner's ray cast) make a child forked from
     # this process abort; the server imports the environments once and forks its children from it
-    multiprocessing.set_forkserver_preload(["excavsim.envs.dig_env", "excavsim.envs.joint_env"])
+    multiprocessing.set_forkserver_preload(["excavsim.tasks.trench.envs.dig_env", "excavsim.envs.joint_env"])
     for env_id, kwargs, steps in ((DIG_ENV_ID, {}, 1), (JOINT_ENV_ID, JOINT, 5)):
         envs = gym.make_vec(env_id, num_envs=2, vectorization_mode="async", vector_kwargs={"context": "forkserver"},
                             spec=tiny(), **kwargs)

@@ -13,13 +13,15 @@ from dm_env import test_utils
 from gymnasium.utils.env_checker import check_env, data_equivalence
 
 import excavsim.envs  # noqa: F401 - registers the environments
-from excavsim.envs import EXCAVATOR_JOINT_ENV_ID, JOINT_DIG_ENV_ID, JOINT_ENV_ID, EnvError, JointCore
+from excavsim.envs import EXCAVATOR_JOINT_ENV_ID, EnvError, JointCore
 from excavsim.envs.batched import BatchedJointEnv
 from excavsim.envs.dm import DmJoint
-from excavsim.envs.joint_region import REGIONS
+from excavsim.envs.joint_region import REGIONS, JointRegion
 from excavsim.envs.render import offscreen_error
 from excavsim.errors import ConfigError
 from excavsim.robot.machine import MACHINES
+from excavsim.tasks.trench.envs import JOINT_DIG_ENV_ID, JOINT_ENV_ID, JOINT_GOAL
+from excavsim.tasks.trench.envs.joint import JointTrench
 
 # each machine on each goal it has a place for: the trench (any machine, its own pit's default trench)
 # and the region (the excavators)
@@ -106,12 +108,26 @@ def test_keywords_pick_the_machine_soil_and_seed_and_bad_ones_are_refused_by_nam
     assert JointCore().machine.name == "t3" and JointCore(machine="tb035").machine.name == "tb035"
     with pytest.raises(EnvError, match="region for machines tb035, excavator_25t; given machine 't3'"):
         JointCore(goal="region", machine="t3")
-    with pytest.raises(EnvError, match="goal must be one of 'trench', 'region'"):
+    with pytest.raises(EnvError, match="goal must be one of 'trench', 'region' or an entry point module:Class"):
         JointCore(goal="pit")
+    with pytest.raises(EnvError, match="goal 'excavsim.nowhere:Pit': cannot load"):
+        JointCore(goal="excavsim.nowhere:Pit")
     with pytest.raises(EnvError, match=r"unknown setting\(s\) \['start'\] of the region goal"):
         JointCore(goal="region", start="home")
     with pytest.raises(ConfigError, match="machine 'loader' does not do task trench; allowed: t3, tb035"):
         JointCore(machine="loader")
+
+
+def test_a_goal_is_named_by_its_task_or_its_entry_point_or_given_as_a_class():
+    """The core names no task: a task's goal is found through its plug-in's environments (the default task's
+    without a goal), the region is the platform's own."""
+    goals = excavsim.envs.joint_goals()
+    assert (goals["trench"], goals["region"]) == (JOINT_GOAL, "excavsim.envs.joint_region:JointRegion")
+    for goal in (None, "trench", JOINT_GOAL, JointTrench):
+        assert type(JointCore(goal=goal).goal) is JointTrench
+    for goal in ("region", goals["region"], JointRegion):
+        assert type(JointCore(goal=goal).goal) is JointRegion
+    assert gym.spec(JOINT_DIG_ENV_ID).kwargs["goal"] == JOINT_GOAL
 
 
 def test_the_vector_entry_point_steps_an_excavator_as_n_single_environments_do():

@@ -1,4 +1,4 @@
-"""excavsim/LoadDig-v0 (excavsim.envs.load_env): loading from a pile one dig per step, the action the
+"""excavsim/LoadDig-v0 (excavsim.tasks.pile_loading.envs): loading from a pile one dig per step, the action the
 loading planner's. Gymnasium's checker, seeding, the snapping of infeasible actions, the planner as a
 policy against the plain loading episode, and the errors for bad specs, seeds and actions.
 
@@ -17,11 +17,12 @@ from absl.testing import absltest
 from dm_env import test_utils
 from gymnasium.utils.env_checker import check_env, data_equivalence
 
-from excavsim.envs import LOAD_DIG_ENV_ID, EnvError
-from excavsim.envs.dm import DmLoadDig
-from excavsim.envs.load_core import LOAD_WEIGHTS, PROFILE_X
-from excavsim.envs.load_env import LoadDigEnv, LoadPlannerPolicy
+from excavsim.envs import EnvError
 from excavsim.envs.render import offscreen_error
+from excavsim.tasks.pile_loading.envs import LOAD_DIG_ENV_ID
+from excavsim.tasks.pile_loading.envs.core import LOAD_WEIGHTS, PROFILE_X
+from excavsim.tasks.pile_loading.envs.dig_env import LoadDigEnv, LoadPlannerPolicy
+from excavsim.tasks.pile_loading.envs.dm import DmLoadDig
 from excavsim.loop.episode import Episode
 from excavsim.loop.scenario import EpisodeSpec, resolve
 from excavsim.tasks.pile_loading import planar as ld

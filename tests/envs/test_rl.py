@@ -20,11 +20,12 @@ import pytest
 from gymnasium.utils.env_checker import check_env as gym_check_env
 
 import excavsim.envs
-from excavsim.tasks.pile_loading.config_planar import load_loading_config
-from excavsim.envs import (DIG_ENV_ID, ENV_IDS, EXCAVATOR_JOINT_ENV_ID, JOINT_DIG_ENV_ID, JOINT_ENV_ID, LOAD_DIG_ENV_ID,
-                           EnvError)
+from excavsim.envs import ENV_IDS, EXCAVATOR_JOINT_ENV_ID, EnvError
 from excavsim.envs.batched import BatchedJointEnv, watch_ok
 from excavsim.envs.render import RenderModeError, offscreen_error
+from excavsim.tasks.pile_loading.config_planar import load_loading_config
+from excavsim.tasks.pile_loading.envs import LOAD_DIG_ENV_ID
+from excavsim.tasks.trench.envs import DIG_ENV_ID, JOINT_DIG_ENV_ID, JOINT_ENV_ID
 
 _LOADING = load_loading_config()
 TINY = {
@@ -243,7 +244,7 @@ def test_the_batched_env_steps_exactly_as_n_single_envs_and_autoresets_next_step
     try:
         assert isinstance(venv.unwrapped, BatchedJointEnv)
         ov, _ = venv.reset(seed=seeds)
-        assert venv.unwrapped._shared  # the copies' trench measures are taken together (the batched path)
+        assert venv.unwrapped._batch.shared  # the copies' trench measures are taken together (the batched path)
         for i, (env, s) in enumerate(zip(singles, seeds)):
             o, _ = env.reset(seed=s)
             for k in o:

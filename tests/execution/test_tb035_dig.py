@@ -12,7 +12,7 @@ import pytest
 from excavsim import constants
 from excavsim.config import (ExecutorConfig, PlannerConfig, load_executor_config, load_planner_config, load_trench_goal,
                              parse_config)
-from excavsim.config.machines import load_machine_config
+from excavsim.tasks.trench.machines import load_machine_config
 from excavsim.handoff.dig import DigPlan
 from excavsim.handoff.goal import goal_profile
 from excavsim.tasks.trench.digs import PlannedDigs

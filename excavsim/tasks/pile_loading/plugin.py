@@ -20,6 +20,8 @@ from excavsim.tasks.pile_loading.config import LoadingCampaign, LoadingMujocoCon
 from excavsim.loop.plugin import EnvEntry, Metric, TaskPlugin
 
 NAME = "pile_loading"
+LOAD_DIG_ENV_ID = "excavsim/LoadDig-v0"
+"""The task's environment (:mod:`excavsim.tasks.pile_loading.envs`), as its plug-in registers it."""
 
 
 class PileLoadingOptions(StrictModel):
@@ -71,7 +73,7 @@ class PileLoading(TaskPlugin):
                    "a campaign of MuJoCo loading episodes (configs/campaigns/pile_loading_machines.yaml)",
                    folders=("campaigns",)),
     )
-    environments = (EnvEntry("excavsim/LoadDig-v0", "excavsim.envs.load_env:LoadDigEnv"),)
+    environments = (EnvEntry(LOAD_DIG_ENV_ID, "excavsim.tasks.pile_loading.envs.dig_env:LoadDigEnv"),)
 
     outputs = frozenset({"live"})
 

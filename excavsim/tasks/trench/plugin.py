@@ -7,6 +7,7 @@ excavator out of its pit, in the scan-plan-dig loop. Registered by one line of
 
 from __future__ import annotations
 
+import math
 import pathlib
 from typing import Any
 
@@ -16,10 +17,23 @@ from excavsim.loop.plugin import EnvEntry, Metric, TaskPlugin
 from excavsim.tasks.trench.spec import TrenchOptions
 
 NAME = "trench"
+DIG_ENV_ID = "excavsim/TrenchDig-v0"
+JOINT_ENV_ID = "excavsim/TrenchJoint-v0"
+JOINT_DIG_ENV_ID = "excavsim/TrenchJointDig-v0"
+ENV_IDS = (DIG_ENV_ID, JOINT_ENV_ID, JOINT_DIG_ENV_ID)
+"""The trench's environments (:mod:`excavsim.tasks.trench.envs`), as its plug-in registers them."""
+JOINT_GOAL = "excavsim.tasks.trench.envs.joint:JointTrench"
+"""The joint-level trench goal, by entry point (the ``goal`` keyword of the joint-level ids)."""
+DIG_TASK = {"start": "near_soil", "max_time_s": 6.0, "scan_period_s": math.inf}
+"""``excavsim/TrenchJointDig-v0``'s defaults: one dig from the bucket just above the soil, 600
+steps on the T3, the map scanned once at reset (as the loop scans before each dig)."""
+TRENCH_TASK = {"start": "near_soil", "max_time_s": 30.0, "scan_period_s": 1.0}
+"""``excavsim/TrenchJoint-v0``'s defaults: the whole trench from just above the soil, 3,000 steps on
+the T3, a scan every simulated second (the done rule reads the scan)."""
 
 
 def _check_goal(path: pathlib.Path) -> str:
-    from excavsim.config.machines import machine_box, machine_scene
+    from excavsim.tasks.trench.machines import machine_box, machine_scene
     from excavsim.tasks.trench.spec import T3
 
     # configs/trenches/<machine>/ holds another machine's goals, in its pit's coordinates
@@ -31,13 +45,13 @@ def _check_goal(path: pathlib.Path) -> str:
 
 
 def _machine_model():
-    from excavsim.config.machines import MachineConfig
+    from excavsim.tasks.trench.machines import MachineConfig
 
     return MachineConfig
 
 
 def _check_machine(path: pathlib.Path) -> str:
-    from excavsim.config.machines import MachineConfig
+    from excavsim.tasks.trench.machines import MachineConfig
     from excavsim.loop.scenario import merge
 
     cfg = c.load_config(path, MachineConfig)
@@ -81,8 +95,12 @@ class Trench(TaskPlugin):
         ConfigKind("machine", _machine_model, _check_machine,
                    "a trenching machine's overrides (configs/machines/*.yaml)", folders=("machines",)),
     )
-    environments = (
-        EnvEntry("excavsim/TrenchDig-v0", "excavsim.envs.dig_env:TrenchDigEnv"),
+    environments = (  # the joint-level ids: the platform's joint-level environment with the trench goal
+        EnvEntry(DIG_ENV_ID, "excavsim.tasks.trench.envs.dig_env:TrenchDigEnv"),
+        EnvEntry(JOINT_ENV_ID, "excavsim.envs.joint_env:JointEnv", {"goal": JOINT_GOAL, **TRENCH_TASK},
+                 "excavsim.envs.batched:BatchedJointEnv"),
+        EnvEntry(JOINT_DIG_ENV_ID, "excavsim.envs.joint_env:JointEnv", {"goal": JOINT_GOAL, **DIG_TASK},
+                 "excavsim.envs.batched:BatchedJointEnv"),
     )
     dig_sources = {"planner": "excavsim.tasks.trench.digs:PlannedDigs",
                    "random": "excavsim.tasks.trench.digs:RandomFeasibleDigs",

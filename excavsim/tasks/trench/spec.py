@@ -18,7 +18,7 @@ from pydantic import Field, field_validator
 from excavsim.config import (ConfigError, ExecutorConfig, PlannerConfig, RobotConfig, SceneConfig, SensingConfig,
                              StrictModel, TrenchGoal, load_executor_config, load_planner_config, load_robot_config,
                              load_scene_config, load_sensing_config, load_trench_goal)
-from excavsim.config.machines import load_machine_config, machine_box, machine_scene, machine_trenches_dir
+from excavsim.tasks.trench.machines import load_machine_config, machine_box, machine_scene, machine_trenches_dir
 from excavsim.config.semantic import check_goal
 from excavsim.errors import shorten
 from excavsim.loop.scenario import override

@@ -1,8 +1,8 @@
 """The loading environment's core: loading from a pile in MuJoCo one dig at a time, free of any RL library.
 
 :class:`LoadCore` steps the platform's :class:`~excavsim.loop.episode.Episode` of a
-:class:`~excavsim.tasks.pile_loading.task.LoadTask` (what ``excavsim trench --spec`` runs for ``task:
-load``) phase by phase, with the agent's loading action in place of the loading planner's choice
+:class:`~excavsim.tasks.pile_loading.task.LoadTask` (what ``excavsim run`` runs for ``task:
+pile_loading``) phase by phase, with the agent's loading action in place of the loading planner's choice
 (:func:`excavsim.tasks.pile_loading.mind.planner.plan`, Singh 1995 §3.5, §4.1-4.2). Each cycle the task scans the
 lane, reads the map's three sections and plans on them (the done test: no dig of minimal utility on
 any section); the agent's (k, alpha) (and r with ``parameterization: k_alpha_r``) is snapped to the
@@ -15,7 +15,7 @@ loading episode dig for dig.
 Observations are what the machine senses (the scanned map's sections, its joint encoders, the
 planner's reference on the map); rewards are measured on the truth (the world's volume account:
 soil delivered at the truck, soil spilled off the lane). The Gymnasium face is
-:mod:`excavsim.envs.load_env`.
+:mod:`excavsim.tasks.pile_loading.envs.dig_env`, the dm_env face :mod:`excavsim.tasks.pile_loading.envs.dm`.
 """
 
 from __future__ import annotations
@@ -29,7 +29,6 @@ from typing import Any
 import numpy as np
 
 from excavsim.config import parse_config
-from excavsim.tasks.pile_loading.config_planar import LoadingConfig, load_loading_config
 from excavsim.envs.core import DigLevelCore, Field, check_weights
 from excavsim.errors import ConfigError, EnvError
 from excavsim.loop.digs import Choice
@@ -37,6 +36,8 @@ from excavsim.loop.episode import Episode
 from excavsim.loop.scenario import EpisodeSpec, load_spec, resolve
 from excavsim.tasks.pile_loading.mind import planner as lp
 from excavsim.tasks.pile_loading import planar as ld
+from excavsim.tasks.pile_loading.config_planar import LoadingConfig, load_loading_config
+from excavsim.tasks.pile_loading.plugin import NAME
 from excavsim.tasks.pile_loading.task import SECTIONS, LoadTask, map_sections
 from excavsim.tasks.pile_loading.task import summary as loading_summary
 
@@ -50,12 +51,12 @@ LOAD_WEIGHTS = {"delivered_per_l": 0.01, "spilled_per_l": 0.01, "dig": 1.0}
 """The loading environment's default reward weights: per litre delivered at the truck, per litre spilled
 off the lane, per dig executed (a cycle's time: the cost of 100 l delivered)."""
 TIMING_KEYS = ("wall_s",)  # wall-clock numbers left out of ``info`` (they differ run to run)
-DEFAULT_SPEC = {"name": "load", "task": "pile_loading"}
+DEFAULT_SPEC = {"name": "load", "task": NAME}
 
 
 def as_load_spec(spec: EpisodeSpec | Mapping | str | pathlib.Path | None) -> EpisodeSpec:
     """An :class:`~excavsim.loop.scenario.EpisodeSpec` of task ``pile_loading`` from itself, a mapping of its
-    fields (``task`` defaults to ``load``), a YAML path, or None (the front loader on the pile of
+    fields (``task`` defaults to ``pile_loading``), a YAML path, or None (the front loader on the pile of
     ``configs/pile_loading.yaml``, 20 digs, seed 0).
 
     Raises:
@@ -65,7 +66,7 @@ def as_load_spec(spec: EpisodeSpec | Mapping | str | pathlib.Path | None) -> Epi
         if spec is None:
             spec = parse_config(dict(DEFAULT_SPEC), EpisodeSpec, source="the environment's spec")
         elif isinstance(spec, Mapping):
-            spec = parse_config({"task": "pile_loading", **dict(spec)}, EpisodeSpec, source="the environment's spec")
+            spec = parse_config({"task": NAME, **dict(spec)}, EpisodeSpec, source="the environment's spec")
         elif isinstance(spec, (str, pathlib.Path)):
             spec = load_spec(spec)
     except ConfigError as exc:
@@ -73,9 +74,10 @@ def as_load_spec(spec: EpisodeSpec | Mapping | str | pathlib.Path | None) -> Epi
     if not isinstance(spec, EpisodeSpec):
         raise EnvError(f"LoadDig-v0: spec must be an EpisodeSpec, a mapping of its fields, a YAML path or None; "
                        f"given {type(spec).__name__}")
-    if spec.task != "pile_loading":
-        raise EnvError(f"LoadDig-v0 loads from a pile: its spec's task must be 'pile_loading' (machine loader or shovel); "
-                       f"given task {spec.task!r} (use excavsim/TrenchDig-v0 for trenching)")
+    if spec.task != NAME:
+        theirs = ", ".join(env.id for env in spec.plugin.environments) or "none"
+        raise EnvError(f"LoadDig-v0 loads from a pile: its spec's task must be {NAME!r} (machine loader or shovel); "
+                       f"given task {spec.task!r} (its environments: {theirs})")
     return spec
 
 
@@ -89,7 +91,7 @@ class _Decision:
 
 class LoadCore(DigLevelCore):
     """A loading episode in MuJoCo, one step per dig (see the module docstring; the stepping is
-    :class:`~excavsim.envs.core.DigLevelCore`'s, shared with trenching's :class:`~excavsim.envs.core.DigCore`).
+    :class:`~excavsim.envs.core.DigLevelCore`'s, shared with every task's dig-level core).
 
     The action is the loading planner's independent variables: (k, alpha) [m, rad] with
     ``parameterization: k_alpha`` (configs/pile_loading_planar.yaml; d1 maximized, r the smallest reachable
@@ -109,7 +111,7 @@ class LoadCore(DigLevelCore):
         observer: a :class:`~excavsim.tasks.pile_loading.task.LoadingObserver` (a Rerun recorder, say).
         loading_config: the machines' numbers and the planner's grid and rules
             (:class:`~excavsim.tasks.pile_loading.config_planar.LoadingConfig` or its YAML path; default
-            ``configs/pile_loading_planar.yaml``, as ``excavsim trench --spec`` uses); the action box is its grid's.
+            ``configs/pile_loading_planar.yaml``, as ``excavsim run`` uses); the action box is its grid's.
     """
 
     def __init__(self, spec=None, *, weights: Mapping[str, float] | None = None, observer=None,

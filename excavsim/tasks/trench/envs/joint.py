@@ -1,12 +1,13 @@
 """The joint-level trench goal: dig the spec's trench, seen through scanned maps (``excavsim/TrenchJoint*``).
 
-:class:`JointTrench` is one of :class:`~excavsim.envs.joint_core.JointCore`'s goals: the start over the
-trench, the height patch around the tip, the reward on the true trench, the ends and the clock. It runs on
-any trenching machine (the spec's ``machine``): the trench goal is resolved in that machine's pit, and the
-loop's pieces around it (the scanner and the machine's model of itself,
-:func:`~excavsim.rig.core.make_rig`) are that machine's. The observation helpers it shares with the dig
-level (:class:`~excavsim.envs.core.Field`, :class:`~excavsim.envs.core.TrueTrench`) stay in
-:mod:`~excavsim.envs.core`.
+:class:`JointTrench` is one of :class:`~excavsim.envs.joint_core.JointCore`'s goals, the trench task's
+(named by its entry point :data:`~excavsim.tasks.trench.envs.JOINT_GOAL` in the ids' keywords): the start
+over the trench, the height patch around the tip, the reward on the true trench, the ends and the clock. It
+runs on any trenching machine (the spec's ``machine``): the trench goal is resolved in that machine's pit,
+and the loop's pieces around it (the scanner and the machine's model of itself,
+:func:`~excavsim.rig.core.make_rig`) are that machine's. The true trench it shares with the dig level is
+:class:`~excavsim.tasks.trench.envs.core.TrueTrench`; its part of the batched environment's compiled path
+is :class:`~excavsim.tasks.trench.envs.batched.TrenchBatch`.
 """
 
 from __future__ import annotations
@@ -17,11 +18,13 @@ from typing import Any
 
 import numpy as np
 
-from excavsim.envs.core import EnvError, Field, TrueTrench
+from excavsim.envs.core import EnvError, Field
 from excavsim.handoff.goal import goal_profile
-from excavsim.rig.measures import trench_footprint
 from excavsim.rig.core import go_home, make_rig, scan
+from excavsim.rig.measures import trench_footprint
 from excavsim.robot.fast import arm_params, forward_pose
+from excavsim.tasks.trench.envs.core import TrueTrench
+from excavsim.tasks.trench.plugin import NAME
 from excavsim.tasks.trench.task import map_done
 
 JOINT_WEIGHTS = {"cut_per_l": 1.0, "load_per_l": 0.5, "dump_per_l": 1.0, "overdig_per_l": 2.0,
@@ -35,19 +38,13 @@ SATURATION = 0.97  # a joint at this fraction of its relief limit counts as satu
 STALL_SPEED = 0.02  # a saturated joint slower than this [rad/s] is stalled
 DEPTH_CAP_M = 0.3  # the shaping potential's depth saturates here [m]
 STARTS = ("home", "near_soil")
-DIG_TASK = {"start": "near_soil", "max_time_s": 6.0, "scan_period_s": math.inf}
-"""``excavsim/TrenchJointDig-v0``'s defaults: one dig from the bucket just above the soil, 600
-steps on the T3, the map scanned once at reset (as the loop scans before each dig)."""
-TRENCH_TASK = {"start": "near_soil", "max_time_s": 30.0, "scan_period_s": 1.0}
-"""``excavsim/TrenchJoint-v0``'s defaults: the whole trench from just above the soil, 3,000 steps on
-the T3, a scan every simulated second (the done rule reads the scan)."""
 START_OPTIONS = ("start", "start_x_m", "start_height_m", "start_pitch_deg")
 """The reset options the trench goal takes."""
 
 
 class JointTrench:
     """The spec's trench, dug at the joint level (the goal ``trench`` of
-    :class:`~excavsim.envs.joint_core.JointCore`).
+    :class:`~excavsim.envs.joint_core.JointCore`, the trench task's).
 
     Its observation entries (float32, after the machine's): ``tip``, the bucket tip's pose from the machine's
     own kinematic model (x, y, z [m] in the world and pitch [rad]); ``patch``, a local height patch around
@@ -90,11 +87,14 @@ class JointTrench:
         start: ``"home"`` or ``"near_soil"`` (above); the reset option overrides it.
     """
 
+    NAME = NAME
+    TASK = NAME  # the spec is the trench task's (its goal, machine, soil and configuration overrides)
     WEIGHTS = JOINT_WEIGHTS
     MAX_TIME_S = 60.0
     SPEC_DEFAULTS: dict[str, Any] = {}
     OPTIONS = ("scan_period_s", "patch_size", "patch_spacing_m", "start")
     READS_TORQUES = True  # the saturation terms read the joints' torques
+    BATCH = "excavsim.tasks.trench.envs.batched:TrenchBatch"  # the compiled path of the batched environment
 
     def __init__(self, core, *, scan_period_s: float = 1.0, patch_size: int = 9, patch_spacing_m: float = 0.1,
                  start: str = "home"):
@@ -220,7 +220,7 @@ class JointTrench:
     # -- step -----------------------------------------------------------------------------------
     def account(self, reading, measured: tuple[float, float] | None = None) -> dict[str, Any]:
         """The reward's terms but the shaping, the ends and the info of a step the world has taken; rescans
-        when a scan is due. ``measured``: :meth:`TrueTrench.measure <excavsim.envs.core.TrueTrench.measure>`'s
+        when a scan is due. ``measured``: :meth:`TrueTrench.measure <excavsim.tasks.trench.envs.core.TrueTrench.measure>`'s
         numbers when already taken."""
         core = self.core
         sim = core.sim

@@ -1,20 +1,20 @@
 """``excavsim/LoadDig-v0``: loading from a pile in MuJoCo, one step per dig, the action the loading
 planner's (Gymnasium).
 
-:class:`LoadDigEnv` is the Gymnasium face of :class:`~excavsim.envs.load_core.LoadCore`;
+:class:`LoadDigEnv` is the Gymnasium face of :class:`~excavsim.tasks.pile_loading.envs.core.LoadCore`;
 :class:`LoadPlannerPolicy` is the loading planner used as a policy through it.
 """
 
 from __future__ import annotations
 
 from excavsim.envs.dig_env import DigStepEnv, PlannerPolicy
-from excavsim.envs.load_core import LoadCore
+from excavsim.tasks.pile_loading.envs.core import LoadCore
 
 
 class LoadDigEnv(DigStepEnv):
     """A loading episode (front loader or front shovel, a pile in a lane), one step per dig.
 
-    See :class:`~excavsim.envs.load_core.LoadCore` for the rules (snapping to the planner's grid,
+    See :class:`~excavsim.tasks.pile_loading.envs.core.LoadCore` for the rules (snapping to the planner's grid,
     the nearest feasible cell for an infeasible one, the reward's terms). Spaces:
 
     * action: ``Box(2,)`` float32 (k, alpha) from the planner grid's minima to its maxima [m, rad]
@@ -36,12 +36,12 @@ class LoadDigEnv(DigStepEnv):
     ``episode`` (:func:`~excavsim.tasks.pile_loading.task.summary` without its wall time). The
     :class:`~excavsim.tasks.pile_loading.task.MujocoRun` is :attr:`result` once the episode ended.
 
-    Seeding as :class:`~excavsim.envs.dig_env.TrenchDigEnv`: ``reset(seed=s)`` runs the episode with
+    Seeding as every dig-level environment (:class:`~excavsim.envs.dig_env.DigStepEnv`): ``reset(seed=s)`` runs the episode with
     seed ``s`` (the soil, the scanner's noise and drift); ``reset()`` without a seed runs the spec's
     seed first, then seeds drawn from :attr:`np_random`.
 
     Args:
-        spec, weights, observer: as :class:`~excavsim.envs.load_core.LoadCore`.
+        spec, weights, observer: as :class:`~excavsim.tasks.pile_loading.envs.core.LoadCore`.
         normalize_action: the action in [-1, 1] instead of the planner's units.
         render_mode: None (the default) or ``"rgb_array"`` (a frame of the world between digs).
         render_size: (width, height) of the frames [pixels].
