@@ -23,7 +23,7 @@ class JointEnv(gym.Env):
     the set-point rates of its waist or swing and its planar three joints.
 
     See :class:`~excavsim.envs.joint_core.JointCore` for the machine's part (the action, the
-    proprioception) and its goals (a task's, such as :class:`~excavsim.tasks.trench.envs.joint.JointTrench`,
+    proprioception) and its goals (a task's, found through its plug-in,
     or the platform's :class:`~excavsim.envs.joint_region.JointRegion`) for the start, the task's observation entries and the
     reward term by term. Spaces (docs/environments.md has the tables):
 
@@ -37,7 +37,7 @@ class JointEnv(gym.Env):
     ``info["reward_terms"]`` splits each reward. Seeding as :class:`~excavsim.envs.dig_env.DigStepEnv`:
     ``reset(seed=s)`` starts episode ``s``; the first reset without a seed starts the spec's ``seed``, later
     ones draw from ``np_random``; the same seed gives the same episode. ``reset(options=...)`` takes the
-    goal's reset options (the trench's :data:`~excavsim.tasks.trench.envs.joint.START_OPTIONS`; the region takes
+    goal's reset options (a task goal's own ``START_OPTIONS``; the region takes
     none).
 
     Args:
