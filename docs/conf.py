@@ -47,9 +47,9 @@ autosummary_imported_members = False
 autodoc_default_options = {"members": True, "show-inheritance": False}
 autodoc_member_order = "bysource"
 autodoc_typehints = "description"
-# ray: an optional extra (excavsim[ray]) the docs need not install; excavsim.__main__ runs the command
-# when imported, and autosummary imports every module it walks: mocked, it is skipped
-autodoc_mock_imports = ["ray", "excavsim.__main__"]
+# ray: an optional extra (excavsim[ray]) the docs need not install; excavsim.__main__ and excavsim.cli.__main__
+# run the command when imported, and autosummary imports every module it walks: mocked, they are skipped
+autodoc_mock_imports = ["ray", "excavsim.__main__", "excavsim.cli.__main__"]
 
 html_theme = "furo"
 html_title = "excavsim"

@@ -74,9 +74,9 @@ class Servos(Protocol):
 
 class HydraulicServos(Servos, Protocol):
     """Servos of a hydraulic machine whose cylinders report their working pressures
-    (the pressure sensors of Rowe 1997 §6.1; the 25 t excavator's :class:`~excavsim.world.truck.TruckWorld`
-    is one). Besides the full observation, the encoders and the pressures read alone: a loop that needs
-    only those (AutoDig) skips the rest of :meth:`observe` (on the 25 t, its joint torques through the
+    (the pressure sensors of Rowe 1997 §6.1; the 25 t excavator's world beside a truck is one). Besides
+    the full observation, the encoders and the pressures read alone: a loop that needs only those
+    (AutoDig) skips the rest of :meth:`observe` (on the 25 t, its joint torques through the
     cylinders' moment arms take about a third of a control step's time: measured)."""
 
     def joint_angles(self) -> np.ndarray:

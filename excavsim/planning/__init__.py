@@ -13,8 +13,9 @@ One dig is chosen at a time on the scanned elevation map (never the true terrain
 * :mod:`~excavsim.planning.search`: :class:`~excavsim.planning.search.TrenchPlanner`, the exhaustive
   search with pruning along d1 (§6.2), and its :class:`~excavsim.planning.search.PlanResult`;
 * :mod:`~excavsim.planning.anneal`: simulated annealing over the same grid (§6.3);
-* :mod:`~excavsim.planning.fallback`: the pre-planned boundary-following digs when no dig is of
-  minimum utility (§7.2);
 * :mod:`~excavsim.planning.predictor`: the nominal wedge-model force predictor (eq. 8);
 * :mod:`~excavsim.planning.figures`: the feasible-set, limit and dig figures (Figs. 38-49, 87).
+
+What only one task uses is that task's own (its folder's ``mind`` package): trenching's pre-planned
+boundary-following digs when no dig is of minimum utility (§7.2), the loading planner of §3.5.
 """

@@ -10,7 +10,7 @@ where J2 is the auxiliary criterion (``auxiliary``): the least peak torque ratio
 positive for every force-feasible dig) or the least cumulative torque (J2 = 1 / cumulative). When
 no dig passes z, every J is 0 and eq. 44 does not choose: the largest volume does (a tie-break the
 thesis leaves open). A best dig below ``min_volume_fraction`` of the capacity is "no dig": the loop then runs its
-pre-planned boundary-following fallback (§7.2, :mod:`~excavsim.planning.fallback`).
+pre-planned boundary-following fallback (§7.2, the trenching task's own).
 """
 
 from __future__ import annotations

@@ -3,8 +3,7 @@
 * :mod:`~excavsim.world.scene`: the scene composed from ``models/`` with PyMJCF and the configurations;
 * :mod:`~excavsim.world.simulation`: :class:`Simulation`, MuJoCo and the soil stepped together at the
   control rate, the facade the rest of the package talks to; :mod:`~excavsim.world.facade`:
-  :class:`~excavsim.world.facade.World`, the protocol it shares with the loading world
-  (:mod:`~excavsim.world.loading_scene`);
+  :class:`~excavsim.world.facade.World`, the protocol it shares with the other tasks' worlds;
 * :mod:`~excavsim.world.terrain`, :mod:`~excavsim.world.bucket`, :mod:`~excavsim.world.settle`,
   :mod:`~excavsim.world.soil`, :mod:`~excavsim.world.kernels`: the heightfield soil, the bucket's
   sampled geometry, settlement, and the bucket-soil model with its compiled kernels;

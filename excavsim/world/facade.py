@@ -1,7 +1,7 @@
 """What every world of excavsim is to the platform: one protocol over the trenching and the loading worlds.
 
 :class:`~excavsim.world.simulation.Simulation` (the T3 over its soil box) and
-:class:`~excavsim.world.loading_scene.LoadingWorld` (a front loader or a front shovel over its lane)
+the loading world (a front loader or a front shovel over its lane, a task's own world)
 are both MuJoCo and the heightfield soil stepped together at the control rate. :class:`World` is
 what they share, so that the pieces of an episode around the machine (scanning the terrain into a
 map, settling the soil after a dig, the volume account, the observers' step hooks, the watchdog's

@@ -22,7 +22,7 @@ deceleration planning (a full-speed swing of the 25 t machine overshoots), relie
 and the pumps deliver their rated flow at any pressure (no power limit).
 
 :class:`ExcavatorWorld` steps such a model with the world's soil (:class:`~excavsim.world.soil.SoilModel`)
-at a fixed control rate, as :class:`~excavsim.world.loading_scene.LoadingWorld` does for the loading
+at a fixed control rate, as the loading world does for the loading
 machines: the soil model reads the bucket, cuts and fills, and its wrench on the bucket is applied through
 ``xfrc_applied``; the cylinder force sensors and the F/T at the bucket pin read the result.
 

@@ -296,8 +296,8 @@ class SoilModel:
             self.dimaio = dimaio.DiMaioForces(soil, scene, b.width, self.gravity, waist.xanchor[jid, :2].copy())
         self.spoil = 0.0
         # Bodies above the terrain that catch poured soil before it reaches the ground, each called as
-        # ``catch(x, y, volumes, radius_m) -> (volumes still falling, volume caught)`` (a truck's bed,
-        # :class:`~excavsim.world.truck.TruckBed`); what they catch leaves this model's account.
+        # ``catch(x, y, volumes, radius_m) -> (volumes still falling, volume caught)`` (a truck's bed);
+        # what they catch leaves this model's account.
         self.catchers: list = []
         self._since_settle = 0.0
         self._hfield = self.grid.hfield_view(model)

@@ -178,6 +178,6 @@ def test_a_loading_campaign_checks_the_configuration_it_names(tmp_path):
 
 
 def test_the_loading_machines_of_the_configuration_are_the_worlds():
-    from excavsim.world.loading_scene import MACHINES
+    from excavsim.tasks.pile_loading.world.scene import MACHINES
 
     assert tuple(LOADING_MACHINES) == tuple(MACHINES)

@@ -12,7 +12,6 @@ import mujoco
 import numpy as np
 import pytest
 
-from excavsim.tasks.truck_loading.config import load_truck_loading_file
 from excavsim.errors import GoalError
 from excavsim.execution.conditions import always, joint_above, joint_below
 from excavsim.execution.rowe_script.geometry import TruckSite, bucket_for_pitch, clearance_boom_angle
@@ -25,9 +24,10 @@ from excavsim.robot.excavators import EXCAVATOR_25T
 from excavsim.robot.extract import arm_from_model
 from excavsim.tasks.dump_trial import trial as truck
 from excavsim.tasks.truck_loading import task as loading
+from excavsim.tasks.truck_loading.config import load_truck_loading_file
+from excavsim.tasks.truck_loading.world.truck import TruckSpec, TruckWorld
 from excavsim.world.hydraulics import EXCAVATOR_JOINTS
 from excavsim.world.simulation import Simulation
-from excavsim.world.truck import TruckSpec, TruckWorld
 
 T3 = truck.SCRIPT_JOINTS
 EX = loading.SCRIPT_JOINTS

@@ -14,8 +14,8 @@ from rerun.chunk import RrdReader
 
 from excavsim.cli import main
 from excavsim.errors import ExcavsimError
-from excavsim.tasks.truck_loading.recording import TruckLoadingRecorder
 from excavsim.tasks.truck_loading import task as truck_loading
+from excavsim.tasks.truck_loading.recording import TruckLoadingRecorder
 from tests.record.test_record import entities, rerun_cli
 
 SPEC = "configs/specs/excavator_truck.yaml"
@@ -189,7 +189,7 @@ def test_a_bad_file_is_refused(tmp_path):
 
 def test_a_truck_that_leaves_takes_its_fill_off_the_recording(tmp_path):
     """When a full truck leaves (``TruckWorld.haul``) the fill is logged again, empty, at the next step."""
-    from excavsim.world.truck import TruckWorld
+    from excavsim.tasks.truck_loading.world.truck import TruckWorld
 
     w = TruckWorld("excavator_25t", "dry_sand", seed=0)
     path = tmp_path / "haul.rrd"

@@ -181,13 +181,17 @@ def test_scene_builder_uses_pymjcf_and_keeps_unprefixed_names():
 
 
 def test_the_planner_and_map_builder_import_no_simulator():
-    """At run time too (the contracts check the import graph): planning and learning load no MuJoCo or Rerun."""
+    """At run time too (the contracts check the import graph): planning, learning and every task's mind
+    side load no MuJoCo or Rerun."""
     import subprocess
     import sys
 
-    code = ("import sys; import excavsim.planning.search, excavsim.planning.anneal, excavsim.planning.fallback, "
+    minds = sorted(".".join(p.relative_to(constants.PACKAGE_ROOT.parent).with_suffix("").parts)
+                   for p in (constants.PACKAGE_ROOT / "tasks").glob("*/mind/*.py") if p.name != "__init__.py")
+    assert minds, "no task has a mind package"
+    code = ("import sys; import excavsim.planning.search, excavsim.planning.anneal, "
             "excavsim.sensing.elevation; import excavsim.learning.predictors, excavsim.learning.adapter, "
-            "excavsim.learning.evaluate, excavsim.learning.figures; "
+            f"excavsim.learning.evaluate, excavsim.learning.figures; import {', '.join(minds)}; "
             "bad = [m for m in ('mujoco', 'dm_control', 'rerun') if m in sys.modules]; print(bad); sys.exit(bool(bad))")
     done = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True)
     assert done.returncode == 0, done.stdout + done.stderr

@@ -12,7 +12,7 @@ from excavsim.world.facade import World
 def test_the_trenching_and_the_loading_world_are_one_protocol_and_scan_into_maps_alike():
     from excavsim.tasks.pile_loading import task as lm
     from excavsim.rig.core import make_rig
-    from excavsim.world.loading_scene import LoadingWorld
+    from excavsim.tasks.pile_loading.world.scene import LoadingWorld
     from excavsim.world.simulation import Simulation
 
     sim = Simulation(seed=0)

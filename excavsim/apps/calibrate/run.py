@@ -231,15 +231,6 @@ def _plot_fit(path: pathlib.Path, data: ForceDataset, fits: dict[str, Fit], reru
     plt.close(fig)
 
 
-def record_digs(path: str | pathlib.Path, *, truth: str = "wedge", soil: str | None = None, digs: int = 3,
-                seed: int = 0, quiet: bool = False, observer=None,
-                say: Callable[[str], None] | None = None) -> ForceDataset:
-    """:func:`excavsim.apps.calibrate.digs.record_digs` (kept here for the command)."""
-    from excavsim.apps.calibrate.digs import record_digs as _record
-
-    return _record(path, truth=truth, soil=soil, digs=digs, seed=seed, quiet=quiet, observer=observer, say=say)
-
-
 def calibrate_file(record: str | pathlib.Path, model: str, out: str | pathlib.Path, *, soil: str | None = None,
                    rerun_digs: bool = True, fixed: dict[str, float] | None = None, brittleness: float = 0.0,
                    rate_per_decade: float = 0.0, record_digs_n: int | None = None, truth: str = "wedge",
@@ -258,6 +249,8 @@ def calibrate_file(record: str | pathlib.Path, model: str, out: str | pathlib.Pa
     """
     record = pathlib.Path(record)
     if record_digs_n:
+        from excavsim.apps.calibrate.digs import record_digs
+
         say(f"excavsim calibrate: recording {record_digs_n} digs on the {truth} truth into {record}"
             + (f" (and the episode into {rrd})" if rrd else ""))
         observer = None

@@ -18,5 +18,6 @@ differs between machines is data or a small strategy object, not another script:
 - :mod:`~excavsim.execution.rowe_script.runner`: the script run on any machine's servos.
 
 The dig before it is the machine's own: the T3's fixed dig of §6.2
-(:func:`~excavsim.execution.paths.follow_path`), the 25 t's AutoDig of §4.4 (:mod:`excavsim.execution.autodig`).
+(:func:`~excavsim.execution.paths.follow_path`), the 25 t's AutoDig of §4.4 (the mind side of the task that loads
+a truck with it).
 """

@@ -2,7 +2,7 @@
 
 A campaign YAML (:class:`CampaignSpec`) names a base :class:`~excavsim.loop.scenario.EpisodeSpec`
 and a grid of dotted keys, each with a list of values; :func:`expand_grid` turns it into the
-cartesian product of :class:`Episode` s, each with an id made of its grid values and a hash of its
+cartesian product of :class:`CampaignEpisode` s, each with an id made of its grid values and a hash of its
 specification (so that a resumed or extended campaign recognizes the episodes it has run).
 :func:`load_campaign` validates every grid value against the configuration it overrides.
 
@@ -76,7 +76,7 @@ class CampaignSpec(StrictModel):
 
 
 @dataclasses.dataclass(frozen=True)
-class Episode:
+class CampaignEpisode:
     """One point of a campaign's grid: its stable id, readable name, grid values and full specification."""
 
     id: str
@@ -172,7 +172,7 @@ def episode_id(spec: EpisodeSpec, params: dict[str, Any]) -> str:
     return f"{label}-{digest}" if label else digest
 
 
-def expand_grid(spec: CampaignSpec) -> list[Episode]:
+def expand_grid(spec: CampaignSpec) -> list[CampaignEpisode]:
     """The campaign's episodes: the cartesian product of the grid over the base, in grid order.
 
     Raises:
@@ -180,7 +180,7 @@ def expand_grid(spec: CampaignSpec) -> list[Episode]:
     """
     keys = list(spec.grid)
     base = spec.base.model_dump()
-    episodes: list[Episode] = []
+    episodes: list[CampaignEpisode] = []
     seen: dict[str, str] = {}
     for values in itertools.product(*(spec.grid[k] for k in keys)):
         params = dict(zip(keys, values))
@@ -196,11 +196,11 @@ def expand_grid(spec: CampaignSpec) -> list[Episode]:
             raise ConfigError(f"campaign {spec.name}: the grid gives the same episode twice ({seen[eid]!r} and "
                               f"{name!r}); remove the repeated value")
         seen[eid] = name
-        episodes.append(Episode(eid, name, params, ep))
+        episodes.append(CampaignEpisode(eid, name, params, ep))
     return episodes
 
 
-def check_campaign(spec: CampaignSpec, *, source: str) -> list[Episode]:
+def check_campaign(spec: CampaignSpec, *, source: str) -> list[CampaignEpisode]:
     """Validate every grid value against the configurations it overrides; returns the episodes.
 
     Each value is checked alone on the base (so the message names the key and the value); values

@@ -14,7 +14,7 @@ from typing import Any
 
 from excavsim.config import load_planner_config
 from excavsim.loop import catalog
-from excavsim.studies.campaign.grid import CampaignSpec, Episode, slug
+from excavsim.studies.campaign.grid import CampaignEpisode, CampaignSpec, slug
 
 # how an episode ended, in the order plots stack them ("error": it raised, or its worker died)
 ENDS = ("done", "no_dig", "budget", "diverged", "timeout", "error")
@@ -47,7 +47,7 @@ def _cell(value: Any) -> Any:
     return value if value is None or isinstance(value, (str, int, float)) else json.dumps(value, sort_keys=True)
 
 
-def summary_rows(episodes: list[Episode], ep_dir: pathlib.Path) -> list[dict[str, Any]]:
+def summary_rows(episodes: list[CampaignEpisode], ep_dir: pathlib.Path) -> list[dict[str, Any]]:
     """One flat row per episode, in grid order: id, name, the grid values, status, the summary numbers."""
     rows = []
     for ep in episodes:

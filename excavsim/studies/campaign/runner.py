@@ -62,14 +62,14 @@ from excavsim.handoff.episode import EpisodeObserver, ObserverGroup
 from excavsim.errors import ConfigError, DependencyError, ExcavsimError, UsageError
 from excavsim.processes import exit_with_parent
 from excavsim.studies.campaign import inputs
-from excavsim.studies.campaign.grid import (CampaignSpec, Episode, check_campaign, episode_id,
+from excavsim.studies.campaign.grid import (CampaignEpisode, CampaignSpec, check_campaign, episode_id,
                                          expand_grid, load_campaign, parse_campaign)
 from excavsim.studies.campaign.report import (format_table, group_table, plot_campaign, summary_rows, write_atomic,
                                            write_tables)
 from excavsim.loop.catalog import progress_text
 from excavsim.loop.scenario import EpisodeSpec, dig_rows, episode_summary, run_spec
 
-__all__ = ["CampaignReport", "CampaignSpec", "Episode", "check_campaign", "episode_id",
+__all__ = ["CampaignEpisode", "CampaignReport", "CampaignSpec", "check_campaign", "episode_id",
            "expand_grid", "load_campaign", "parse_campaign", "result_problem", "run_campaign", "run_episode_task"]
 
 
@@ -82,7 +82,7 @@ class CampaignReport:
     """What :func:`run_campaign` did: the episodes, how many ran now, and one summary row per episode."""
 
     out_dir: pathlib.Path
-    episodes: list[Episode]
+    episodes: list[CampaignEpisode]
     ran: int
     rows: list[dict[str, Any]]
     plots: list[pathlib.Path]
@@ -114,7 +114,7 @@ def _json_safe(obj: Any) -> Any:
 ObserverFactory = Callable[[pathlib.Path], EpisodeObserver]
 
 
-def _task(ep: Episode, out_dir: pathlib.Path, record: bool, files: dict[str, str] | None = None,
+def _task(ep: CampaignEpisode, out_dir: pathlib.Path, record: bool, files: dict[str, str] | None = None,
           live: str | None = None, observer: ObserverFactory | None = None) -> dict[str, Any]:
     return {"id": ep.id, "name": ep.name, "params": ep.params, "spec": ep.spec.model_dump(mode="json"),
             "out_dir": str(out_dir.resolve()), "recording": f"recordings/{ep.id}.rrd" if record else None,

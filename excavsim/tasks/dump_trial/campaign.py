@@ -58,9 +58,9 @@ class RunSummary:
     after_move: Window | None = None
 
 
-def run_campaign(*, seeds: Sequence[int], soils: Sequence[str], trials: int,
-                 retarget: tuple[int, float, float] | None = None, cfg: truck.TruckConfig | None = None,
-                 out: Path | None = None, progress: Callable[[str], None] | None = None) -> list[RunSummary]:
+def run_tuning_campaign(*, seeds: Sequence[int], soils: Sequence[str], trials: int,
+                        retarget: tuple[int, float, float] | None = None, cfg: truck.TruckConfig | None = None,
+                        out: Path | None = None, progress: Callable[[str], None] | None = None) -> list[RunSummary]:
     """Run the campaign (see the module docstring); writes ``truck_campaign.csv`` (one row per trial) and
     ``truck_campaign.txt`` (the table) into ``out`` when given.
 
@@ -95,7 +95,7 @@ def run_campaign(*, seeds: Sequence[int], soils: Sequence[str], trials: int,
                                      after)
                 runs.append(summary)
                 if progress is not None:
-                    progress(format_run(summary))
+                    progress(format_tuning_line(summary))
                 for t in ts:
                     o = truck.trial_objective(t, cfg)
                     rows.append({"soil": soil, "seed": seed, "run": kind, "trial": t.index + 1, "source": t.source,
@@ -109,14 +109,14 @@ def run_campaign(*, seeds: Sequence[int], soils: Sequence[str], trials: int,
             w.writeheader()
             for row in rows:
                 w.writerow({k: (f"{v:.6g}" if isinstance(v, float) else v) for k, v in row.items()})
-        (out / "truck_campaign.txt").write_text(format_table(runs, window) + "\n")
+        (out / "truck_campaign.txt").write_text(format_tuning_table(runs, window) + "\n")
     return runs
 
 
-def compare(*, seeds: Sequence[int], soils: Sequence[str] | None, trials: int, out: Path,
-            retarget: tuple[int, float, float] | None = None, cfg: truck.TruckConfig | None = None,
-            say: Callable[[str], None] = print) -> list[RunSummary]:
-    """``excavsim tune --compare``: :func:`run_campaign` over ``soils`` (default the scene's) with a
+def compare_tuning(*, seeds: Sequence[int], soils: Sequence[str] | None, trials: int, out: Path,
+                   retarget: tuple[int, float, float] | None = None, cfg: truck.TruckConfig | None = None,
+                   say: Callable[[str], None] = print) -> list[RunSummary]:
+    """``excavsim tune --compare``: :func:`run_tuning_campaign` over ``soils`` (default the scene's) with a
     line per run and the table said at the end."""
     from excavsim.config import load_scene_config
 
@@ -125,14 +125,14 @@ def compare(*, seeds: Sequence[int], soils: Sequence[str] | None, trials: int, o
     say(f"excavsim tune --compare: tuned vs untuned{' and a moved target' if retarget else ''}, "
         f"{trials} trials, seeds {' '.join(map(str, seeds))}, soils {' '.join(soils)} "
         "(Rowe 1997 §6.2)")
-    runs = run_campaign(seeds=seeds, soils=soils, trials=trials, retarget=retarget, cfg=cfg, out=Path(out),
+    runs = run_tuning_campaign(seeds=seeds, soils=soils, trials=trials, retarget=retarget, cfg=cfg, out=Path(out),
                         progress=say)
-    say(format_table(runs, cfg.initial_trials))
+    say(format_tuning_table(runs, cfg.initial_trials))
     say(f"wrote {Path(out) / 'truck_campaign.csv'} and truck_campaign.txt")
     return runs
 
 
-def format_run(r: RunSummary) -> str:
+def format_tuning_line(r: RunSummary) -> str:
     """One line: a run's first and last windows (and the one after the move)."""
     def w(x: Window) -> str:
         return f"{x.cost:7.2f} {x.time_s:5.2f} s {x.sq_error_m2:.4f} m^2"
@@ -140,7 +140,7 @@ def format_run(r: RunSummary) -> str:
     return f"{r.soil:14s} seed {r.seed:3d} {r.kind:8s} first {w(r.first)}{moved}  last {w(r.last)}"
 
 
-def format_table(runs: Sequence[RunSummary], window: int) -> str:
+def format_tuning_table(runs: Sequence[RunSummary], window: int) -> str:
     """The campaign's table: per soil and seed the last-window cost, time and error of the tuned and
     the untuned runs, the moved run after the move and at the end, and the verdicts; then the means
     over the seeds of each soil."""

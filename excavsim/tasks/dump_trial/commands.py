@@ -25,10 +25,10 @@ def _cmd_tune(args: argparse.Namespace) -> int:
     if args.compare:
         if args.record:
             raise UsageError("--record writes one run: leave it out with --compare")
-        from excavsim.tasks.dump_trial.campaign import compare
+        from excavsim.tasks.dump_trial.campaign import compare_tuning
 
-        compare(seeds=args.seeds, soils=args.soils or ([args.soil] if args.soil else None), trials=args.trials,
-                out=args.out, retarget=retarget, cfg=cfg)
+        compare_tuning(seeds=args.seeds, soils=args.soils or ([args.soil] if args.soil else None), trials=args.trials,
+                       out=args.out, retarget=retarget, cfg=cfg)
         return 0
     tuning.tune_and_report(args.trials, cfg, args.out, seed=args.seed, soil=args.soil, retarget=retarget,
                           record=args.record)

@@ -30,7 +30,6 @@ import numpy as np
 
 from excavsim import constants
 from excavsim.config import load_robot_config, load_sensing_config
-from excavsim.tasks.dump_trial.config import TRUCK_YAML, TruckFile, load_truck_file
 from excavsim.errors import GoalError, UsageError
 from excavsim.execution.paths import follow_path
 from excavsim.execution.rowe_script.geometry import HeightDump, TruckSite
@@ -45,6 +44,7 @@ from excavsim.loop.episode import Episode
 from excavsim.rig.core import go_to
 from excavsim.robot.extract import arm_from_model
 from excavsim.sensing.elevation import scan_map
+from excavsim.tasks.dump_trial.config import TRUCK_YAML, TruckFile, load_truck_file
 from excavsim.world.scanner import LaserScanner
 from excavsim.world.simulation import Simulation
 
@@ -207,7 +207,7 @@ def missed_volume(sim: Simulation, before: np.ndarray, cfg: TruckConfig, min_the
     return float(deposit[outside].sum() * g.cell_area)
 
 
-class Scanner:
+class BoxMapper:
     """The box's scanner and the map builder, as the loop uses them around a trial."""
 
     def __init__(self, sim: Simulation, seed: int):
@@ -352,7 +352,7 @@ class TruckTask:
         the dig's end. Every trial starts from such a world (§6.2)."""
         self.sim = sim = world if world is not None else Simulation(soil=self.soil, seed=seed)
         self.arm = arm_from_model(sim.model)
-        self.scanner = Scanner(sim, seed)
+        self.scanner = BoxMapper(sim, seed)
         q = dig(sim, self.cfg, self.arm)
         self.loaded = sim.truth.volumes.bucket
         return q

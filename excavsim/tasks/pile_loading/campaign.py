@@ -1,10 +1,10 @@
 """Loading from a pile in MuJoCo over machines and seeds (Singh 1995 §7.2.1): ``excavsim load --mujoco``, ``--campaign``.
 
 The episodes are the task's (:class:`~excavsim.tasks.pile_loading.task.LoadTask`, cycled by
-:func:`~excavsim.tasks.pile_loading.task.run_episode`); this module runs several and judges them together:
+:func:`~excavsim.tasks.pile_loading.task.run_loading_episode`); this module runs several and judges them together:
 :func:`run_episodes` an episode of each machine, said run by run and compared with the thesis' 2-D
-results (:func:`format_comparison`); :func:`write_campaign` a campaign file's machines over its seeds
-(:func:`run_campaign`), per machine beside the 2-D simulation on the same pile (:func:`same_pile_2d`)
+results (:func:`format_mujoco_comparison`); :func:`write_campaign` a campaign file's machines over its seeds
+(:func:`run_loading_campaign`), per machine beside the 2-D simulation on the same pile (:func:`same_pile_2d`)
 and the thesis (:func:`format_campaign`, Figs. 108-109).
 """
 
@@ -14,15 +14,15 @@ import pathlib
 
 import numpy as np
 
-from excavsim.tasks.pile_loading.config import LoadingCampaign, LoadingMujocoConfig, load_loading_campaign
 from excavsim.errors import UsageError
 from excavsim.tasks.pile_loading import planar as ld
-from excavsim.tasks.pile_loading.task import MujocoRun, format_run, load_mujoco_config, run_episode
-from excavsim.world.loading_scene import MACHINES
+from excavsim.tasks.pile_loading.config import LoadingCampaign, LoadingMujocoConfig, load_loading_campaign
+from excavsim.tasks.pile_loading.task import MujocoRun, format_run, load_mujoco_config, run_loading_episode
+from excavsim.tasks.pile_loading.world.scene import MACHINES
 
 
 # ---------------------------------------------------------------------------------------------- episodes
-def format_comparison(rows: list[tuple[str, MujocoRun]], units_m2: float = 0.01) -> str:
+def format_mujoco_comparison(rows: list[tuple[str, MujocoRun]], units_m2: float = 0.01) -> str:
     """The episodes beside the thesis' 2-D results (§7.2.1), delivered per dig in units of soil of the section
     (the lane's volume over its width; 1 unit = ``units_m2`` m^2), spilled in m^3."""
     lines = [f"{'machine':<8} {'digs':>5} {'per dig (units)':>16} {'efficiency':>11} {'removed':>8} {'spilled':>8} "
@@ -37,33 +37,29 @@ def format_comparison(rows: list[tuple[str, MujocoRun]], units_m2: float = 0.01)
 
 
 # ---------------------------------------------------------------------------------------------- campaigns
-def load_campaign(path: str | pathlib.Path) -> LoadingCampaign:
-    """A loading campaign file, validated (machine names, seeds: :class:`~excavsim.tasks.pile_loading.config.LoadingCampaign`)."""
-    return load_loading_campaign(path)
-
-
 def same_pile_2d(name: str, cfg: LoadingMujocoConfig, cfg2d: ld.LoadingConfig) -> ld.Run:
-    """The 2-D simulation of §7.2.1 (:func:`excavsim.tasks.pile_loading.planar.simulate`: exact terrain, the swept area removed,
-    settlement) on the episode's pile: the lane's length, 5 cm columns, faces at the world soil's repose."""
+    """The 2-D simulation of §7.2.1 (:func:`excavsim.tasks.pile_loading.planar.simulate_pile`: exact terrain, the
+    swept area removed, settlement) on the episode's pile: the lane's length, 5 cm columns, faces at the world
+    soil's repose."""
     from excavsim.config import get_soil
-    from excavsim.world.pile2d import trapezoid_pile
+    from excavsim.tasks.pile_loading.world.pile2d import trapezoid_pile
 
     repose = get_soil(cfg.soil).repose_angle_deg
     pile = trapezoid_pile(cfg.pile.height, cfg.pile.top, cfg.pile.foot, 8.5, 0.05, repose)
     spec = getattr(cfg2d.machines, name)
-    return ld.simulate(ld.make_machine(cfg2d, name), ld.make_rules(cfg2d, spec.capacity_units), pile, name=name,
+    return ld.simulate_pile(ld.make_machine(cfg2d, name), ld.make_rules(cfg2d, spec.capacity_units), pile, name=name,
                        max_digs=cfg.max_digs)
 
 
-def run_campaign(spec: LoadingCampaign, *, cfg: LoadingMujocoConfig | None = None,
-                 cfg2d: ld.LoadingConfig | None = None, progress=None) -> list[tuple[str, int, MujocoRun]]:
+def run_loading_campaign(spec: LoadingCampaign, *, cfg: LoadingMujocoConfig | None = None,
+                         cfg2d: ld.LoadingConfig | None = None, progress=None) -> list[tuple[str, int, MujocoRun]]:
     """Every (machine, seed) episode of ``spec``, in sequence."""
     cfg = cfg or load_mujoco_config(spec.mujoco_config)
     cfg2d = cfg2d or ld.load_loading_config()
     rows = []
     for name in spec.machines:
         for seed in spec.seeds:
-            run = run_episode(name, seed=seed, cfg=cfg, cfg2d=cfg2d)
+            run = run_loading_episode(name, seed=seed, cfg=cfg, cfg2d=cfg2d)
             rows.append((name, seed, run))
             if progress:
                 progress(f"  {name} seed {seed}: " + _campaign_line(run))
@@ -120,11 +116,11 @@ def write_campaign(campaign: str | pathlib.Path, out: str | pathlib.Path, *, cfg
     Returns:
         Whether every episode finished its work.
     """
-    spec = load_campaign(campaign)
+    spec = load_loading_campaign(campaign)
     mcfg = load_mujoco_config(mujoco_config or spec.mujoco_config)
     say(f"excavsim load --campaign: {', '.join(spec.machines)} x seeds {spec.seeds} in MuJoCo, pile "
         f"{mcfg.pile.height:g} m high, soil {mcfg.soil}")
-    rows = run_campaign(spec, cfg=mcfg, cfg2d=cfg2d, progress=say)
+    rows = run_loading_campaign(spec, cfg=mcfg, cfg2d=cfg2d, progress=say)
     two_d = {name: same_pile_2d(name, mcfg, cfg2d) for name in spec.machines}
     table = format_campaign(rows, two_d, cfg2d.units_m2)
     out = pathlib.Path(out)
@@ -162,12 +158,12 @@ def run_episodes(*, cfg2d: ld.LoadingConfig, machine: str | None = None, seed: i
             from excavsim.tasks.pile_loading.recording import LoadingRecorder
 
             observer = LoadingRecorder(record)
-        run = run_episode(name, seed=seed, cfg=mcfg, cfg2d=cfg2d, observer=observer, progress=say)
+        run = run_loading_episode(name, seed=seed, cfg=mcfg, cfg2d=cfg2d, observer=observer, progress=say)
         say(format_run(run))
         rows.append((name, run))
         if record:
             say(f"recorded to {record}")
     if len(rows) > 1:
-        say("\n" + format_comparison(rows))
+        say("\n" + format_mujoco_comparison(rows))
     return all(r.done for _, r in rows)
 

@@ -20,7 +20,7 @@ def _cmd_load(args: argparse.Namespace) -> int:
     if args.study:
         ld.write_study(args.config, args.out, runs=args.runs, workers=args.workers, seed=args.seed)
     else:
-        ld.write_figures(cfg, args.out, machine=args.machine)
+        ld.write_planar_figures(cfg, args.out, machine=args.machine)
     return 0
 
 

@@ -15,8 +15,8 @@ from pydantic import Field, field_validator
 
 from excavsim import constants
 from excavsim.config.loader import StrictModel, load_config
-from excavsim.tasks.pile_loading.config_planar import LOADING_MACHINES
 from excavsim.config.soils import get_soil
+from excavsim.tasks.pile_loading.config_planar import LOADING_MACHINES
 
 LOADING_MUJOCO_YAML = constants.CONFIGS_DIR / "pile_loading.yaml"
 MAX_SEED = 2**32 - 1  # seeds are unsigned 32-bit numbers
@@ -59,7 +59,7 @@ class ShovelScript(StrictModel):
 
 
 class ScriptSpec(StrictModel):
-    """The dig script (excavsim.execution.loading_script): open loop in time, no touch-down."""
+    """The dig script (excavsim.tasks.pile_loading.mind.script): open loop in time, no touch-down."""
 
     tip_speed: float = Field(gt=0.0, le=5.0, description="the bucket tip's speed along the planned path [m/s]")
     path_step: float = Field(gt=0.001, le=0.5, description="the path's sampling for the inverse kinematics [m]")

@@ -1,12 +1,13 @@
 """The 2-D loading simulation of Singh 1995 §7.2.1 (Figs. 108-112) and its figures (Figs. 28-35).
 
-A pile in a two-dimensional world (:mod:`excavsim.world.pile2d`), a machine (:mod:`excavsim.robot.loaders`),
-and the loading planner (:mod:`excavsim.planning.loading`), wired as the excavation cycle of Fig. 107:
+A pile in a two-dimensional world (:mod:`excavsim.tasks.pile_loading.world.pile2d`), a machine
+(:mod:`excavsim.robot.loaders`), and the loading planner (:mod:`excavsim.tasks.pile_loading.mind.planner`),
+wired as the excavation cycle of Fig. 107:
 the planner sees the terrain exactly (in simulation "a trivial task"), chooses a dig, the swept area is
 removed, the pile settles to its angle of repose, and again, until no dig of minimal utility is left
 (the pile is gone, or what is left is out of reach) or ``max_digs`` are spent.
 
-* :func:`simulate`: one run (Figs. 108, 109, 111), a row per dig;
+* :func:`simulate_pile`: one run (Figs. 108, 109, 111), a row per dig;
 * :func:`study`: Fig. 112: ``runs`` random piles per force limit, each run until ``remove_units`` are
   removed, both machines with the same capacity and force limit; the efficiency is the average
   removed per dig over the capacity;
@@ -27,11 +28,11 @@ import pathlib
 
 import numpy as np
 
-from excavsim.tasks.pile_loading.config_planar import LOADING_MACHINES, LOADING_YAML, LoadingConfig, load_loading_config
 from excavsim.errors import ConfigError
-from excavsim.planning import loading as lp
 from excavsim.robot.loaders import FrontLoader, FrontShovel
-from excavsim.world.pile2d import Pile2D, random_pile, trapezoid_pile
+from excavsim.tasks.pile_loading.config_planar import LOADING_MACHINES, LOADING_YAML, LoadingConfig, load_loading_config
+from excavsim.tasks.pile_loading.mind import planner as lp
+from excavsim.tasks.pile_loading.world.pile2d import Pile2D, random_pile, trapezoid_pile
 
 CONFIG_PATH = LOADING_YAML
 MACHINES = LOADING_MACHINES
@@ -87,7 +88,7 @@ def make_pile(cfg: LoadingConfig) -> Pile2D:
 
 # ---------------------------------------------------------------------------------------------- the simulation
 @dataclasses.dataclass
-class Dig:
+class PlanarDig:
     """One dig of a run: the plan's action, the area it swept (planned) and removed [m^2], its force [N/m]."""
 
     action: lp.LoadingAction
@@ -106,7 +107,7 @@ class Run:
 
     machine: str
     capacity_m2: float
-    digs: list[Dig]
+    digs: list[PlanarDig]
     reason: str
     start_m2: float
     end_m2: float
@@ -124,20 +125,20 @@ class Run:
         return self.per_dig() / self.capacity_m2
 
 
-def terrain_of(pile: Pile2D) -> lp.Terrain:
+def terrain_of(pile: Pile2D) -> lp.PileSection:
     """What the planner sees of the pile: the exact profile (§7.2: in simulation, perfect sensing)."""
-    return lp.Terrain(pile.xs.copy(), pile.heights.copy(), pile.dx)
+    return lp.PileSection(pile.xs.copy(), pile.heights.copy(), pile.dx)
 
 
-def simulate(machine, rules: lp.LoadingRules, pile: Pile2D, *, name: str = "", max_digs: int = 100,
-             remove_m2: float | None = None, progress=None) -> Run:
+def simulate_pile(machine, rules: lp.LoadingRules, pile: Pile2D, *, name: str = "", max_digs: int = 100,
+                  remove_m2: float | None = None, progress=None) -> Run:
     """Plan, remove the swept area, settle, repeat (see the module docstring); ``pile`` is changed in place.
 
     ``remove_m2`` ends the run once that much is removed (the study); otherwise it runs until no dig of
     minimal utility is left or ``max_digs`` are spent.
     """
     start = pile.area()
-    digs: list[Dig] = []
+    digs: list[PlanarDig] = []
     reason = f"{max_digs} digs spent"
     for _ in range(max_digs):
         if remove_m2 is not None and sum(d.removed_m2 for d in digs) >= remove_m2 - 1e-9:
@@ -152,7 +153,7 @@ def simulate(machine, rules: lp.LoadingRules, pile: Pile2D, *, name: str = "", m
         removed = pile.carve(px, pz)
         cut = pile.heights.copy()
         pile.settle()
-        digs.append(Dig(result.action, result.volume, removed, result.force, result.base_x, before, cut,
+        digs.append(PlanarDig(result.action, result.volume, removed, result.force, result.base_x, before, cut,
                         pile.heights.copy()))
         if progress:
             progress(f"  dig {len(digs):3d}: k {result.action.k:.2f} m, alpha {math.degrees(result.action.alpha):5.1f} "
@@ -165,7 +166,7 @@ def run_machine(cfg: LoadingConfig, name: str, *, force: bool = False, progress=
     machine = make_machine(cfg, name)
     spec = cfg.machines.loader if name == "loader" else cfg.machines.shovel
     rules = make_rules(cfg, spec.capacity_units, cfg.fig111_force_limit_kn_m if force else None)
-    return simulate(machine, rules, make_pile(cfg), name=name, max_digs=cfg.planner.max_digs, progress=progress)
+    return simulate_pile(machine, rules, make_pile(cfg), name=name, max_digs=cfg.planner.max_digs, progress=progress)
 
 
 def study_run(cfg: LoadingConfig, name: str, force_kn_m: float, seed: int) -> tuple[int, float, str]:
@@ -174,7 +175,7 @@ def study_run(cfg: LoadingConfig, name: str, force_kn_m: float, seed: int) -> tu
     pile = random_pile(seed, s.pile_units * cfg.units_m2, foot=cfg.pile.foot, width=s.pile_width, dx=cfg.pile.dx,
                        repose_deg=cfg.pile.repose_deg)
     rules = make_rules(cfg, s.capacity_units, force_kn_m, coarse=True)
-    run = simulate(make_machine(cfg, name), rules, pile, name=name, max_digs=s.max_digs,
+    run = simulate_pile(make_machine(cfg, name), rules, pile, name=name, max_digs=s.max_digs,
                    remove_m2=s.remove_units * cfg.units_m2)
     return len(run.digs), run.removed_m2, run.reason
 
@@ -224,7 +225,7 @@ def study(cfg_path: str | pathlib.Path | None = None, *, runs: int | None = None
 
 
 # ---------------------------------------------------------------------------------------------- reports
-def format_run(run: Run, units_m2: float, exit_heading: float) -> str:
+def format_planar_run(run: Run, units_m2: float, exit_heading: float) -> str:
     """A run's digs as a table, in units of soil."""
     lines = [f"{'dig':>4} {'k m':>5} {'h m':>5} {'alpha':>6} {'d1 m':>5} {'r m':>5} {'d2 m':>5} {'planned':>8} "
              f"{'removed':>8} {'force kN/m':>10}"]
@@ -239,7 +240,7 @@ def format_run(run: Run, units_m2: float, exit_heading: float) -> str:
     return "\n".join(lines)
 
 
-def format_comparison(rows: list[tuple[str, Run, dict]], units_m2: float) -> str:
+def format_planar_comparison(rows: list[tuple[str, Run, dict]], units_m2: float) -> str:
     """The runs beside §7.2.1's numbers."""
     head = (f"{'run':<36} {'capacity':>8} {'digs':>5} {'thesis':>6} {'per dig':>8} {'thesis':>6} "
             f"{'efficiency':>10} {'thesis':>6}")
@@ -277,7 +278,7 @@ def _figure(w, h):
 
 def _skeleton(machine, action: lp.LoadingAction, heights, xs, dx, rules, base_x):
     """The machine's skeleton (3, m, 2) at the start, the end of the approach and the end of the lift-out."""
-    terrain = lp.Terrain(xs, heights, dx)
+    terrain = lp.PileSection(xs, heights, dx)
     poses, phase = lp.action_poses(action, terrain, rules, machine.floor)
     n_line = int(np.sum(phase == 0))
     picks = poses[[0, n_line - 1, -1]]
@@ -389,7 +390,7 @@ def write_study(cfg_path: str | pathlib.Path | None, out: str | pathlib.Path, *,
     say(f"wrote {out / 'fig112.png'}, {out / 'fig112.txt'}")
 
 
-def write_figures(cfg: LoadingConfig, out: str | pathlib.Path, *, machine: str | None = None, say=print) -> None:
+def write_planar_figures(cfg: LoadingConfig, out: str | pathlib.Path, *, machine: str | None = None, say=print) -> None:
     """``excavsim load``: the 2-D loading runs of §7.2.1 (Figs. 108, 109 and, for the loader, 111
     with the force limit) and the constraints of both machines, written as figures and tables into
     ``out`` and compared with the thesis' numbers.
@@ -419,12 +420,12 @@ def write_figures(cfg: LoadingConfig, out: str | pathlib.Path, *, machine: str |
         run = run_machine(cfg, name, force=force)
         spec = getattr(cfg.machines, name)
         rules = make_rules(cfg, spec.capacity_units, cfg.fig111_force_limit_kn_m if force else None)
-        say(format_run(run, u, rules.exit_heading))
+        say(format_planar_run(run, u, rules.exit_heading))
         figure_sequence(run, make_machine(cfg, name), rules, cfg.pile.dx, out / f"{fig}.png", label)
-        (out / f"{fig}.txt").write_text(format_run(run, u, rules.exit_heading) + "\n")
+        (out / f"{fig}.txt").write_text(format_planar_run(run, u, rules.exit_heading) + "\n")
         paths += [out / f"{fig}.png", out / f"{fig}.txt"]
         rows.append((label, run, THESIS[key]))
-    table = format_comparison(rows, u)
+    table = format_planar_comparison(rows, u)
     (out / "comparison.txt").write_text(table + "\n")
     say("\nbeside the thesis (§7.2.1; 1 unit of soil = %g m^2 of the section):" % u)
     say(table)

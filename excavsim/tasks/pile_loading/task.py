@@ -1,6 +1,6 @@
 """Loading from a pile in MuJoCo (Singh 1995 §3.5, §4.1-4.2, §7.2.1, Fig. 107's cycle).
 
-The world is :class:`~excavsim.world.loading_scene.LoadingWorld`: the front loader or the front shovel
+The world is :class:`~excavsim.tasks.pile_loading.world.scene.LoadingWorld`: the front loader or the front shovel
 (MJCF models with the sizes of :mod:`excavsim.robot.loaders`, ``configs/pile_loading_planar.yaml``) beside a pile in
 a lane one bucket wide, with the world's soil model (cutting, the wedge-model forces of eq. 8 with its
 truth terms, bearing, filling, pouring, settlement) and laser scanner. One episode repeats the cycle:
@@ -9,11 +9,11 @@ truth terms, bearing, filling, pouring, settlement) and laser scanner. One episo
    the elevation map (:func:`~excavsim.sensing.elevation.scan_map`); the map gives three 2-D sections
    (:func:`map_sections`): per column the median across the lane's middle (``|y| < section_half_width``),
    and across each side band beyond it;
-2. **plan**: :func:`excavsim.planning.loading.plan` on the middle section: the loading action (k, alpha)
+2. **plan**: :func:`excavsim.tasks.pile_loading.mind.planner.plan` on the middle section: the loading action (k, alpha)
    with d1 maximized and the smallest reachable radius, all of §4.1-4.2's constraints, the shovel's base
    placed between digs; when the middle holds no dig of minimal utility, on the side bands, and the one
    whose dig is the largest is dug (:func:`choose_section`: soil left along a kerb is still the pile's);
-3. **execute by script** (:mod:`excavsim.execution.loading_script`): the shovel's base drives to its
+3. **execute by script** (:mod:`excavsim.tasks.pile_loading.mind.script`): the shovel's base drives to its
    planned place; the bucket goes to the pre-entry pose (the approach line's backward extension of the
    floor's length, which the collision constraint keeps above the surface); the planned path (approach,
    arc, lift-out), sampled every ``path_step`` and turned into joint set-points by the machine's inverse
@@ -48,16 +48,16 @@ from typing import Any, ClassVar, Protocol
 import numpy as np
 
 from excavsim.config import load_sensing_config
-from excavsim.tasks.pile_loading.config import LOADING_MUJOCO_YAML, LoadingMujocoConfig, PileLane, load_loading_mujoco_config
 from excavsim.errors import ConfigError, Diverged, ExcavsimError, GoalError, UsageError
-from excavsim.execution import loading_script as ls
 from excavsim.handoff.maps import ElevationMap
 from excavsim.loop.digs import Choice
 from excavsim.loop.episode import Episode
-from excavsim.tasks.pile_loading import planar as ld
-from excavsim.planning import loading as lp
 from excavsim.sensing.elevation import scan_map
-from excavsim.world.loading_scene import MACHINES, LoadingWorld
+from excavsim.tasks.pile_loading import planar as ld
+from excavsim.tasks.pile_loading.config import LOADING_MUJOCO_YAML, LoadingMujocoConfig, PileLane, load_loading_mujoco_config
+from excavsim.tasks.pile_loading.mind import script as ls
+from excavsim.tasks.pile_loading.mind import planner as lp
+from excavsim.tasks.pile_loading.world.scene import MACHINES, LoadingWorld
 from excavsim.world.scanner import LaserScanner
 
 CONFIG_PATH = LOADING_MUJOCO_YAML
@@ -77,7 +77,7 @@ class LoadingObserver(Protocol):
     from 1; the loop never imports the recorder)."""
 
     def started(self, world: LoadingWorld, machine: str) -> None: ...
-    def scanned(self, index: int, emap: ElevationMap, terrain: lp.Terrain) -> None: ...
+    def scanned(self, index: int, emap: ElevationMap, terrain: lp.PileSection) -> None: ...
     def planned(self, index: int, plan: lp.LoadingPlan, poses: np.ndarray) -> None: ...
     def stepped(self, world: LoadingWorld) -> None: ...
     def dug(self, index: int, dig: MujocoDig) -> None: ...
@@ -202,7 +202,7 @@ def make_scanner(world: LoadingWorld, cfg: LoadingMujocoConfig, seed: int) -> La
 
 
 def scan_section(world: LoadingWorld, scanner: LaserScanner, cfg: LoadingMujocoConfig
-                 ) -> tuple[ElevationMap, lp.Terrain]:
+                 ) -> tuple[ElevationMap, lp.PileSection]:
     """Scan, build the map, and the planner's middle section (:func:`map_sections`)."""
     emap, _ = scan_map(scanner, world.time, load_sensing_config().map, cfg.n_scans)
     return emap, map_sections(emap, cfg.section_half_width)["middle"]
@@ -211,13 +211,13 @@ def scan_section(world: LoadingWorld, scanner: LaserScanner, cfg: LoadingMujocoC
 SECTIONS = ("middle", "near side", "far side")
 
 
-def map_sections(emap: ElevationMap, half_width: float) -> dict[str, lp.Terrain]:
+def map_sections(emap: ElevationMap, half_width: float) -> dict[str, lp.PileSection]:
     """The map's 2-D sections (:data:`SECTIONS`): per column the median height over the rows with
     ``|y| < half_width`` (the middle), ``y <= -half_width`` (the near side) and ``y >= half_width`` (the far
     side); a side with no row is left out. Negative heights (map noise) are the ground."""
     xs, ys = emap.centres()
     bands = {"middle": np.abs(ys) < half_width, "near side": ys <= -half_width, "far side": ys >= half_width}
-    return {name: lp.Terrain(xs, np.maximum(np.median(emap.heights[rows], axis=0), 0.0), emap.cell)
+    return {name: lp.PileSection(xs, np.maximum(np.median(emap.heights[rows], axis=0), 0.0), emap.cell)
             for name, rows in bands.items() if rows.any()}
 
 
@@ -228,8 +228,8 @@ def map_soil_m3(emap: ElevationMap, width: float, ground: float) -> float:
     return float(excess.mean(axis=0).sum() * emap.cell * width)
 
 
-def choose_section(machine, sections: dict[str, lp.Terrain], rules: lp.LoadingRules
-                   ) -> tuple[str, lp.Terrain, lp.LoadingPlan]:
+def choose_section(machine, sections: dict[str, lp.PileSection], rules: lp.LoadingRules
+                   ) -> tuple[str, lp.PileSection, lp.LoadingPlan]:
     """The section to dig and its plan: the middle's when it holds a dig of minimal utility, else the side
     band's whose dig is the largest; when no section has one, the middle's plan (no action) with a reason
     that names every section's."""
@@ -253,11 +253,11 @@ def choose_section(machine, sections: dict[str, lp.Terrain], rules: lp.LoadingRu
     return "middle", sections["middle"], plan
 
 
-def dig_poses(action: lp.LoadingAction, terrain: lp.Terrain, rules: lp.LoadingRules, floor: float, *,
+def dig_poses(action: lp.LoadingAction, terrain: lp.PileSection, rules: lp.LoadingRules, floor: float, *,
               step: float, lift_extra: float) -> tuple[np.ndarray, np.ndarray]:
     """Tip poses (N, 3) of one planned dig, dense, and their phase (N,): -1 pre-entry (the approach line's
     backward extension of the floor's length), 0 approach, 1 arc, 2 lift-out; the attitude is the planner's
-    (:func:`~excavsim.planning.loading.floor_angle`)."""
+    (:func:`~excavsim.tasks.pile_loading.mind.planner.floor_angle`)."""
     a = action
     ca, sa = math.cos(a.alpha), math.sin(a.alpha)
     s = np.concatenate([np.arange(-floor, 0.0, step), np.arange(0.0, a.d1, step), [a.d1]])
@@ -301,7 +301,7 @@ def joint_path(machine, poses: np.ndarray, base_x: float) -> tuple[np.ndarray, s
 # ---------------------------------------------------------------------------------------------- the episode
 class LoadTask:
     """Loading from a pile in MuJoCo as a task of the platform's :class:`~excavsim.loop.episode.Episode`
-    (see the module docstring): the world is a :class:`~excavsim.world.loading_scene.LoadingWorld` with
+    (see the module docstring): the world is a :class:`~excavsim.tasks.pile_loading.world.scene.LoadingWorld` with
     the pile written into its lane; each cycle scans, plans on the map's sections (the done test: no dig
     of minimal utility on any section), executes the dig, the dump and the return by script, and settles;
     the result is a :class:`MujocoRun` (its ``end``: ``done`` when the planner finds no dig of minimal
@@ -311,7 +311,7 @@ class LoadTask:
 
     Args:
         name: ``loader`` or ``shovel``.
-        cfg, cfg2d, pile, world_hooks, account: as :func:`run_episode`'s.
+        cfg, cfg2d, pile, world_hooks, account: as :func:`run_loading_episode`'s.
     """
 
     final_scan = False
@@ -358,7 +358,7 @@ class LoadTask:
         self.forces.append(float(np.linalg.norm(w.contact.force)))
 
     def _play(self, script: ls.JointScript, results: list) -> None:
-        res, self.q = ls.run(self.world.step, self.q, script, self.world.control_dt, tolerance=self.tol)
+        res, self.q = ls.play_script(self.world.step, self.q, script, self.world.control_dt, tolerance=self.tol)
         results.append(res)
 
     def budget_reason(self, budget: int) -> str:
@@ -367,7 +367,7 @@ class LoadTask:
     def park(self) -> None:
         """Nothing: the machine scans from where the last cycle left it (carry)."""
 
-    def scan(self) -> tuple[ElevationMap, lp.Terrain]:
+    def scan(self) -> tuple[ElevationMap, lp.PileSection]:
         cfg, world = self.cfg, self.world
         emap, _ = scan_map(self.scanner, world.time, load_sensing_config().map, cfg.n_scans)
         self.map_end = map_soil_m3(emap, world.width, self.rules.ground)
@@ -457,10 +457,11 @@ class LoadTask:
                          drift, self.cfg.tolerance_fraction, world.time, self.map_end, end, wall_s)
 
 
-def run_episode(name: str, *, seed: int = 0, cfg: LoadingMujocoConfig | None = None,
-                cfg2d: ld.LoadingConfig | None = None, pile: PileLane | None = None, max_digs: int | None = None,
-                observer: LoadingObserver | None = None, progress=None, world_hooks=(),
-                account: SoilAccount | None = None) -> MujocoRun:
+def run_loading_episode(name: str, *, seed: int = 0, cfg: LoadingMujocoConfig | None = None,
+                        cfg2d: ld.LoadingConfig | None = None, pile: PileLane | None = None,
+                        max_digs: int | None = None, observer: LoadingObserver | None = None, progress=None,
+                        world_hooks=(),
+                        account: SoilAccount | None = None) -> MujocoRun:
     """One loading episode of ``name`` (``loader`` or ``shovel``) in MuJoCo (see the module docstring): the
     platform's :class:`~excavsim.loop.episode.Episode` of a :class:`LoadTask`, cycled to its end.
 

@@ -24,9 +24,9 @@ import numpy as np
 from excavsim.handoff.dig import Dig, ExecutionRecord, TrenchAction
 from excavsim.handoff.maps import ElevationMap
 from excavsim.loop.digs import Choice, DigSource
-from excavsim.rig.core import Rig
-from excavsim.planning import fallback
 from excavsim.planning.experience import DigExperience, Failure
+from excavsim.rig.core import Rig
+from excavsim.tasks.trench.mind import fallback
 
 
 def predicted_peaks(rig: Rig, poses: np.ndarray, phases: np.ndarray, emap: ElevationMap) -> np.ndarray:
@@ -124,7 +124,7 @@ class PlannedDigs(DigSource):
         if not boundary_digs:
             return Choice(None, f"no dig of minimum utility ({plan.reason})", plan)
         skip = (lambda d: exp.failed_before("fallback: " + d.label, surface)) if exp else None
-        boundary, why = fallback.choose(planner, emap, skip=skip)
+        boundary, why = fallback.choose_boundary(planner, emap, skip=skip)
         if boundary is None:
             return Choice(None, f"no dig of minimum utility ({plan.reason}), and no fallback: {why}", plan)
         dig = Dig("fallback: " + boundary.label, boundary.poses, boundary.phases, boundary.volume_m3, None,

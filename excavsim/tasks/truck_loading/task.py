@@ -10,17 +10,17 @@ leaves the T3 trial as it was, bit for bit.
 Each cycle of the platform's :class:`~excavsim.loop.episode.Episode` is one **pass** (one bucket load):
 
 * look: the pit's scanner maps the pit (:mod:`excavsim.sensing.elevation`) and the bed scanner the truck
-  (:func:`~excavsim.planning.truck_loading.bed_map`); the truck is full (``done``) when the scanned load
+  (:func:`~excavsim.tasks.truck_loading.mind.planner.bed_map`); the truck is full (``done``) when the scanned load
   (volume x the soil's density, the density the mind is told: the soil preset's) reaches ``full_fraction``
   of the rated payload, or when one more heaped bucket would overload it by more than half a bucket.
-* decide: where to dig next from the pit's map (:func:`~excavsim.planning.truck_loading.choose_dig`),
-  where to dump from the bed's (:func:`~excavsim.planning.truck_loading.choose_dump`), and the tuned
+* decide: where to dig next from the pit's map (:func:`~excavsim.tasks.truck_loading.mind.planner.choose_dig`),
+  where to dump from the bed's (:func:`~excavsim.tasks.truck_loading.mind.planner.choose_dump`), and the tuned
   parameters (:data:`TUNED`): the computed ones plus noise for the first
   ``initial_passes``, then LWR + the simplex on the passes so far
   (:func:`~excavsim.learning.lwr_tuning.select_action`, §6.2), unless ``tune`` is off. The cost is §6.2's:
   its time is the script's (from the end of the dig until the swing is back, as §6.2 measured), its
   placement the deposit's centre against the aim, plus the graded failure.
-* dig: to the dig's start, AutoDig (§4.4, :mod:`excavsim.execution.autodig`), Rowe's script
+* dig: to the dig's start, AutoDig (§4.4, :mod:`excavsim.tasks.truck_loading.mind.autodig`), Rowe's script
   (:mod:`excavsim.execution.rowe_script`: Fig. 4 with Fig. 3's clearance angle, on this machine), the
   soil settles, the bed is scanned again: the pass's deposit centre is measured on the two bed maps.
 
@@ -40,9 +40,7 @@ from typing import Any
 import numpy as np
 
 from excavsim.config import get_soil, load_sensing_config
-from excavsim.tasks.truck_loading.config import TruckLoadingFile
 from excavsim.errors import ConfigError, GoalError
-from excavsim.execution.autodig import AutoDigConfig, autodig
 from excavsim.execution.rowe_script.geometry import ClearDump, TruckSite
 from excavsim.execution.rowe_script.listing import ScriptJoints, rowe_script
 from excavsim.execution.rowe_script.params import ScriptRules, compute_params
@@ -51,12 +49,14 @@ from excavsim.execution.rowe_script.timing import ProfileTiming, SwingProfile
 from excavsim.handoff.maps import ElevationMap
 from excavsim.learning.lwr_tuning import Memory, Objective, select_action
 from excavsim.loop.digs import Choice
-from excavsim.planning import truck_loading as plan
 from excavsim.robot.extract import arm_from_model
 from excavsim.sensing.elevation import scan_map
+from excavsim.tasks.truck_loading.config import TruckLoadingFile
+from excavsim.tasks.truck_loading.mind import planner as plan
+from excavsim.tasks.truck_loading.mind.autodig import AutoDigConfig, autodig
+from excavsim.tasks.truck_loading.world.truck import TruckSpec, TruckWorld
 from excavsim.world.hydraulics import EXCAVATOR_JOINTS
 from excavsim.world.scanner import LaserScanner
-from excavsim.world.truck import TruckSpec, TruckWorld
 
 MACHINES = ("excavator_25t",)
 #: The script's joints on the excavator: swing, boom, stick, bucket (the servos' order).

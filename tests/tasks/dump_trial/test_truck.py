@@ -82,10 +82,10 @@ def test_nelder_mead_finds_the_minimum_of_a_known_cost_through_the_model():
 
 
 def test_the_measured_pile_is_the_true_peak_within_a_cell():
-    from excavsim.tasks.dump_trial.trial import Scanner, pile_position, true_pile
+    from excavsim.tasks.dump_trial.trial import BoxMapper, pile_position, true_pile
     from excavsim.world.simulation import Simulation
     world = Simulation(seed=2)
-    scanner = Scanner(world, 2)
+    scanner = BoxMapper(world, 2)
     before_map = scanner.map()
     before = world.soil.grid.heights.copy()
     x, y = 1.7 * math.cos(math.radians(35.0)), 1.7 * math.sin(math.radians(35.0))

@@ -153,15 +153,15 @@ def test_a_recorded_tuning_run_passes_rerun_verify_and_holds_its_entities(tmp_pa
 
 @pytest.mark.slow
 def test_the_campaign_table_on_a_tiny_case(tmp_path, cfg):
-    from excavsim.tasks.dump_trial.campaign import format_table, run_campaign
+    from excavsim.tasks.dump_trial.campaign import format_tuning_table, run_tuning_campaign
 
     small = dataclasses.replace(cfg, initial_trials=1)
-    runs = run_campaign(seeds=[0], soils=["testbed_sand", "sandy_loam"], trials=2,
+    runs = run_tuning_campaign(seeds=[0], soils=["testbed_sand", "sandy_loam"], trials=2,
                         retarget=(1, 1.6, math.radians(45)), cfg=small, out=tmp_path)
     assert [(r.soil, r.kind) for r in runs] == [(s, k) for s in ("testbed_sand", "sandy_loam")
                                                 for k in ("tuned", "untuned", "moved")]
     assert all(r.after_move is not None for r in runs if r.kind == "moved")
-    table = format_table(runs, 1)
+    table = format_tuning_table(runs, 1)
     assert table.count("| testbed_sand | 0 |") == 1 and table.count("| sandy_loam | 0 |") == 1
     assert "tuned beats untuned (last 1) in " in table and "re-learnt in " in table
     rows = (tmp_path / "truck_campaign.csv").read_text().splitlines()
@@ -170,9 +170,9 @@ def test_the_campaign_table_on_a_tiny_case(tmp_path, cfg):
     # the same soil and seed give the same first trial in every run (the untuned baseline is paired)
     assert len({(r.first.cost, r.first.time_s) for r in runs if r.soil == "testbed_sand"}) == 1
     with pytest.raises(ExcavsimError, match="allowed"):
-        run_campaign(seeds=[0], soils=["no_such_soil"], trials=2, cfg=small)
+        run_tuning_campaign(seeds=[0], soils=["no_such_soil"], trials=2, cfg=small)
     with pytest.raises(ExcavsimError, match="at least 2 trials"):
-        run_campaign(seeds=[0], soils=["testbed_sand"], trials=1, cfg=small)
+        run_tuning_campaign(seeds=[0], soils=["testbed_sand"], trials=1, cfg=small)
 
 
 @pytest.mark.parametrize("argv, message", [

@@ -8,10 +8,10 @@ import numpy as np
 import pytest
 
 from excavsim.errors import ExcavsimError
-from excavsim.tasks.pile_loading import planar as L
-from excavsim.planning import loading as lp
 from excavsim.robot.loaders import FrontLoader, dh_transform
-from excavsim.world.pile2d import Pile2D, random_pile, trapezoid_pile
+from excavsim.tasks.pile_loading import planar as L
+from excavsim.tasks.pile_loading.mind import planner as lp
+from excavsim.tasks.pile_loading.world.pile2d import Pile2D, random_pile, trapezoid_pile
 
 
 @pytest.fixture(scope="module")
@@ -91,7 +91,7 @@ def test_planned_dig_is_shaped_and_reachable_by_the_machines_ik(cfg, machines, p
     if m.moves_base:  # the wheels never pass the foot left after the dig
         pile = L.make_pile(cfg)
         pile.carve(px, pz)
-        foot = lp.Terrain(pile.xs, pile.heights, pile.dx).foot(rules.wheel_clearance)
+        foot = lp.PileSection(pile.xs, pile.heights, pile.dx).foot(rules.wheel_clearance)
         assert np.all(m.wheels_x(q) <= foot + 1e-9)
     assert p.volume <= rules.capacity
 
@@ -119,7 +119,7 @@ def test_entries_on_the_ground_in_front_of_the_foot_skim_a_thin_layer(cfg, machi
     assert rules.k_min < 0 and 0.0 in rules.grid()[0]
     h = np.zeros(140)
     h[20:50] = 0.08  # 8 cm over 3 m from x = 2 m: 24 units
-    terrain = lp.Terrain((np.arange(140) + 0.5) * 0.1, h, 0.1)
+    terrain = lp.PileSection((np.arange(140) + 0.5) * 0.1, h, 0.1)
     p = lp.plan(machines["loader"], terrain, rules)
     assert p.action.k < 0 and p.action.h == 0.0 and p.volume >= 0.9 * 0.24
     q = lp.plan(machines["loader"], terrain, dataclasses.replace(rules, k_min=0.0))
@@ -226,4 +226,4 @@ def test_bad_inputs_give_clear_errors(cfg):
     with pytest.raises(ExcavsimError, match="joint limits"):
         FrontLoader(-1.6, 0.0, 2.6, 1.0, 0.3, np.array([0.0, 1.0, 0.0]), np.array([0.0, 2.0, 1.0]), 0.9, 0.8)
     with pytest.raises(ExcavsimError, match="terrain"):
-        lp.Terrain(np.array([0.0, 0.0]), np.array([1.0, 1.0]), 0.1)
+        lp.PileSection(np.array([0.0, 0.0]), np.array([1.0, 1.0]), 0.1)

@@ -15,10 +15,10 @@ from excavsim import cli, constants
 from excavsim.errors import ExcavsimError
 from excavsim.tasks.pile_loading import planar as ld
 from excavsim.tasks.pile_loading import task as lm
-from excavsim.tasks.pile_loading.campaign import load_campaign
-from excavsim.planning import loading as lp
-from excavsim.world import loading_scene as ls
-from excavsim.world.pile2d import trapezoid_pile
+from excavsim.tasks.pile_loading.config import load_loading_campaign
+from excavsim.tasks.pile_loading.mind import planner as lp
+from excavsim.tasks.pile_loading.world import scene as ls
+from excavsim.tasks.pile_loading.world.pile2d import trapezoid_pile
 
 MACHINES = ("loader", "shovel")
 
@@ -29,7 +29,7 @@ def cfg2d():
 
 
 def _model(name):
-    physics = mjcf.Physics.from_mjcf_model(ls.build_scene(name))
+    physics = mjcf.Physics.from_mjcf_model(ls.build_loading_scene(name))
     return physics.model.ptr
 
 
@@ -159,7 +159,7 @@ def test_a_short_mujoco_episode_removes_a_small_pile_and_conserves_volume(name):
         drift.append(v.box + v.bucket + account.delivered + account.spilled - world.soil.initial_volume)
         assert abs(account.delivered + account.spilled - v.spoil) < 1e-12
 
-    run = lm.run_episode(name, pile=lm.PileLane(height=0.6, top=0.3, foot=1.5), max_digs=6, world_hooks=[check],
+    run = lm.run_loading_episode(name, pile=lm.PileLane(height=0.6, top=0.3, foot=1.5), max_digs=6, world_hooks=[check],
                          account=account)
     assert run.done, lm.format_run(run)
     assert "no pile left" in run.reason
@@ -232,7 +232,7 @@ def test_bad_machine_config_and_arguments_are_refused(tmp_path, capsys):
     assert cli.main(["load", "--mujoco", "--record", str(tmp_path / "x.rrd")]) == 2
     assert "give --machine" in capsys.readouterr().err
     with pytest.raises(ExcavsimError, match="beyond the lane"):
-        lm.run_episode("loader", pile=lm.PileLane(height=2.0, top=3.0, foot=1.5))
+        lm.run_loading_episode("loader", pile=lm.PileLane(height=2.0, top=3.0, foot=1.5))
     camp = tmp_path / "camp.yaml"
     camp.write_text("machines: [loader, excavator]\nseeds: [0, 1]\n")
     assert cli.main(["load", "--campaign", str(camp)]) == 2  # refused before any episode runs
@@ -243,7 +243,8 @@ def test_bad_machine_config_and_arguments_are_refused(tmp_path, capsys):
     assert cli.main(["load", "--campaign", str(constants.CONFIGS_DIR / "campaigns" / "pile_loading_machines.yaml"),
                      "--machine", "loader"]) == 2
     assert "--campaign runs the machines" in capsys.readouterr().err
-    assert load_campaign(constants.CONFIGS_DIR / "campaigns" / "pile_loading_machines.yaml").seeds == list(range(8))
+    campaign = load_loading_campaign(constants.CONFIGS_DIR / "campaigns" / "pile_loading_machines.yaml")
+    assert campaign.seeds == list(range(8))
 
 
 def test_a_recorded_loading_episode_passes_rerun_verify_and_holds_its_entities(tmp_path):
@@ -258,7 +259,7 @@ def test_a_recorded_loading_episode_passes_rerun_verify_and_holds_its_entities(t
     from excavsim.tasks.pile_loading.recording import LoadingRecorder
 
     path = tmp_path / "load.rrd"
-    run = lm.run_episode("loader", pile=lm.PileLane(height=0.6, top=0.3, foot=1.5), max_digs=1,
+    run = lm.run_loading_episode("loader", pile=lm.PileLane(height=0.6, top=0.3, foot=1.5), max_digs=1,
                          observer=LoadingRecorder(path))
     here = pathlib.Path(sys.executable).parent / "rerun"
     exe = str(here) if here.exists() else shutil.which("rerun")
@@ -288,7 +289,7 @@ def test_a_divergence_ends_the_episode_with_its_reason_instead_of_a_crash():
         if count["n"] == 200:
             raise Diverged("MuJoCo warned (a test's stand-in)")
 
-    run = lm.run_episode("loader", pile=lm.PileLane(height=0.6, top=0.3, foot=1.5), world_hooks=[blow_up])
+    run = lm.run_loading_episode("loader", pile=lm.PileLane(height=0.6, top=0.3, foot=1.5), world_hooks=[blow_up])
     assert run.digs == [] and "dig 1: MuJoCo warned" in run.reason
     assert not run.done
 
@@ -345,7 +346,7 @@ def test_loading_is_a_task_of_the_episode_spec_and_the_stepped_episode():
     assert one.calls == two.calls and one.calls[:4] == [("started", "shovel"), ("scanned", 1), ("planned", 1),
                                                         ("dug", 1)]
     assert one.calls[-1] == ("finished", whole.end)
-    direct = lm.run_episode("shovel", seed=1, max_digs=2, cfg=lm.load_mujoco_config().model_copy(
+    direct = lm.run_loading_episode("shovel", seed=1, max_digs=2, cfg=lm.load_mujoco_config().model_copy(
         update={"pile": lm.PileLane(height=0.6, top=0.3, foot=1.5), "n_scans": 2}))
     assert [d.bucket_m3 for d in whole.digs] == [d.bucket_m3 for d in direct.digs]  # the same episode, bit for bit
     assert whole.end == direct.end and whole.reason == direct.reason and whole.end in ("done", "budget")

@@ -1,6 +1,6 @@
 """Rowe's truck loading with the 25 t excavator: the truck's volume account, a one-pass episode and (slow) a
 full truck. The script's geometry and runner are tested in tests/execution/test_rowe_script.py, AutoDig in
-tests/execution/test_autodig.py."""
+tests/tasks/truck_loading/test_autodig.py."""
 
 from __future__ import annotations
 
@@ -9,12 +9,12 @@ import math
 import numpy as np
 import pytest
 
-from excavsim.tasks.truck_loading.config import load_truck_loading_file
 from excavsim.errors import ConfigError
 from excavsim.loop.episode import Episode
 from excavsim.loop.scenario import EpisodeSpec, episode_summary, load_spec, resolve, run_spec
+from excavsim.tasks.truck_loading.config import load_truck_loading_file
 from excavsim.tasks.truck_loading.task import TruckLoadingTask, truck_spec
-from excavsim.world.truck import TruckBed, TruckSpec
+from excavsim.tasks.truck_loading.world.truck import TruckBed, TruckSpec
 
 SPEC = "configs/specs/excavator_truck.yaml"
 
@@ -81,12 +81,12 @@ def test_a_full_truck():
 def test_bed_map_and_the_dump_choice():
     """The mind's bed map from the scanner's points holds the fill's volume, and the next dump goes to the
     emptier end of the bed, on its centre line."""
-    from excavsim.planning import truck_loading as plan
+    from excavsim.tasks.truck_loading.mind import planner as plan
 
     bed = TruckBed(TruckSpec(), math.radians(34.0))
     t = bed.truck
     bed.catch(np.array([t.x_m - 1.5]), np.array([t.y_m]), np.array([1.0]), 0.6)  # a load at the -x end
-    from excavsim.world.truck import BedScanner
+    from excavsim.tasks.truck_loading.world.truck import BedScanner
 
     scanner = BedScanner(bed, np.array([t.x_m, t.y_m + 0.5 * t.width_m + 1.0, t.scanner_height_m]),
                          np.random.default_rng(0), noise_m=0.0)

@@ -3,7 +3,7 @@
 :class:`LoadCore` steps the platform's :class:`~excavsim.loop.episode.Episode` of a
 :class:`~excavsim.tasks.pile_loading.task.LoadTask` (what ``excavsim run`` runs for ``task:
 pile_loading``) phase by phase, with the agent's loading action in place of the loading planner's choice
-(:func:`excavsim.planning.loading.plan`, Singh 1995 §3.5, §4.1-4.2). Each cycle the task scans the
+(:func:`excavsim.tasks.pile_loading.mind.planner.plan`, Singh 1995 §3.5, §4.1-4.2). Each cycle the task scans the
 lane, reads the map's three sections and plans on them (the done test: no dig of minimal utility on
 any section); the agent's (k, alpha) (and r with ``parameterization: k_alpha_r``) is snapped to the
 planner's grid, replaced by the nearest feasible cell of the planner's search when it is infeasible,
@@ -34,7 +34,7 @@ from excavsim.errors import ConfigError, EnvError
 from excavsim.loop.digs import Choice
 from excavsim.loop.episode import Episode
 from excavsim.loop.scenario import EpisodeSpec, load_spec, resolve
-from excavsim.planning import loading as lp
+from excavsim.tasks.pile_loading.mind import planner as lp
 from excavsim.tasks.pile_loading import planar as ld
 from excavsim.tasks.pile_loading.config_planar import LoadingConfig, load_loading_config
 from excavsim.tasks.pile_loading.plugin import NAME

@@ -6,7 +6,7 @@ every dig from the plan, and each joint follows its own sub-script. Here the sub
 joint-space path the machine's inverse kinematics (:mod:`excavsim.robot.loaders`) gives for the sampled
 tip poses of the plan, timed so that the tip moves at ``tip_speed`` and no joint exceeds its speed
 limit (:func:`timed_path`); transfers between poses (to the dig, to the truck and back) are straight
-joint-space moves at the joint speed limits (:func:`joint_move`). :func:`run` plays a script through a
+joint-space moves at the joint speed limits (:func:`joint_move`). :func:`play_script` plays a script through a
 servo callable and then holds the last set-point until the joints arrive or a timeout passes.
 
 Simplified (stated): the script is open loop in time (no force conditions, no touch-down, no
@@ -79,8 +79,8 @@ class ScriptResult:
     arrived: bool
 
 
-def run(step: Callable[[np.ndarray], np.ndarray], q_now: np.ndarray, script: JointScript, dt: float, *,
-        tolerance: np.ndarray, hold_timeout_s: float = 3.0) -> tuple[ScriptResult, np.ndarray]:
+def play_script(step: Callable[[np.ndarray], np.ndarray], q_now: np.ndarray, script: JointScript, dt: float, *,
+                tolerance: np.ndarray, hold_timeout_s: float = 3.0) -> tuple[ScriptResult, np.ndarray]:
     """Play ``script`` through the servo callable ``step(target) -> encoders`` every ``dt`` [s], then hold its last
     set-point until every joint is within ``tolerance`` (n,) or ``hold_timeout_s`` passes.
 

@@ -16,8 +16,9 @@ not a fixed path:
 
 Rowe's script (:mod:`excavsim.execution.rowe_script`) then carries the load to the truck. Everything here
 reads sensor-level data (joint angles, cylinder pressures, time) through
-:class:`~excavsim.handoff.observation.HydraulicServos` (the world's :class:`~excavsim.world.truck.TruckWorld`
-is one) and the robot's own kinematics; nothing reads the world's truth.
+:class:`~excavsim.handoff.observation.HydraulicServos` (the world's
+:class:`~excavsim.tasks.truck_loading.world.truck.TruckWorld` is one) and the robot's own kinematics;
+nothing reads the world's truth.
 """
 
 from __future__ import annotations

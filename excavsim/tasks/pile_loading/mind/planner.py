@@ -132,8 +132,9 @@ class LoadingRules:
 
 
 @dataclasses.dataclass(frozen=True)
-class Terrain:
-    """The pile as the planner sees it (in the 2-D world, exactly): column centres ``xs`` [m], heights [m], width."""
+class PileSection:
+    """A vertical section of the pile as the planner sees it (in the 2-D world, exactly): column centres
+    ``xs`` [m], heights [m], width ``dx`` [m]."""
 
     xs: np.ndarray
     heights: np.ndarray
@@ -269,7 +270,7 @@ def path_points(action: LoadingAction, exit_heading: float, xs: np.ndarray | Non
     return px, pz
 
 
-def action_poses(action: LoadingAction, terrain: Terrain, rules: LoadingRules, floor: float
+def action_poses(action: LoadingAction, terrain: PileSection, rules: LoadingRules, floor: float
                  ) -> tuple[np.ndarray, np.ndarray]:
     """Tip poses (S, 3) of one action and their phase (0 approach, 1 arc, 2 lift-out), as the search samples them."""
     poses, phase = _samples(np.array([action.entry_x]), np.array([action.h]), np.array([action.alpha]),
@@ -277,7 +278,7 @@ def action_poses(action: LoadingAction, terrain: Terrain, rules: LoadingRules, f
     return poses[0], phase
 
 
-def _samples(xe, ze, alpha, d1, r, terrain: Terrain, rules: LoadingRules, floor: float):
+def _samples(xe, ze, alpha, d1, r, terrain: PileSection, rules: LoadingRules, floor: float):
     """(n, S, 3) sampled tip poses of n actions: the straight every ``sample_step`` (its end included), the
     arc at ``arc_samples`` turns, the lift-out at three heights up to ``lift_clearance`` above the surface."""
     n_line = int(math.ceil(rules.d1_max / rules.sample_step)) + 1
@@ -313,10 +314,10 @@ def shaping(xe, ze, alpha, d1, r, tolerance: float) -> np.ndarray:
     return np.minimum(lowest, ze) >= -tolerance
 
 
-def swept_columns(terrain: Terrain, xe, ze, alpha, d1, r, exit_heading: float) -> tuple[np.ndarray, np.ndarray]:
+def swept_columns(terrain: PileSection, xe, ze, alpha, d1, r, exit_heading: float) -> tuple[np.ndarray, np.ndarray]:
     """Per action (n,) the swept area [m^2] and (n, m) the columns' heights after the dig.
 
-    The world's rule (:meth:`excavsim.world.pile2d.Pile2D.carve`): a column whose centre lies in
+    The world's rule (:meth:`excavsim.tasks.pile_loading.world.pile2d.Pile2D.carve`): a column whose centre lies in
     [entry, lift-out] drops to the path's height there (not below the ground) where the path is below it.
     """
     xs = terrain.xs[None, :]
@@ -332,7 +333,7 @@ def volume(area, capacity: float) -> np.ndarray:
     return area <= capacity
 
 
-def collision(terrain: Terrain, xe, ze, alpha, floor: float, tolerance: float, n: int = 6) -> np.ndarray:
+def collision(terrain: PileSection, xe, ze, alpha, floor: float, tolerance: float, n: int = 6) -> np.ndarray:
     """Fig. 31 (a) / 33 (a): the floor behind the entry, the approach's backward extension of ``floor`` metres
     (sampled at ``n`` points), stays above the surface (within ``tolerance``); see the module docstring."""
     t = np.linspace(1.0 / n, 1.0, n)[None, :] * floor
@@ -354,7 +355,7 @@ def reachable(machine: FrontLoader | FrontShovel, poses: np.ndarray, base_x: flo
     return np.all(ok, axis=-1)
 
 
-def shear_force(terrain: Terrain, area, x_out, z_out, rules: LoadingRules) -> np.ndarray:
+def shear_force(terrain: PileSection, area, x_out, z_out, rules: LoadingRules) -> np.ndarray:
     """Fig. 110: the resistive force per metre of width [N/m] just before lift-out at (x_out, z_out).
 
     See the module docstring: the soil above the path (``area`` [m^2]) and the vertical shear surface above the tip.
@@ -371,13 +372,13 @@ def force(f, limit: float | None) -> np.ndarray:
     return np.ones(np.shape(f), bool) if limit is None else f <= limit
 
 
-def base_position(machine: FrontLoader | FrontShovel, terrain: Terrain, ground: float = 1e-3) -> float:
+def base_position(machine: FrontLoader | FrontShovel, terrain: PileSection, ground: float = 1e-3) -> float:
     """The shovel's nearest base (the first of :func:`base_candidates` with no back-off); NaN for the loader."""
     c = base_candidates(machine, terrain, LoadingRules(ground=ground, base_backoffs=(0.0,)))
     return c[0][0] if c else math.nan
 
 
-def base_candidates(machine: FrontLoader | FrontShovel, terrain: Terrain, rules: LoadingRules
+def base_candidates(machine: FrontLoader | FrontShovel, terrain: PileSection, rules: LoadingRules
                     ) -> list[tuple[float, float]]:
     """Where a shovel's pivot may stand for the next dig (§4.2: the base is placed between digs), with the foot
     its entries k are measured from: ``[(base_x, foot), ...]`` (the loader: ``[(NaN, the pile's foot)]``).
@@ -427,7 +428,7 @@ def _smallest_radius(machine, terrain, rules, xe, ze, alpha, d1, base_x, floor) 
     return r_out
 
 
-def evaluate(machine: FrontLoader | FrontShovel, terrain: Terrain, rules: LoadingRules, xe, ze, alpha, d1, r,
+def evaluate(machine: FrontLoader | FrontShovel, terrain: PileSection, rules: LoadingRules, xe, ze, alpha, d1, r,
              base_x: float) -> tuple[dict[str, np.ndarray], np.ndarray, np.ndarray]:
     """Every constraint on n candidate actions (flat arrays; ``r`` NaN: no reachable radius).
 
@@ -453,7 +454,7 @@ def evaluate(machine: FrontLoader | FrontShovel, terrain: Terrain, rules: Loadin
     return out, area, f
 
 
-def plan(machine: FrontLoader | FrontShovel, terrain: Terrain, rules: LoadingRules) -> LoadingPlan:
+def plan(machine: FrontLoader | FrontShovel, terrain: PileSection, rules: LoadingRules) -> LoadingPlan:
     """Choose one loading dig on ``terrain`` (see the module docstring); for the shovel also where its base
     stands (:func:`base_candidates`): the candidate whose best dig is the largest."""
     t0 = time.perf_counter()
@@ -466,7 +467,7 @@ def plan(machine: FrontLoader | FrontShovel, terrain: Terrain, rules: LoadingRul
     return best
 
 
-def _plan_at(machine: FrontLoader | FrontShovel, terrain: Terrain, rules: LoadingRules, foot: float,
+def _plan_at(machine: FrontLoader | FrontShovel, terrain: PileSection, rules: LoadingRules, foot: float,
              base_x: float) -> LoadingPlan:
     """The best dig with entries measured from ``foot`` and (the shovel) the pivot at ``base_x``."""
     t0 = time.perf_counter()

@@ -196,8 +196,8 @@ def _verdict(planner: TrenchPlanner, label: str, poses: np.ndarray, phases: np.n
     return FallbackDig(label, poses, phases, float(vcum[-1]), peak, reachable, within, peak_torques_nm=peaks)
 
 
-def choose(planner: TrenchPlanner, emap: ElevationMap, *, skip: Callable[[FallbackDig], bool] | None = None
-           ) -> tuple[FallbackDig | None, str]:
+def choose_boundary(planner: TrenchPlanner, emap: ElevationMap, *,
+                    skip: Callable[[FallbackDig], bool] | None = None) -> tuple[FallbackDig | None, str]:
     """The first feasible boundary dig of minimum volume, or None with the reason.
 
     Args:

@@ -5,10 +5,10 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from excavsim.execution.autodig import AutoDigConfig, autodig
 from excavsim.robot.extract import arm_from_model
+from excavsim.tasks.truck_loading.mind.autodig import AutoDigConfig, autodig
+from excavsim.tasks.truck_loading.world.truck import TruckWorld
 from excavsim.world.hydraulics import EXCAVATOR_JOINTS
-from excavsim.world.truck import TruckWorld
 
 
 @pytest.fixture(scope="module")

@@ -12,11 +12,11 @@ from excavsim import constants
 from excavsim.config import get_soil, load_planner_config, load_robot_config, load_trench_goal
 from excavsim.handoff.goal import goal_profile
 from excavsim.handoff.maps import ElevationMap
-from excavsim.planning import fallback
 from excavsim.planning.predictor import WedgePredictor
 from excavsim.planning.search import TrenchPlanner
 from excavsim.robot.extract import arm_from_model
 from excavsim.robot.reachability import load_or_build
+from excavsim.tasks.trench.mind import fallback
 
 
 @pytest.fixture(scope="module")
@@ -65,7 +65,7 @@ def test_a_nearly_finished_trench_gets_a_feasible_boundary_dig_that_never_cuts_t
     make, goal = setup
     planner = make()
     emap = _map(goal, 0.05)
-    dig, why = fallback.choose(planner, emap)
+    dig, why = fallback.choose_boundary(planner, emap)
     assert dig is not None and why.startswith("boundary dig")
     assert dig.reachable and dig.peak_torque_ratio <= 1.0
     vmin = planner.cfg.fallback_min_volume_fraction * planner.capacity
@@ -85,16 +85,16 @@ def test_walls_come_before_the_bottom(setup):
 def test_no_fallback_once_the_trench_is_at_the_goal(setup):
     make, goal = setup
     # (a fine map: a 5 cm map's interpolation rounds the bottom corners off, which looks like soil)
-    dig, why = fallback.choose(make(), _map(goal, 0.0, cell=0.01))
+    dig, why = fallback.choose_boundary(make(), _map(goal, 0.0, cell=0.01))
     assert dig is None and why
 
 
 def test_a_weak_wrist_shortens_the_boundary_digs_or_refuses_them(setup):
     make, goal = setup
     emap = _map(goal, 0.08)
-    strong = fallback.choose(make(), emap)[0]
+    strong = fallback.choose_boundary(make(), emap)[0]
     weak_planner = make(limits=np.array([20000.0, 20000.0, 150.0]))
-    weak, why = fallback.choose(weak_planner, emap)
+    weak, why = fallback.choose_boundary(weak_planner, emap)
     assert strong is not None
     if weak is None:
         assert "torque" in why

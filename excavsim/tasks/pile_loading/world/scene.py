@@ -49,15 +49,15 @@ def _check_machine(machine: str) -> None:
         raise ConfigError(f"unknown loading machine {machine!r}; allowed: {', '.join(MACHINES)}")
 
 
-def build_scene(machine: str) -> mjcf.RootElement:
+def build_loading_scene(machine: str) -> mjcf.RootElement:
     """The MJCF element tree of ``machine``'s scene (``loader`` or ``shovel``)."""
     _check_machine(machine)
     return mjcf.from_path(str(SCENE_XML[machine]))
 
 
-def build_physics(machine: str) -> mjcf.Physics:
+def build_loading_physics(machine: str) -> mjcf.Physics:
     """The compiled scene as a dm_control ``Physics``, reset to the ``carry`` keyframe."""
-    physics = mjcf.Physics.from_mjcf_model(build_scene(machine))
+    physics = mjcf.Physics.from_mjcf_model(build_loading_scene(machine))
     physics.reset(keyframe_id=KEYFRAMES.index("carry"))
     return physics
 
@@ -85,7 +85,7 @@ class LoadingWorld:
         self.scene = loading_scene_config(scene)
         if soil is None or isinstance(soil, str):
             soil = get_soil(soil or self.scene.soil)
-        self.physics = build_physics(machine)
+        self.physics = build_loading_physics(machine)
         self.model: mujoco.MjModel = self.physics.model.ptr
         self.data: mujoco.MjData = self.physics.data.ptr
         self.joints = MACHINE_JOINTS[machine]
